@@ -1,0 +1,246 @@
+#include "bench/benchmarks.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "renderer/accel/traversal.h"
+#include "renderer/base/rng.h"
+#include "renderer/base/sampling.h"
+#include "renderer/engine.h"
+#include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/photon_map.h"
+#include "renderer/photon/photon_tracer.h"
+#include "renderer/render/camera.h"
+#include "renderer/resident/resident_scene.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+struct Measurement {
+  double median, min, max;
+};
+
+Measurement measure(const BenchOptions& o, Backend& backend, const std::function<void()>& fn) {
+  for (int i = 0; i < o.warmup; ++i) fn();
+  std::vector<double> ms;
+  for (int i = 0; i < o.runs; ++i) {
+    backend.synchronize();
+    auto start = std::chrono::steady_clock::now();
+    fn();
+    backend.synchronize();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  return {ms[ms.size() / 2], ms.front(), ms.back()};
+}
+
+class Reporter {
+ public:
+  Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
+  void line(const std::string& name, const std::string& scene, double value, const std::string& unit,
+            const Measurement* m = nullptr, int runs = 0) {
+    out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")",
+                            name, scene, device_, value, unit);
+    if (m != nullptr)
+      out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
+                              m->median, m->min, m->max, runs);
+    out_ << "}\n";
+    out_.flush();
+  }
+
+ private:
+  std::ostream& out_;
+  std::string device_;
+};
+
+// The mesh (and its copies) as a scene: one diffuse material and a light above it.
+absl::StatusOr<Scene> mesh_scene(const BenchOptions& o) {
+  std::vector<std::string> shapes;
+  for (int i = 0; i < o.copies; ++i)
+    shapes.push_back(absl::StrFormat(
+        R"({"type": "mesh", "file": "%s", "material": "white", "transform": {"translate": [%g, %g, 0]}})",
+        std::filesystem::absolute(o.mesh).string(), 0.25 * i, 0.15 * i));
+  return parse_scene(absl::StrFormat(R"({
+    "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "fov": 45, "width": %d, "height": %d},
+    "materials": {"white": {"type": "diffuse", "albedo": [0.8, 0.8, 0.8]}},
+    "lights": [{"type": "point", "position": [0, 100, 0], "intensity": [1, 1, 1]}],
+    "shapes": [%s]})", o.width, o.height, absl::StrJoin(shapes, ", ")),
+                     ".", "benchmark mesh scene");
+}
+
+// The camera of the ray benchmarks: at the box centre + (0, 0, 2 x diagonal), looking down -z,
+// with a field of view that fits the larger of the x and y extents plus a 5% margin.
+Camera framing_camera(const Aabb& b, int width, int height) {
+  Vec3f c = b.center(), e = b.extent();
+  float distance = 2.0f * length(e);
+  float half = 0.5f * 1.05f * std::max(e.x, e.y);
+  Camera cam;
+  cam.position = c + Vec3f(0, 0, distance);
+  cam.look_at = c;
+  cam.vertical_fov_deg = 2.0f * std::atan(half / distance) * 180.0f / kPi;
+  cam.width = width;
+  cam.height = height;
+  return cam;
+}
+
+bool wanted(const BenchOptions& o, const std::string& name) {
+  return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
+}
+
+absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
+  absl::StatusOr<Scene> scene = mesh_scene(o);
+  if (!scene.ok()) return scene.status();
+  const std::string name = o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
+  auto backend = make_cpu_backend(size_t(16) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  const uint32_t tris = uint32_t(resident.triangle_count());
+  const TriangleVertices* input = resident.view().triangles;
+
+  if (wanted(o, "lbvh_build")) {
+    Measurement m = measure(o, *backend, [&] { build_triangle_bvh(*backend, input, tris); });
+    report.line("lbvh_build", name, tris / (m.median * 1e3), "Mtris/s", &m, o.runs);
+    report.line("lbvh_build_time", name, m.median, "ms", &m, o.runs);
+  }
+  report.line("triangle_structure_bytes_per_triangle", name,
+              double(resident.bvh().bytes()) / tris, "B/tri");
+
+  const TriangleBvhView bvh = resident.view().bvh;
+  const PinholeCamera camera = PinholeCamera::from(framing_camera(bvh.bounds, o.width, o.height));
+  const size_t pixels = size_t(o.width) * o.height;
+  Buffer<Hit> hits(*backend, pixels);
+  Hit* hit = hits.data();
+  auto trace_primary = [&] {
+    parallel_for(*backend, pixels, [=] CAUSTICA_HD(size_t i) {
+      hit[i] = closest_hit(bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
+    });
+  };
+  if (wanted(o, "primary_rays") || wanted(o, "shadow_rays")) {
+    Measurement m = measure(o, *backend, trace_primary);
+    if (wanted(o, "primary_rays")) report.line("primary_rays", name, pixels / (m.median * 1e3), "Mrays/s", &m, o.runs);
+  }
+  if (wanted(o, "shadow_rays")) {
+    // From every primary hit towards a point light above the box: any-hit rays.
+    const Vec3f light = bvh.bounds.center() + Vec3f(0, length(bvh.bounds.extent()), 0);
+    Buffer<uint8_t> blocked(*backend, pixels);
+    uint8_t* out = blocked.data();
+    const uint64_t shadow_rays = [&] {
+      auto h = hits.download();
+      return uint64_t(std::count_if(h.begin(), h.end(), [](const Hit& x) { return x.valid(); }));
+    }();
+    Measurement m = measure(o, *backend, [&] {
+      parallel_for(*backend, pixels, [=] CAUSTICA_HD(size_t i) {
+        if (!hit[i].valid()) return;
+        Ray primary = camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f);
+        Vec3f p = primary.origin + primary.direction * hit[i].t;
+        Vec3f d = light - p;
+        float dist = length(d);
+        Ray shadow{p, d / dist, 1e-4f * dist, dist};
+        out[i] = any_hit(bvh, shadow);
+      });
+    });
+    report.line("shadow_rays", name, shadow_rays / (m.median * 1e3), "Mrays/s", &m, o.runs);
+  }
+  if (wanted(o, "incoherent_rays")) {
+    // Origins uniform in the box, directions uniform on the sphere: no coherence at all.
+    const size_t count = pixels;
+    const Aabb b = bvh.bounds;
+    Measurement m = measure(o, *backend, [&] {
+      parallel_for(*backend, count, [=] CAUSTICA_HD(size_t i) {
+        Sampler s(7, uint32_t(i), 0);
+        Ray r;
+        r.origin = b.lower + b.extent() * Vec3f(s.next_float(), s.next_float(), s.next_float());
+        r.direction = sample_uniform_sphere(s.next_float(), s.next_float());
+        hit[i] = closest_hit(bvh, r);
+      });
+    });
+    report.line("incoherent_rays", name, count / (m.median * 1e3), "Mrays/s", &m, o.runs);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
+  absl::StatusOr<Scene> scene = load_scene(o.photon_scene);
+  if (!scene.ok()) return scene.status();
+  const std::string name = o.photon_scene.parent_path().filename().string();
+  auto backend = make_cpu_backend(size_t(16) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+
+  if (wanted(o, "photon_pass")) {
+    uint32_t pass = 0;
+    size_t stored = 0, map_bytes = 0;
+    Measurement m = measure(o, *backend, [&] {
+      TracedPhotons traced = trace_photons(*backend, resident, {o.photons, 8, 1, pass++});
+      PhotonMap caustic = build_photon_map(*backend, std::move(traced.caustic));
+      PhotonMap global = build_photon_map(*backend, std::move(traced.global));
+      stored = caustic.size() + global.size();
+      map_bytes = caustic.bytes() + global.bytes();
+    });
+    report.line("photon_pass", name + absl::StrFormat(" %d photons", o.photons), m.median, "ms", &m, o.runs);
+    report.line("photon_map_bytes_per_photon", name, stored ? double(map_bytes) / stored : 0.0, "B/photon");
+  }
+  if (wanted(o, "frame")) {
+    scene->camera.width = o.width;
+    scene->camera.height = o.height;
+    scene->settings.k_nearest = o.k;
+    scene->settings.photons_per_pass = o.photons;
+    auto engine = Engine::create({});
+    if (!engine.ok()) return engine.status();
+    if (absl::Status s = (*engine)->load(*scene); !s.ok()) return s;
+    Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
+    report.line("frame", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k), m.median, "ms", &m, o.runs);
+    // Light change to finished frame: new lights, then one pass (photons, maps, render).
+    std::vector<Light> lights = scene->lights;
+    Measurement change = measure(o, (*engine)->backend(), [&] {
+      (void)(*engine)->set_lights(lights);
+      (void)(*engine)->render(1);
+    });
+    report.line("light_change_to_frame", name, change.median, "ms", &change, o.runs);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
+  absl::StatusOr<Scene> scene = mesh_scene(o);
+  if (!scene.ok()) return scene.status();
+  Aabb bounds;
+  for (const Mesh& m : scene->meshes)
+    for (Vec3f p : m.positions) bounds.extend(p);
+  Camera c = framing_camera(bounds, o.width, o.height);
+  out << absl::StrFormat("%.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g %.9g\n", c.position.x,
+                         c.position.y, c.position.z, c.look_at.x, c.look_at.y, c.look_at.z, c.up.x,
+                         c.up.y, c.up.z, c.vertical_fov_deg);
+  return absl::OkStatus();
+}
+
+std::vector<std::string> benchmark_names() {
+  return {"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays", "photon_pass", "frame"};
+}
+
+absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
+  const std::vector<std::string> known = benchmark_names();
+  for (const std::string& n : o.only)
+    if (std::find(known.begin(), known.end(), n) == known.end())
+      return absl::InvalidArgumentError(absl::StrCat("--only: unknown benchmark '", n, "'"));
+  auto probe = make_cpu_backend(0);
+  DeviceInfo info = probe->info();
+  Reporter report(out, absl::StrFormat("%s x%d", info.name, info.compute_units));
+  if (!o.mesh.empty()) {
+    if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
+  }
+  if (!o.photon_scene.empty()) {
+    if (absl::Status s = photon_benchmarks(o, report); !s.ok()) return s;
+  }
+  if (o.mesh.empty() && o.photon_scene.empty())
+    return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");
+  return absl::OkStatus();
+}
+
+}  // namespace caustica

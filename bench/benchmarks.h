@@ -1,0 +1,35 @@
+// The benchmark suite behind caustica-bench. Each benchmark warms up, runs several times and
+// reports the median (with min and max) as one JSON line: name, scene, device, value, unit.
+#pragma once
+
+#include <filesystem>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+
+namespace caustica {
+
+struct BenchOptions {
+  std::filesystem::path mesh;           // triangle mesh for the structure and ray benchmarks
+  int copies = 1;                       // copy i translated by i * (0.25, 0.15, 0)
+  std::filesystem::path photon_scene;   // scene for the photon and frame benchmarks
+  std::vector<std::string> only;        // benchmark names to run; empty = all
+  int runs = 5;
+  int warmup = 1;
+  int width = 1024, height = 1024;
+  uint32_t photons = 1000000;
+  uint32_t k = 64;
+};
+
+// The names run_benchmarks knows, in the order it runs them.
+std::vector<std::string> benchmark_names();
+
+absl::Status run_benchmarks(const BenchOptions& options, std::ostream& json_lines);
+
+// Writes the ray benchmarks' camera for the mesh as "position look_at up vertical_fov_degrees",
+// space-separated, so a peer renderer can be pointed the same way.
+absl::Status print_ray_camera(const BenchOptions& options, std::ostream& out);
+
+}  // namespace caustica

@@ -1,0 +1,83 @@
+#include "imageio/image_io.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+
+namespace caustica {
+namespace {
+
+std::string extension_of(const std::filesystem::path& path) {
+  return absl::AsciiStrToLower(path.extension().string());
+}
+
+float srgb_encode(float v) {
+  v = std::clamp(v, 0.0f, 1.0f);
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+}  // namespace
+
+bool is_float_format(const std::filesystem::path& path) {
+  std::string ext = extension_of(path);
+  return ext == ".exr" || ext == ".pfm";
+}
+
+absl::Status write_image(const std::filesystem::path& path, const LinearImage& image,
+                         float exposure_stops) {
+  if (image.width <= 0 || image.height <= 0 ||
+      image.rgba.size() != size_t(image.width) * image.height * 4)
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": image has no pixels"));
+  const bool linear = is_float_format(path);
+  const std::string ext = extension_of(path);
+  // PFM holds RGB only; the other formats keep alpha.
+  const int channels = ext == ".pfm" ? 3 : 4;
+  const size_t n = size_t(image.width) * image.height;
+  std::vector<float> pixels(n * channels);
+  const float scale = std::exp2(exposure_stops);
+  for (size_t i = 0; i < n; ++i) {
+    for (int c = 0; c < channels; ++c) {
+      float v = image.rgba[4 * i + c];
+      pixels[i * channels + c] = linear || c == 3 ? v : srgb_encode(v * scale);
+    }
+  }
+  auto out = OIIO::ImageOutput::create(path.string());
+  if (!out)
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": no image writer for this extension (", OIIO::geterror(), ")"));
+  OIIO::ImageSpec spec(image.width, image.height, channels,
+                       linear ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", linear ? "linear" : "sRGB");
+  if (!out->open(path.string(), spec) ||
+      !out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()) || !out->close())
+    return absl::InternalError(absl::StrCat(path.string(), ": ", out->geterror()));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<LinearImage> read_image(const std::filesystem::path& path) {
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": ", OIIO::geterror()));
+  const OIIO::ImageSpec& spec = in->spec();
+  LinearImage image{spec.width, spec.height, {}};
+  std::vector<float> pixels(size_t(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": ", in->geterror()));
+  const bool encoded = !(spec.format == OIIO::TypeDesc::FLOAT || spec.format == OIIO::TypeDesc::HALF);
+  image.rgba.assign(size_t(spec.width) * spec.height * 4, 1.0f);
+  for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i) {
+    for (int c = 0; c < std::min(spec.nchannels, 4); ++c) {
+      float v = pixels[i * spec.nchannels + c];
+      if (encoded && c < 3) v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+      image.rgba[4 * i + c] = v;
+    }
+  }
+  return image;
+}
+
+}  // namespace caustica

@@ -1,0 +1,79 @@
+// The binary radix tree over sorted Morton codes (Karras 2012), built bottom-up in one pass after
+// Apetrei, "Fast and Simple Agglomerative LBVH Construction" (CGVC 2014): internal node k sits
+// between leaves k and k+1; a node covering leaves [l, r] becomes a child of whichever neighbour
+// split, l-1 or r, has the longer common prefix. Each leaf's thread climbs until it is the first
+// of two siblings to reach their parent (an atomic exchange decides), merging boxes on the way, so
+// topology and bounds come out of the same pass with O(n) total work and no binary searches.
+#include "renderer/accel/bvh.h"
+
+#include "renderer/base/atomic.h"
+#include "renderer/parallel/parallel_for.h"
+
+namespace caustica {
+namespace {
+
+constexpr uint32_t kUnvisited = 0xffffffffu;
+
+// The split key between leaves k and k+1: the xor of their codes, with ties between equal codes
+// broken by the indices (Karras sec. 4), so every split differs and the tree is unique. A smaller
+// value means a longer common prefix.
+CAUSTICA_HDI uint64_t split_key(const uint32_t* codes, uint32_t k) {
+  uint32_t x = codes[k] ^ codes[k + 1];
+  return x != 0 ? (uint64_t(x) << 32) : uint64_t(k ^ (k + 1));
+}
+
+}  // namespace
+
+Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes,
+                                const Aabb* sorted_leaf_bounds, uint32_t n, Aabb bounds) {
+  Bvh bvh;
+  bvh.leaf_count = n;
+  bvh.bounds = bounds;
+  bvh.nodes.bind(backend);
+  if (n < 2) return bvh;
+
+  bvh.nodes.resize_discard(n - 1);
+  // other_end[k]: the far end of the range of node k's first child to arrive, or kUnvisited.
+  Buffer<uint32_t> other_end(backend, n - 1);
+  Buffer<uint32_t> root(backend, 1);
+  backend.fill_bytes(other_end.data(), 0xff, other_end.size() * sizeof(uint32_t));
+
+  BvhNode* nodes = bvh.nodes.data();
+  uint32_t* other = other_end.data();
+  uint32_t* root_out = root.data();
+  const uint32_t last = n - 1;
+
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t leaf) {
+    uint32_t l = uint32_t(leaf), r = uint32_t(leaf);
+    uint32_t current = kLeafFlag | uint32_t(leaf);
+    Aabb box = sorted_leaf_bounds[leaf];
+    while (true) {
+      uint32_t parent, seen;
+      if (l == 0 || (r != last && split_key(sorted_codes, r) < split_key(sorted_codes, l - 1))) {
+        parent = r;  // we are the left child of the split after our range
+        nodes[parent].child[0] = current;
+        nodes[parent].child_bounds[0] = box;
+        seen = atomic_exchange(&other[parent], l);
+        if (seen == kUnvisited) return;  // the sibling will finish this node
+        r = seen;
+      } else {
+        parent = l - 1;  // we are the right child of the split before our range
+        nodes[parent].child[1] = current;
+        nodes[parent].child_bounds[1] = box;
+        seen = atomic_exchange(&other[parent], r);
+        if (seen == kUnvisited) return;
+        l = seen;
+      }
+      box = merge(nodes[parent].child_bounds[0], nodes[parent].child_bounds[1]);
+      current = parent;
+      if (l == 0 && r == last) {
+        *root_out = current;
+        return;
+      }
+    }
+  });
+  bvh.root = root.download()[0];
+  return bvh;
+}
+
+}  // namespace caustica

@@ -1,0 +1,40 @@
+// Binary BVH shared by the triangle structure and the photon map. Leaves are single primitives
+// in sorted (Morton) order; each internal node stores its two children's boxes, so a traversal
+// step tests both children with one node fetch and leaves need no node of their own.
+#pragma once
+
+#include <cstdint>
+
+#include "renderer/base/aabb.h"
+#include "renderer/parallel/buffer.h"
+
+namespace caustica {
+
+constexpr uint32_t kLeafFlag = 0x80000000u;
+
+CAUSTICA_HDI bool is_leaf(uint32_t child) { return (child & kLeafFlag) != 0; }
+CAUSTICA_HDI uint32_t leaf_index(uint32_t child) { return child & ~kLeafFlag; }
+
+struct BvhNode {
+  Aabb child_bounds[2];
+  uint32_t child[2];  // internal node index, or kLeafFlag | sorted primitive index
+};
+
+// A built hierarchy over `leaf_count` primitives: leaf_count - 1 internal nodes, `root` among them.
+// A single primitive has no internal node; its box is `bounds`.
+struct Bvh {
+  Buffer<BvhNode> nodes;
+  Aabb bounds;
+  uint32_t leaf_count = 0;
+  uint32_t root = 0;
+  // Internal nodes plus leaves: 2n - 1 for n >= 1.
+  size_t node_count() const { return leaf_count == 0 ? 0 : 2 * size_t(leaf_count) - 1; }
+};
+
+// Builds the binary radix tree of Karras (2012) over `n` primitives whose Morton codes are sorted
+// ascending, with boxes from `sorted_leaf_bounds` (the primitives' boxes in the same order).
+// Equal codes are split by index, so any input gives a valid tree.
+Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes,
+                                const Aabb* sorted_leaf_bounds, uint32_t n, Aabb bounds);
+
+}  // namespace caustica

@@ -1,0 +1,35 @@
+// Counter-based random numbers: every sample is a pure function of (seed, stream index, pass,
+// dimension), so the CPU and GPU backends draw identical samples and images can be compared
+// bit for bit between runs. The mixer is PCG's output hash applied in a chain (Jarzynski & Olano,
+// "Hash Functions for GPU Rendering", JCGT 2020).
+#pragma once
+
+#include <cstdint>
+
+#include "renderer/base/hd.h"
+#include "renderer/base/vec.h"
+
+namespace caustica {
+
+CAUSTICA_HDI uint32_t pcg_hash(uint32_t v) {
+  uint32_t state = v * 747796405u + 2891336453u;
+  uint32_t word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+  return (word >> 22u) ^ word;
+}
+
+// Draws successive dimensions of one sample stream.
+class Sampler {
+ public:
+  CAUSTICA_HD Sampler(uint32_t seed, uint32_t stream, uint32_t pass)
+      : key_(pcg_hash(seed ^ pcg_hash(stream ^ pcg_hash(pass + 0x9e3779b9u)))) {}
+
+  CAUSTICA_HDI uint32_t next_u32() { return pcg_hash(key_ ^ pcg_hash(dimension_++)); }
+  // Uniform in [0, 1): the top 24 bits give every float in that range an equal chance.
+  CAUSTICA_HDI float next_float() { return float(next_u32() >> 8) * (1.0f / 16777216.0f); }
+
+ private:
+  uint32_t key_;
+  uint32_t dimension_ = 0;
+};
+
+}  // namespace caustica

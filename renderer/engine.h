@@ -1,0 +1,88 @@
+// The renderer's facade, used by caustica-render, the benchmark and the server: one resident
+// scene, change counters (epochs) per kind of input, and progressive rendering where every pass
+// traces fresh photons, builds both photon maps and adds one sample per pixel to the film.
+// Nothing here throws: allocation beyond the memory budget comes back as RESOURCE_EXHAUSTED.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "renderer/parallel/backend.h"
+#include "renderer/render/film.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica {
+
+struct EngineOptions {
+  DeviceKind device = DeviceKind::kCpu;
+  size_t memory_budget_bytes = size_t(8) << 30;
+};
+
+// Change counters; each frame reports the epochs it reflects.
+struct Epochs {
+  uint64_t geometry = 0, lights = 0, camera = 0, settings = 0;
+};
+
+// Milliseconds spent per pipeline stage.
+struct StageTimings {
+  double structure_build_ms = 0;
+  double photon_trace_ms = 0;
+  double photon_map_build_ms = 0;
+  double render_ms = 0;
+  double total() const { return structure_build_ms + photon_trace_ms + photon_map_build_ms + render_ms; }
+};
+
+struct PassReport {
+  StageTimings timings;       // summed over the passes rendered by this call
+  uint32_t passes_rendered = 0;
+  uint32_t total_passes = 0;  // in the film since the last change
+  uint64_t photons_emitted = 0;
+  uint64_t caustic_photons = 0;  // stored in the last pass
+  uint64_t global_photons = 0;
+};
+
+struct SceneStats {
+  size_t triangles = 0;
+  size_t structure_nodes = 0;
+  size_t structure_bytes = 0;
+  size_t photon_map_bytes = 0;
+  size_t lights = 0;
+  double last_structure_build_ms = 0;
+};
+
+class Engine {
+ public:
+  static absl::StatusOr<std::unique_ptr<Engine>> create(const EngineOptions& options);
+  ~Engine();
+
+  // Replaces the scene: validates it, uploads it and builds the triangle structure.
+  absl::Status load(const Scene& scene);
+  absl::Status set_lights(const std::vector<Light>& lights);
+  absl::Status set_camera(const Camera& camera);
+  absl::Status set_settings(const RenderSettings& settings);
+
+  using Progress = std::function<void(uint32_t done, uint32_t total)>;
+  // Adds `passes` progressive passes to the film.
+  absl::StatusOr<PassReport> render(uint32_t passes, const Progress& progress = {});
+
+  std::vector<float> image_linear();                // RGBA float, top row first
+  std::vector<Rgba8> image_srgb8(float exposure_stops = 0.0f);
+
+  const Scene& scene() const;
+  const Epochs& epochs() const;
+  SceneStats scene_stats() const;
+  DeviceInfo device_info() const;
+  Backend& backend();
+  // The gather radius cap in use (the setting, or 5% of the scene's diagonal when it is 0).
+  float max_radius() const;
+
+ private:
+  struct State;
+  explicit Engine(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace caustica

@@ -1,0 +1,95 @@
+// The backend: memory, copies and the whole-array primitives every builder reduces to (Zeidan
+// 2011 ch. 3: sort, scan, reduce, compact, run-length). Per-element work goes through
+// parallel_for (parallel_for.h). Implementations: cpu/ (oneTBB) and cuda/ (CUB).
+//
+// Pointers handed to a backend are its own memory (Buffer<T>::data()); on CUDA they are device
+// pointers, so renderer code never dereferences them on the host.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <new>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "renderer/base/aabb.h"
+
+namespace caustica {
+
+enum class DeviceKind { kCpu, kCuda };
+
+// Thrown by allocations beyond the backend's byte budget; the engine converts it into
+// RESOURCE_EXHAUSTED at its border, so no exception leaves the renderer library.
+class BudgetExceeded : public std::bad_alloc {
+ public:
+  BudgetExceeded(size_t requested, size_t in_use, size_t budget);
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
+};
+
+struct DeviceInfo {
+  std::string name;
+  int compute_units = 0;     // CPU threads or CUDA SMs
+  size_t memory_bytes = 0;   // physical memory of the device
+};
+
+class Backend {
+ public:
+  explicit Backend(size_t memory_budget_bytes) : budget_(memory_budget_bytes) {}
+  virtual ~Backend() = default;
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
+
+  virtual DeviceKind kind() const = 0;
+  virtual DeviceInfo info() const = 0;
+
+  // --- memory (counted against the budget) ---
+  void* allocate(size_t bytes);
+  void deallocate(void* p, size_t bytes);
+  size_t bytes_in_use() const { return in_use_; }
+  size_t peak_bytes() const { return peak_; }
+  size_t budget() const { return budget_; }
+
+  virtual void copy_to_device(void* dst, const void* src, size_t bytes) = 0;
+  virtual void copy_to_host(void* dst, const void* src, size_t bytes) = 0;
+  virtual void copy_on_device(void* dst, const void* src, size_t bytes) = 0;
+  virtual void fill_bytes(void* dst, uint8_t value, size_t bytes) = 0;
+  virtual void synchronize() = 0;
+
+  // --- primitives ---
+  // Stable ascending key-value radix sort on the key bits [0, end_bit), in place.
+  virtual void sort_pairs(uint32_t* keys, uint32_t* values, size_t n, int end_bit = 32) = 0;
+  virtual void sort_pairs(uint64_t* keys, uint32_t* values, size_t n, int end_bit = 64) = 0;
+  // out[i] = sum of in[0..i); `in` and `out` may alias. Returns the total of all n inputs.
+  virtual uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, size_t n) = 0;
+  virtual float exclusive_scan(const float* in, float* out, size_t n) = 0;
+  virtual uint64_t reduce_sum(const uint32_t* in, size_t n) = 0;
+  virtual double reduce_sum(const float* in, size_t n) = 0;
+  virtual float reduce_max(const float* in, size_t n) = 0;
+  virtual Aabb reduce_bounds(const Aabb* in, size_t n) = 0;
+  // Writes, in order, the in[i] whose flags[i] != 0 to `out`; returns how many. With in == nullptr
+  // the selected indices i themselves are written (the gather step of a compaction).
+  virtual size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,
+                                uint32_t* out) = 0;
+  // Collapses runs of equal consecutive keys: unique_out[r] is the r-th run's key, counts_out[r]
+  // its length. Returns the number of runs.
+  virtual size_t run_length_encode(const uint32_t* in, size_t n, uint32_t* unique_out,
+                                   uint32_t* counts_out) = 0;
+
+ protected:
+  virtual void* allocate_raw(size_t bytes) = 0;
+  virtual void deallocate_raw(void* p, size_t bytes) = 0;
+
+ private:
+  size_t budget_;
+  size_t in_use_ = 0;
+  size_t peak_ = 0;
+};
+
+// The CPU backend on oneTBB, using every core TBB is allowed.
+std::unique_ptr<Backend> make_cpu_backend(size_t memory_budget_bytes);
+
+}  // namespace caustica

@@ -1,0 +1,138 @@
+// Density estimation over a photon map: exact k nearest neighbours within a maximum radius
+// (a max-heap pruned by the current k-th distance, near child first), and the radiance estimate
+// L = f_r / (pi r^2) * sum w(d/r) dPhi with a normalised uniform, cone or Epanechnikov kernel
+// (Jensen 2001 sec. 7.2; Fabianowski 2011 sec. 5.3 for the kernels).
+#pragma once
+
+#include "renderer/photon/photon_map.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica {
+
+constexpr uint32_t kMaxNearest = 1024;  // the largest k validation admits
+constexpr int kKnnStackSize = 64;
+
+struct Neighbour {
+  float distance_squared;
+  uint32_t index;  // leaf order
+};
+
+namespace detail {
+
+CAUSTICA_HDI void sift_down(Neighbour* heap, uint32_t size, uint32_t i) {
+  while (true) {
+    uint32_t l = 2 * i + 1, r = l + 1, largest = i;
+    if (l < size && heap[l].distance_squared > heap[largest].distance_squared) largest = l;
+    if (r < size && heap[r].distance_squared > heap[largest].distance_squared) largest = r;
+    if (largest == i) return;
+    Neighbour t = heap[i];
+    heap[i] = heap[largest];
+    heap[largest] = t;
+    i = largest;
+  }
+}
+
+CAUSTICA_HDI void sift_up(Neighbour* heap, uint32_t i) {
+  while (i > 0) {
+    uint32_t p = (i - 1) / 2;
+    if (heap[p].distance_squared >= heap[i].distance_squared) return;
+    Neighbour t = heap[i];
+    heap[i] = heap[p];
+    heap[p] = t;
+    i = p;
+  }
+}
+
+}  // namespace detail
+
+// Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared.
+// `heap` must hold k entries; on return heap[0..count) holds them as a max-heap (heap[0] is the
+// farthest). Returns count.
+CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k,
+                                   float max_distance_squared, Neighbour* heap) {
+  if (map.count == 0 || k == 0) return 0;
+  uint32_t size = 0;
+  float limit = max_distance_squared;  // shrinks to the k-th distance once the heap is full
+  auto offer = [&](uint32_t leaf) {
+    float d2 = length_squared(map.photons[leaf].position - p);
+    if (d2 >= limit) return;
+    if (size < k) {
+      heap[size] = {d2, leaf};
+      detail::sift_up(heap, size++);
+      if (size == k) limit = heap[0].distance_squared;
+    } else {
+      heap[0] = {d2, leaf};
+      detail::sift_down(heap, size, 0);
+      limit = heap[0].distance_squared;
+    }
+  };
+  if (map.count == 1) {
+    offer(0);
+    return size;
+  }
+  uint32_t stack[kKnnStackSize];
+  int top = 0;
+  uint32_t node = map.root;
+  while (true) {
+    const BvhNode& n = map.nodes[node];
+    float d0 = distance_squared(n.child_bounds[0], p);
+    float d1 = distance_squared(n.child_bounds[1], p);
+    uint32_t c0 = n.child[0], c1 = n.child[1];
+    if (d0 < limit && is_leaf(c0)) offer(leaf_index(c0));
+    if (d1 < limit && is_leaf(c1)) offer(leaf_index(c1));
+    bool go0 = d0 < limit && !is_leaf(c0), go1 = d1 < limit && !is_leaf(c1);
+    if (go0 && go1) {
+      if (d1 < d0) {
+        uint32_t c = c0;
+        c0 = c1;
+        c1 = c;
+      }
+      stack[top++] = c1;
+      node = c0;
+    } else if (go0) {
+      node = c0;
+    } else if (go1) {
+      node = c1;
+    } else {
+      // Pop, skipping subtrees the shrunken radius has excluded is left to the next box test.
+      if (top == 0) return size;
+      node = stack[--top];
+    }
+  }
+}
+
+// Kernel weight at normalised distance x = d / r in [0, 1], scaled so that it integrates to
+// pi r^2 over the disk like the uniform kernel does.
+CAUSTICA_HDI float kernel_weight(Kernel kernel, float x_squared) {
+  switch (kernel) {
+    case Kernel::kUniform:
+      return 1.0f;
+    case Kernel::kCone:  // Jensen's cone filter with k = 1: 1 - x, normalised by 1 / (1 - 2/3)
+      return 3.0f * (1.0f - sqrtf(x_squared));
+    case Kernel::kEpanechnikov:  // 1 - x^2, normalised by 2
+      return 2.0f * (1.0f - x_squared);
+  }
+  return 1.0f;
+}
+
+// Reflected radiance at a diffuse point from the photons of `map` arriving on the side of
+// `normal`: (albedo / pi) * sum w dPhi / (pi r^2), with r the k-th distance, or the maximum
+// radius when fewer than k photons lie within it.
+CAUSTICA_HDI Vec3f estimate_radiance(const PhotonMapView& map, Vec3f p, Vec3f normal, Vec3f albedo,
+                                     uint32_t k, float max_radius, Kernel kernel, Neighbour* heap) {
+  float max_d2 = max_radius * max_radius;
+  uint32_t found = find_nearest(map, p, k, max_d2, heap);
+  if (found == 0) return Vec3f(0.0f);
+  float r2 = found == k ? heap[0].distance_squared : max_d2;
+  if (r2 <= 0.0f) return Vec3f(0.0f);
+  Vec3f flux(0.0f);
+  float inv_r2 = 1.0f / r2;
+  for (uint32_t i = 0; i < found; ++i) {
+    const Photon& ph = map.photons[heap[i].index];
+    if (dot(ph.incoming, normal) <= 0.0f) continue;
+    flux += ph.power * kernel_weight(kernel, heap[i].distance_squared * inv_r2);
+  }
+  return albedo * flux * (kInvPi * kInvPi * inv_r2);
+}
+
+}  // namespace caustica

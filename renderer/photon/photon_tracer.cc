@@ -1,0 +1,148 @@
+#include "renderer/photon/photon_tracer.h"
+
+#include "renderer/base/rng.h"
+#include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/scattering.h"
+
+namespace caustica {
+namespace {
+
+// Decorrelates photon streams from camera streams drawn with the same seed and pass.
+constexpr uint32_t kPhotonDomain = 0x5f3759dfu;
+
+enum : uint8_t { kNotStored = 0, kCausticPhoton = 1, kGlobalPhoton = 2 };
+
+struct EmittedPhoton {
+  Ray ray;
+  Vec3f power;  // before division by the light's choice probability and the photon count
+};
+
+CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f scene_center,
+                                     float scene_radius) {
+  EmittedPhoton e;
+  float u0 = s.next_float(), u1 = s.next_float();
+  switch (l.type) {
+    case DeviceLightType::kPoint:
+      e.ray.origin = l.position;
+      e.ray.direction = sample_uniform_sphere(u0, u1);
+      e.power = l.color * (4.0f * kPi);
+      break;
+    case DeviceLightType::kSpot: {
+      Vec3f local = sample_uniform_cone(u0, u1, l.cos_outer);
+      e.ray.origin = l.position;
+      e.ray.direction = Frame::from_normal(l.direction).to_world(local);
+      e.power = l.color * (spot_falloff(l, e.ray.direction) * 2.0f * kPi * (1.0f - l.cos_outer));
+      break;
+    }
+    case DeviceLightType::kDirectional: {
+      // A disk perpendicular to the light, covering the scene's bounding sphere from outside.
+      Vec2f d = sample_uniform_disk(u0, u1);
+      Frame f = Frame::from_normal(l.direction);
+      e.ray.origin = scene_center - l.direction * (1.01f * scene_radius) +
+                     (f.s * d.x + f.t * d.y) * scene_radius;
+      e.ray.direction = l.direction;
+      e.power = l.color * (kPi * scene_radius * scene_radius);
+      break;
+    }
+    case DeviceLightType::kArea: {
+      Vec2f b = sample_uniform_triangle(u0, u1);
+      Vec3f p = l.position + l.edge1 * b.x + l.edge2 * b.y;
+      Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
+      e.ray.direction = Frame::from_normal(l.direction).to_world(local);
+      e.ray.origin = offset_origin(p, l.direction, e.ray.direction);
+      e.power = l.color * (kPi * l.area);
+      break;
+    }
+  }
+  return e;
+}
+
+}  // namespace
+
+TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
+                            const PhotonTraceSettings& settings) {
+  TracedPhotons out;
+  out.caustic.bind(backend);
+  out.global.bind(backend);
+  const ResidentSceneView scene = resident.view();
+  if (settings.photon_count == 0 || scene.light_count == 0 || scene.total_power <= 0) return out;
+  out.emitted = settings.photon_count;
+
+  const uint32_t max_bounces = settings.max_bounces;
+  const size_t slots = size_t(settings.photon_count) * max_bounces;
+  Buffer<Photon> slot_photons(backend, slots);
+  Buffer<uint8_t> caustic_flags(backend, slots);
+  Buffer<uint8_t> global_flags(backend, slots);
+  caustic_flags.fill_zero();
+  global_flags.fill_zero();
+
+  Photon* slot = slot_photons.data();
+  uint8_t* caustic_flag = caustic_flags.data();
+  uint8_t* global_flag = global_flags.data();
+  const Vec3f center = resident.bounds().center();
+  const float radius = resident.radius();
+  const float inv_count = 1.0f / float(settings.photon_count);
+  const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
+
+  parallel_for(backend, settings.photon_count, [=] CAUSTICA_HD(size_t path) {
+    Sampler s(seed, uint32_t(path), pass);
+    uint32_t li = ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
+    const DeviceLight& light = scene.lights[li];
+    float choice_pdf = light_power(light, radius) / scene.total_power;
+    EmittedPhoton e = emit_from(light, s, center, radius);
+    Ray ray = e.ray;
+    Vec3f power = e.power * (inv_count / choice_pdf);
+    bool only_specular = true;  // no diffuse bounce yet on this path
+    for (uint32_t bounce = 0; bounce < max_bounces; ++bounce) {
+      Hit hit = closest_hit(scene.bvh, ray);
+      if (!hit.valid()) return;
+      SurfaceHit sh = surface_at(scene, hit);
+      const DeviceMaterial& m = scene.materials[sh.material];
+      Vec3f d = ray.direction;
+      Vec3f next_dir;
+      if (m.type == MaterialType::kEmissive) return;  // lights have black surfaces
+      if (m.type == MaterialType::kDiffuse) {
+        if (bounce > 0) {
+          size_t k = path * max_bounces + bounce;
+          slot[k] = Photon{sh.position, power, -d};
+          (only_specular ? caustic_flag : global_flag)[k] = 1;
+        }
+        float survive = average(m.color);
+        if (s.next_float() >= survive) return;
+        power = power * m.color / survive;
+        Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        next_dir = Frame::from_normal(n).to_world(sample_cosine_hemisphere(s.next_float(), s.next_float()));
+        only_specular = false;
+      } else if (m.type == MaterialType::kMirror) {
+        float survive = average(m.color);
+        if (s.next_float() >= survive) return;
+        power = power * m.color / survive;
+        next_dir = reflect(d, sh.shading_normal);
+      } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
+        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+        float fr = fresnel_dielectric(side.cos_i, side.eta);
+        if (s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir))
+          next_dir = reflect(d, side.normal);
+      }
+      ray.origin = offset_origin(sh.position, sh.geometric_normal, next_dir);
+      ray.direction = next_dir;
+      ray.t_min = 0.0f;
+      ray.t_max = FLT_MAX;
+    }
+  });
+
+  // Compaction: the indices of stored slots, in path order, then a gather.
+  auto compact = [&](Buffer<uint8_t>& flags, Buffer<Photon>& into) {
+    Buffer<uint32_t> index(backend, slots);
+    size_t count = backend.select_flagged(nullptr, flags.data(), slots, index.data());
+    into.resize_discard(count);
+    Photon* dst = into.data();
+    const uint32_t* idx = index.data();
+    parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { dst[i] = slot[idx[i]]; });
+  };
+  compact(caustic_flags, out.caustic);
+  compact(global_flags, out.global);
+  return out;
+}
+
+}  // namespace caustica

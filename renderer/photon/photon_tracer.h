@@ -1,0 +1,31 @@
+// Photon emission and tracing (Jensen 2001; Zeidan 2011 ch. 6): a light is chosen in proportion
+// to its power, photons bounce off mirrors and through glass and are stored at diffuse surfaces,
+// with Russian roulette on the average albedo and per-channel flux rescaling. Paths L S+ D go to
+// the caustic map; paths with a diffuse bounce before their last hit go to the global map; direct
+// hits (L D) are left to shadow rays.
+#pragma once
+
+#include <cstdint>
+
+#include "renderer/photon/photon.h"
+#include "renderer/resident/resident_scene.h"
+
+namespace caustica {
+
+struct PhotonTraceSettings {
+  uint32_t photon_count = 0;    // paths emitted
+  uint32_t max_bounces = 8;     // surface interactions per path
+  uint32_t seed = 1;
+  uint32_t pass = 0;
+};
+
+struct TracedPhotons {
+  Buffer<Photon> caustic;
+  Buffer<Photon> global;
+  uint32_t emitted = 0;
+};
+
+TracedPhotons trace_photons(Backend& backend, const ResidentScene& scene,
+                            const PhotonTraceSettings& settings);
+
+}  // namespace caustica

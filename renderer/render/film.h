@@ -1,0 +1,48 @@
+// The film: per-pixel sums of radiance over progressive passes, and its resolution into linear
+// RGBA float or tone-mapped sRGB 8-bit pixels (exposure, then the sRGB transfer curve).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "renderer/base/vec.h"
+#include "renderer/parallel/buffer.h"
+
+namespace caustica {
+
+struct Rgba8 {
+  uint8_t r, g, b, a;
+};
+
+class Film {
+ public:
+  Film() = default;
+  Film(Backend& backend, int width, int height);
+
+  void clear();
+  Vec3f* accumulator() { return sum_.data(); }
+  void add_pass() { ++passes_; }
+  uint32_t passes() const { return passes_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  size_t bytes() const { return sum_.bytes() + resolved_.bytes(); }
+
+  // Mean radiance per pixel as linear RGBA float (alpha 1), row-major from the top-left.
+  std::vector<float> resolve_linear();
+  // Exposure in stops, then sRGB encoding to 8 bits.
+  std::vector<Rgba8> resolve_srgb8(float exposure_stops = 0.0f);
+
+ private:
+  Buffer<Vec3f> sum_;
+  Buffer<float> resolved_;
+  Buffer<Rgba8> resolved8_;
+  int width_ = 0, height_ = 0;
+  uint32_t passes_ = 0;
+};
+
+CAUSTICA_HDI float linear_to_srgb(float v) {
+  v = min_f(max_f(v, 0.0f), 1.0f);
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f;
+}
+
+}  // namespace caustica

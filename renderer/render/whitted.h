@@ -1,0 +1,90 @@
+// The Whitted integrator with photon-mapped indirect light (Zeidan 2011 ch. 5-6): camera rays
+// follow mirror and dielectric chains (both Fresnel branches, depth-first) and end at the first
+// diffuse hit, where direct light comes from shadow rays and caustic and indirect diffuse light
+// from the two photon maps.
+#pragma once
+
+#include "renderer/base/rng.h"
+#include "renderer/photon/photon_map.h"
+#include "renderer/render/camera.h"
+#include "renderer/render/film.h"
+#include "renderer/resident/resident_scene.h"
+
+namespace caustica {
+
+constexpr uint32_t kMaxSpecularDepth = 64;
+
+struct ShadingSettings {
+  uint32_t k_nearest = 64;
+  float max_radius = 1.0f;
+  Kernel kernel = Kernel::kEpanechnikov;
+  uint32_t max_depth = 6;
+  uint32_t area_light_samples = 4;
+  uint32_t seed = 1;
+  uint32_t pass = 0;
+};
+
+// Renders one pass (one jittered sample per pixel) and adds it to the film.
+void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
+                 const PhotonMap& global_map, const PinholeCamera& camera,
+                 const ShadingSettings& settings, Film& film);
+
+// Direct light at a diffuse point: every point, spot and directional light with one shadow ray
+// each, and `area_samples` shadow rays to area lights chosen by power. `normal` faces the viewer.
+CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
+                                Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
+                                float scene_radius, Sampler& s) {
+  Vec3f sum(0.0f);
+  const Vec3f f = albedo * kInvPi;
+  // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
+  auto visible = [&](Vec3f to, float distance) {
+    Ray shadow;
+    shadow.direction = to;
+    shadow.origin = offset_origin(p, geometric_normal, to);
+    shadow.t_max = distance * (1.0f - 1e-3f);
+    return !any_hit(scene.bvh, shadow);
+  };
+  for (uint32_t i = 0; i < scene.light_count; ++i) {
+    const DeviceLight& l = scene.lights[i];
+    if (l.type == DeviceLightType::kArea) continue;
+    Vec3f wi;
+    float dist, scale;
+    if (l.type == DeviceLightType::kDirectional) {
+      wi = -l.direction;
+      dist = 4.0f * scene_radius;
+      scale = 1.0f;
+    } else {
+      Vec3f d = l.position - p;
+      dist = length(d);
+      wi = d / dist;
+      scale = 1.0f / (dist * dist);
+      if (l.type == DeviceLightType::kSpot) scale *= spot_falloff(l, -wi);
+    }
+    float cos_theta = dot(normal, wi);
+    if (cos_theta <= 0.0f || scale <= 0.0f) continue;
+    if (visible(wi, dist)) sum += f * l.color * (cos_theta * scale);
+  }
+  if (scene.area_light_count > 0 && area_samples > 0) {
+    Vec3f area_sum(0.0f);
+    for (uint32_t k = 0; k < area_samples; ++k) {
+      float u = s.next_float();
+      uint32_t a = ResidentSceneView::sample_cdf(scene.area_light_cdf, scene.area_light_count, u);
+      const DeviceLight& l = scene.lights[scene.area_lights[a]];
+      float choice_pdf = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
+      Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
+      Vec3f y = l.position + l.edge1 * b.x + l.edge2 * b.y;
+      Vec3f d = y - p;
+      float dist2 = length_squared(d);
+      float dist = sqrtf(dist2);
+      Vec3f wi = d / dist;
+      float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
+      if (cos_x <= 0.0f || cos_y <= 0.0f || choice_pdf <= 0.0f) continue;
+      if (!visible(wi, dist)) continue;
+      area_sum += f * l.color * (cos_x * cos_y * l.area / (dist2 * choice_pdf));
+    }
+    sum += area_sum / float(area_samples);
+  }
+  return sum;
+}
+
+}  // namespace caustica

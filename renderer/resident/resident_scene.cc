@@ -1,0 +1,162 @@
+#include "renderer/resident/resident_scene.h"
+
+#include <cmath>
+
+#include "renderer/parallel/parallel_for.h"
+
+namespace caustica {
+namespace {
+
+DeviceLight to_device_light(const Light& l) {
+  DeviceLight d{};
+  d.position = l.position;
+  d.color = l.intensity;
+  switch (l.type) {
+    case LightType::kPoint:
+      d.type = DeviceLightType::kPoint;
+      break;
+    case LightType::kSpot:
+      d.type = DeviceLightType::kSpot;
+      d.direction = normalize(l.direction);
+      d.cos_inner = std::cos(l.inner_angle_deg * kPi / 180.0f);
+      d.cos_outer = std::cos(l.outer_angle_deg * kPi / 180.0f);
+      break;
+    case LightType::kDirectional:
+      d.type = DeviceLightType::kDirectional;
+      d.direction = normalize(l.direction);
+      break;
+  }
+  return d;
+}
+
+// Turns per-item weights into a normalised CDF of size n + 1 in place; returns the total.
+float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
+  float* cdf = weights_then_cdf.data();
+  float total = backend.exclusive_scan(cdf, cdf, n);
+  float inv = total > 0 ? 1.0f / total : 0.0f;
+  parallel_for(backend, n + 1, [=] CAUSTICA_HD(size_t i) { cdf[i] = i == n ? 1.0f : cdf[i] * inv; });
+  return total;
+}
+
+}  // namespace
+
+ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
+  ResidentScene r;
+  r.backend_ = &backend;
+  const size_t n = scene.triangle_count();
+  std::vector<TriangleVertices> triangles;
+  std::vector<uint32_t> material_ids;
+  std::vector<Vec3f> corner_normals;
+  triangles.reserve(n);
+  material_ids.reserve(n);
+  bool any_normals = false;
+  for (const Mesh& m : scene.meshes) any_normals |= !m.normals.empty();
+  if (any_normals) corner_normals.reserve(3 * n);
+
+  for (const Mesh& m : scene.meshes) {
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      const uint32_t* idx = &m.indices[3 * t];
+      TriangleVertices tri{m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
+      const uint32_t mat = m.material_ids[t];
+      if (scene.materials[mat].type == MaterialType::kEmissive) {
+        DeviceLight a{};
+        a.type = DeviceLightType::kArea;
+        a.position = tri.p0;
+        a.edge1 = tri.p1 - tri.p0;
+        a.edge2 = tri.p2 - tri.p0;
+        Vec3f ng = cross(a.edge1, a.edge2);
+        a.area = 0.5f * length(ng);
+        a.direction = normalize(ng);
+        a.color = scene.materials[mat].radiance;
+        if (a.area > 0) r.area_lights_host_.push_back(a);
+      }
+      triangles.push_back(tri);
+      material_ids.push_back(mat);
+      if (any_normals) {
+        for (int c = 0; c < 3; ++c)
+          corner_normals.push_back(m.normals.empty() ? Vec3f(0.0f) : m.normals[idx[c]]);
+      }
+    }
+  }
+  std::vector<DeviceMaterial> materials;
+  for (const Material& m : scene.materials) materials.push_back({m.type, m.color, m.ior, m.radiance});
+
+  r.triangles_.bind(backend);
+  r.triangles_.upload(triangles);
+  r.material_ids_.bind(backend);
+  r.material_ids_.upload(material_ids);
+  r.corner_normals_.bind(backend);
+  r.corner_normals_.upload(corner_normals);
+  r.materials_.bind(backend);
+  r.materials_.upload(materials);
+  r.lights_.bind(backend);
+  r.light_cdf_.bind(backend);
+  r.area_light_index_.bind(backend);
+  r.area_light_cdf_.bind(backend);
+  r.bvh_ = build_triangle_bvh(backend, r.triangles_.data(), uint32_t(n));
+  r.set_lights(scene.lights);
+  return r;
+}
+
+void ResidentScene::set_lights(std::span<const Light> lights) {
+  std::vector<DeviceLight> all;
+  all.reserve(lights.size() + area_lights_host_.size());
+  for (const Light& l : lights) all.push_back(to_device_light(l));
+  all.insert(all.end(), area_lights_host_.begin(), area_lights_host_.end());
+  lights_.upload(all);
+  rebuild_light_tables();
+}
+
+void ResidentScene::rebuild_light_tables() {
+  Backend& backend = *backend_;
+  const size_t n = lights_.size();
+  const DeviceLight* lights = lights_.data();
+  const float scene_radius = radius();
+
+  light_cdf_.resize_discard(n + 1);
+  Buffer<uint8_t> is_area(backend, n);
+  float* weight = light_cdf_.data();
+  uint8_t* area_flag = is_area.data();
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    weight[i] = light_power(lights[i], scene_radius);
+    area_flag[i] = lights[i].type == DeviceLightType::kArea;
+  });
+  total_power_ = build_cdf(backend, light_cdf_, n);
+
+  area_light_index_.resize_discard(n);
+  const size_t area_count = backend.select_flagged(nullptr, is_area.data(), n, area_light_index_.data());
+  area_light_index_.resize_discard(area_count);
+  area_light_cdf_.resize_discard(area_count + 1);
+  const uint32_t* area_index = area_light_index_.data();
+  float* area_weight = area_light_cdf_.data();
+  parallel_for(backend, area_count, [=] CAUSTICA_HD(size_t i) {
+    area_weight[i] = light_power(lights[area_index[i]], scene_radius);
+  });
+  area_light_power_ = build_cdf(backend, area_light_cdf_, area_count);
+}
+
+ResidentSceneView ResidentScene::view() const {
+  ResidentSceneView v;
+  v.bvh = bvh_.view();
+  v.triangles = triangles_.data();
+  v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
+  v.material_ids = material_ids_.data();
+  v.materials = materials_.data();
+  v.lights = lights_.data();
+  v.light_cdf = light_cdf_.data();
+  v.area_lights = area_light_index_.data();
+  v.area_light_cdf = area_light_cdf_.data();
+  v.light_count = uint32_t(lights_.size());
+  v.area_light_count = uint32_t(area_light_index_.size());
+  v.total_power = total_power_;
+  v.area_light_power = area_light_power_;
+  return v;
+}
+
+size_t ResidentScene::bytes() const {
+  return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() + materials_.bytes() +
+         lights_.bytes() + light_cdf_.bytes() + area_light_index_.bytes() + area_light_cdf_.bytes() +
+         bvh_.bytes();
+}
+
+}  // namespace caustica

@@ -1,0 +1,154 @@
+// A scene resident in backend memory: triangles and their ray-tracing structure, materials and
+// lights in the flat form kernels read. Built once per geometry change; lights are re-uploaded
+// alone when only they change (the engine's epochs decide which).
+#pragma once
+
+#include <span>
+
+#include "absl/status/statusor.h"
+#include "renderer/accel/traversal.h"
+#include "renderer/base/sampling.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica {
+
+struct DeviceMaterial {
+  MaterialType type;
+  Vec3f color;
+  float ior;
+  Vec3f radiance;
+};
+
+enum class DeviceLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kArea = 3 };
+
+// Flat light record. Area lights are one record per emissive triangle (`triangle`, `area`).
+struct DeviceLight {
+  DeviceLightType type;
+  Vec3f position;   // point/spot; area: first vertex
+  Vec3f direction;  // spot axis / directional travel direction; area: unit geometric normal
+  Vec3f color;      // intensity (point/spot), irradiance (directional) or radiance (area)
+  float cos_inner;  // spot
+  float cos_outer;  // spot
+  Vec3f edge1, edge2;  // area: triangle edges from `position`
+  float area;
+};
+
+// A sampled light position seen from nowhere in particular: what emission and shadow rays need.
+struct LightSample {
+  Vec3f position;
+  Vec3f normal;      // area lights: the emitting side
+  float pdf_area;    // area lights: 1 / area
+};
+
+// Plain pointers for kernels.
+struct ResidentSceneView {
+  TriangleBvhView bvh;
+  const TriangleVertices* triangles;   // original order
+  const Vec3f* corner_normals;         // 3 per triangle, or nullptr when no mesh has normals
+  const uint32_t* material_ids;        // per triangle
+  const DeviceMaterial* materials;
+  const DeviceLight* lights;           // every light, area triangles included
+  const float* light_cdf;              // emission choice by power, size light_count + 1
+  const uint32_t* area_lights;         // indices into `lights` of the area lights
+  const float* area_light_cdf;         // shadow-ray choice among area lights by power
+  uint32_t light_count;
+  uint32_t area_light_count;
+  float total_power;                   // sum over lights of average-channel power (W)
+  float area_light_power;
+
+  // Index of the first CDF bucket whose upper edge exceeds u; cdf[0] = 0, cdf[count] = 1.
+  CAUSTICA_HD static uint32_t sample_cdf(const float* cdf, uint32_t count, float u) {
+    uint32_t lo = 0, hi = count;
+    while (lo + 1 < hi) {
+      uint32_t mid = (lo + hi) / 2;
+      if (cdf[mid] <= u) lo = mid; else hi = mid;
+    }
+    return lo;
+  }
+};
+
+// Surface data at a ray hit.
+struct SurfaceHit {
+  Vec3f position;
+  Vec3f geometric_normal;  // unit
+  Vec3f shading_normal;    // unit, same side as geometric_normal
+  uint32_t material;
+};
+
+CAUSTICA_HDI SurfaceHit surface_at(const ResidentSceneView& scene, const Hit& hit) {
+  const TriangleVertices& t = scene.triangles[hit.triangle];
+  float w = 1.0f - hit.u - hit.v;
+  SurfaceHit s;
+  s.position = t.p0 * w + t.p1 * hit.u + t.p2 * hit.v;
+  s.geometric_normal = normalize(geometric_normal(t));
+  s.shading_normal = s.geometric_normal;
+  if (scene.corner_normals != nullptr) {
+    const Vec3f* n = scene.corner_normals + 3 * size_t(hit.triangle);
+    Vec3f ns = n[0] * w + n[1] * hit.u + n[2] * hit.v;
+    if (length_squared(ns) > 0.0f) {
+      ns = normalize(ns);
+      s.shading_normal = dot(ns, s.geometric_normal) < 0.0f ? -ns : ns;
+    }
+  }
+  s.material = scene.material_ids[hit.triangle];
+  return s;
+}
+
+// Power of a light averaged over channels, in the units photon flux is expressed in.
+CAUSTICA_HDI float light_power(const DeviceLight& l, float scene_radius) {
+  float c = average(l.color);
+  switch (l.type) {
+    case DeviceLightType::kPoint:
+      return 4.0f * kPi * c;
+    case DeviceLightType::kSpot:  // smoothstep falloff: half the transition band (pbrt-v4)
+      return 2.0f * kPi * c * ((1.0f - l.cos_inner) + (l.cos_inner - l.cos_outer) * 0.5f);
+    case DeviceLightType::kDirectional:
+      return c * kPi * scene_radius * scene_radius;
+    case DeviceLightType::kArea:
+      return c * kPi * l.area;
+  }
+  return 0.0f;
+}
+
+// Smoothstep falloff between the outer and inner cone (pbrt-v4 SpotLight::I).
+CAUSTICA_HDI float spot_falloff(const DeviceLight& l, Vec3f direction_from_light) {
+  float cos_theta = dot(direction_from_light, l.direction);
+  if (cos_theta >= l.cos_inner) return 1.0f;
+  if (cos_theta <= l.cos_outer) return 0.0f;
+  float x = (cos_theta - l.cos_outer) / (l.cos_inner - l.cos_outer);
+  return x * x * (3.0f - 2.0f * x);
+}
+
+class ResidentScene {
+ public:
+  // Uploads geometry and materials and builds the triangle structure.
+  static ResidentScene upload(Backend& backend, const Scene& scene);
+  // Replaces the non-geometric lights (area lights follow the geometry and stay).
+  void set_lights(std::span<const Light> lights);
+
+  ResidentSceneView view() const;
+  const TriangleBvh& bvh() const { return bvh_; }
+  size_t triangle_count() const { return triangles_.size(); }
+  size_t bytes() const;
+  Aabb bounds() const { return bvh_.bvh.bounds; }
+  float radius() const { return 0.5f * length(bounds().extent()); }
+
+ private:
+  void rebuild_light_tables();
+
+  Backend* backend_ = nullptr;
+  std::vector<DeviceLight> area_lights_host_;  // from emissive triangles, fixed with geometry
+  Buffer<TriangleVertices> triangles_;
+  Buffer<Vec3f> corner_normals_;
+  Buffer<uint32_t> material_ids_;
+  Buffer<DeviceMaterial> materials_;
+  Buffer<DeviceLight> lights_;
+  Buffer<float> light_cdf_;
+  Buffer<uint32_t> area_light_index_;
+  Buffer<float> area_light_cdf_;
+  float total_power_ = 0;
+  float area_light_power_ = 0;
+  TriangleBvh bvh_;
+};
+
+}  // namespace caustica

@@ -1,0 +1,74 @@
+#include "renderer/scene/file_io.h"
+
+#include <zlib.h>
+
+#include <memory>
+#include <system_error>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "renderer/scene/scene_limits.h"
+
+namespace caustica {
+namespace {
+
+struct GzFileCloser {
+  void operator()(gzFile file) const { gzclose(file); }
+};
+using GzFile = std::unique_ptr<gzFile_s, GzFileCloser>;
+
+// zlib takes chunk lengths as unsigned int; 4 MiB chunks keep the calls few without a big spike.
+constexpr size_t kChunkBytes = size_t{4} << 20;
+
+}  // namespace
+
+absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  const std::filesystem::file_status status = std::filesystem::status(path, ec);
+  if (!std::filesystem::exists(status)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": not a regular file"));
+  }
+  // gzread passes non-gzip files through, so one path serves .ply and .ply.gz alike.
+  GzFile file(gzopen(path.c_str(), "rb"));
+  if (file == nullptr) {
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot open file"));
+  }
+  gzbuffer(file.get(), 256 * 1024);
+
+  std::string bytes;
+  // The on-disk size is exact for plain files and a lower bound for compressed ones.
+  const uintmax_t disk_size = std::filesystem::file_size(path, ec);
+  if (!ec) bytes.reserve(disk_size + kChunkBytes);
+  size_t used = 0;
+  while (true) {
+    if (bytes.size() < used + kChunkBytes) bytes.resize(used + kChunkBytes);
+    const int n = gzread(file.get(), bytes.data() + used, static_cast<unsigned>(kChunkBytes));
+    if (n < 0) {
+      // gzerror's text repeats the path, so only its code is used.
+      int zerr = 0;
+      gzerror(file.get(), &zerr);
+      return absl::InvalidArgumentError(absl::StrCat(
+          path.string(), zerr == Z_ERRNO ? ": cannot read file" : ": corrupt gzip data"));
+    }
+    used += static_cast<size_t>(n);
+    if (n == 0) break;
+    if (used > kMaxFileBytes) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          path.string(), ": file is larger than the limit of ", kMaxFileBytes, " bytes"));
+    }
+  }
+  // A gzip stream cut short reads as a clean end of file; only gzerror tells the difference.
+  int zerr = Z_OK;
+  gzerror(file.get(), &zerr);
+  if (zerr != Z_OK && zerr != Z_STREAM_END) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": corrupt or truncated gzip data"));
+  }
+  bytes.resize(used);
+  return bytes;
+}
+
+}  // namespace caustica

@@ -1,0 +1,38 @@
+#include "renderer/scene/mesh_file.h"
+
+#include <utility>
+
+#include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "renderer/scene/mesh_gltf.h"
+#include "renderer/scene/mesh_obj.h"
+#include "renderer/scene/mesh_ply.h"
+#include "renderer/scene/status_util.h"
+
+namespace caustica {
+
+absl::StatusOr<MeshFile> load_mesh_file(const std::filesystem::path& path) {
+  std::string extension = absl::AsciiStrToLower(path.extension().string());
+  if (extension == ".gz") {
+    // Only PLY is read through zlib; the other loaders open their files themselves.
+    extension = absl::AsciiStrToLower(path.stem().extension().string());
+    if (extension != ".ply") {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path.string(), ": only .ply files may be gzip-compressed"));
+    }
+  }
+  if (extension == ".ply") {
+    SCENE_ASSIGN_OR_RETURN(Mesh mesh, load_ply(path));
+    MeshFile file;
+    file.meshes.push_back(std::move(mesh));
+    return file;
+  }
+  if (extension == ".obj") return load_obj(path);
+  if (extension == ".gltf" || extension == ".glb") return load_gltf(path);
+  return absl::InvalidArgumentError(
+      absl::StrCat(path.string(), ": unsupported mesh format '", extension,
+                   "' (expected .obj, .ply, .ply.gz, .gltf or .glb)"));
+}
+
+}  // namespace caustica

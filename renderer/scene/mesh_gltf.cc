@@ -1,0 +1,461 @@
+#include "renderer/scene/mesh_gltf.h"
+
+// The Debian package ships tinygltf as a compiled library, so no TINYGLTF_IMPLEMENTATION here.
+// stb_image is not installed: we read no textures, so the image callbacks are ours.
+#define TINYGLTF_NO_STB_IMAGE
+#define TINYGLTF_NO_STB_IMAGE_WRITE
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/status_util.h"
+#include "renderer/scene/transform.h"
+
+namespace caustica {
+namespace {
+
+// glTF buffers are little-endian, and we read them with memcpy.
+static_assert(std::endian::native == std::endian::little);
+
+constexpr double kRadiansToDegrees = 180.0 / 3.14159265358979323846;
+
+bool ignore_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
+                  const unsigned char*, int, void*) {
+  return true;
+}
+
+// A number inside a material extension, e.g. KHR_materials_ior.ior, or `fallback`.
+double extension_number(const tinygltf::ExtensionMap& extensions, const std::string& extension,
+                        const std::string& key, double fallback) {
+  const auto it = extensions.find(extension);
+  if (it == extensions.end() || !it->second.IsObject() || !it->second.Has(key)) return fallback;
+  const tinygltf::Value& value = it->second.Get(key);
+  return value.IsNumber() ? value.GetNumberAsDouble() : fallback;
+}
+
+Vec3f to_vec3(const std::vector<double>& v, Vec3f fallback) {
+  if (v.size() < 3) return fallback;
+  return {static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])};
+}
+
+Material convert_material(const tinygltf::Material& gltf, size_t index) {
+  Material m;
+  m.name = gltf.name.empty() ? absl::StrCat("material ", index) : gltf.name;
+  const tinygltf::PbrMetallicRoughness& pbr = gltf.pbrMetallicRoughness;
+  const Vec3f base_color = to_vec3(pbr.baseColorFactor, Vec3f(1));
+  const Vec3f emission =
+      to_vec3(gltf.emissiveFactor, Vec3f(0)) *
+      static_cast<float>(extension_number(gltf.extensions, "KHR_materials_emissive_strength",
+                                          "emissiveStrength", 1.0));
+  const double transmission =
+      extension_number(gltf.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0);
+  // Our materials are pure types, so the strongest trait of the PBR material decides.
+  if (!is_black(emission)) {
+    m.type = MaterialType::kEmissive;
+    m.color = Vec3f(0);
+    m.radiance = emission;
+  } else if (transmission > 0) {
+    m.type = MaterialType::kDielectric;
+    m.ior = static_cast<float>(extension_number(gltf.extensions, "KHR_materials_ior", "ior", 1.5));
+  } else if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
+    m.type = MaterialType::kMirror;
+    m.color = base_color;
+  } else {
+    m.type = MaterialType::kDiffuse;
+    m.color = base_color;
+  }
+  return m;
+}
+
+absl::StatusOr<Light> convert_light(const tinygltf::Light& gltf, size_t index) {
+  Light light;
+  light.name = gltf.name.empty() ? absl::StrCat("light ", index) : gltf.name;
+  // Lights sit at the node's origin and shine down the node's -z axis.
+  light.position = {0, 0, 0};
+  light.direction = {0, 0, -1};
+  light.intensity = to_vec3(gltf.color, Vec3f(1)) * static_cast<float>(gltf.intensity);
+  if (gltf.type == "point") {
+    light.type = LightType::kPoint;
+  } else if (gltf.type == "spot") {
+    light.type = LightType::kSpot;
+    light.inner_angle_deg = static_cast<float>(gltf.spot.innerConeAngle * kRadiansToDegrees);
+    light.outer_angle_deg = static_cast<float>(gltf.spot.outerConeAngle * kRadiansToDegrees);
+  } else if (gltf.type == "directional") {
+    light.type = LightType::kDirectional;
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("light ", index, " has unknown type '", gltf.type, "'"));
+  }
+  return light;
+}
+
+bool checked_add(size_t a, size_t b, size_t* sum) { return !__builtin_add_overflow(a, b, sum); }
+bool checked_mul(size_t a, size_t b, size_t* product) {
+  return !__builtin_mul_overflow(a, b, product);
+}
+
+// An accessor whose whole byte range has been checked to lie inside its buffer, so that reads
+// cannot leave it whatever the file claims.
+class AccessorView {
+ public:
+  static absl::StatusOr<AccessorView> open(const tinygltf::Model& model, int index, int type,
+                                           std::initializer_list<int> component_types,
+                                           absl::string_view what) {
+    auto fail = [&](absl::string_view problem) {
+      return absl::InvalidArgumentError(absl::StrCat(what, " (accessor ", index, "): ", problem));
+    };
+    if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
+      return fail("no such accessor");
+    }
+    const tinygltf::Accessor& accessor = model.accessors[index];
+    if (accessor.sparse.isSparse) return fail("sparse accessors are not supported");
+    if (accessor.type != type) return fail("unexpected element type");
+    bool known_component = false;
+    for (int c : component_types) known_component |= accessor.componentType == c;
+    if (!known_component) {
+      return fail(absl::StrCat("unsupported component type ", accessor.componentType));
+    }
+    if (accessor.bufferView < 0 ||
+        static_cast<size_t>(accessor.bufferView) >= model.bufferViews.size()) {
+      return fail("has no valid bufferView");
+    }
+    const tinygltf::BufferView& view = model.bufferViews[accessor.bufferView];
+    if (view.buffer < 0 || static_cast<size_t>(view.buffer) >= model.buffers.size()) {
+      return fail("bufferView has no valid buffer");
+    }
+    const std::vector<unsigned char>& buffer = model.buffers[view.buffer].data;
+
+    AccessorView result;
+    result.component_type_ = accessor.componentType;
+    result.normalized_ = accessor.normalized;
+    result.components_ = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type));
+    result.component_size_ = tinygltf::GetComponentSizeInBytes(accessor.componentType);
+    result.count_ = accessor.count;
+    const size_t element_size = result.components_ * result.component_size_;
+    result.stride_ = view.byteStride != 0 ? view.byteStride : element_size;
+    if (result.stride_ < element_size) return fail("byteStride is smaller than an element");
+
+    size_t view_end = 0, start = 0, last = 0, end = 0;
+    if (!checked_add(view.byteOffset, view.byteLength, &view_end) || view_end > buffer.size()) {
+      return fail("bufferView runs past the end of its buffer");
+    }
+    if (!checked_add(view.byteOffset, accessor.byteOffset, &start)) return fail("bad byteOffset");
+    if (result.count_ > 0) {
+      if (!checked_mul(result.count_ - 1, result.stride_, &last) ||
+          !checked_add(start, last, &last) || !checked_add(last, element_size, &end) ||
+          end > view_end) {
+        return fail(absl::StrCat(result.count_, " elements run past the end of the bufferView"));
+      }
+    }
+    if (result.count_ > 0) result.data_ = buffer.data() + start;
+    return result;
+  }
+
+  size_t count() const { return count_; }
+
+  // Component c of element i; normalized integers map to [0, 1] or [-1, 1] as glTF specifies.
+  double get(size_t i, int c) const {
+    const unsigned char* p = data_ + i * stride_ + size_t(c) * component_size_;
+    switch (component_type_) {
+      case TINYGLTF_COMPONENT_TYPE_BYTE:
+        return scaled<int8_t>(p, 127.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+        return scaled<uint8_t>(p, 255.0);
+      case TINYGLTF_COMPONENT_TYPE_SHORT:
+        return scaled<int16_t>(p, 32767.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+        return scaled<uint16_t>(p, 65535.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+        return load<uint32_t>(p);
+      case TINYGLTF_COMPONENT_TYPE_FLOAT:
+        return load<float>(p);
+      default:
+        return 0;
+    }
+  }
+
+  Vec3f get_vec3(size_t i) const {
+    return {static_cast<float>(get(i, 0)), static_cast<float>(get(i, 1)),
+            static_cast<float>(get(i, 2))};
+  }
+
+ private:
+  template <typename T>
+  static double load(const unsigned char* p) {
+    T v;
+    std::memcpy(&v, p, sizeof(T));
+    return static_cast<double>(v);
+  }
+  template <typename T>
+  double scaled(const unsigned char* p, double max) const {
+    const double v = load<T>(p);
+    return normalized_ ? std::max(v / max, -1.0) : v;
+  }
+
+  const unsigned char* data_ = nullptr;
+  size_t count_ = 0;
+  size_t stride_ = 0;
+  size_t component_size_ = 0;
+  int components_ = 0;
+  int component_type_ = 0;
+  bool normalized_ = false;
+};
+
+class GltfReader {
+ public:
+  GltfReader(const tinygltf::Model& model, const std::filesystem::path& path)
+      : model_(model), file_name_(path.filename().string()) {}
+
+  absl::StatusOr<MeshFile> read() {
+    for (size_t i = 0; i < model_.materials.size(); ++i) {
+      file_.materials.push_back(convert_material(model_.materials[i], i));
+    }
+    node_seen_.assign(model_.nodes.size(), false);
+    for (const int root : root_nodes()) SCENE_RETURN_IF_ERROR(visit_tree(root));
+    return std::move(file_);
+  }
+
+ private:
+  // The default scene's roots; without scenes, every node that is nobody's child.
+  std::vector<int> root_nodes() const {
+    if (!model_.scenes.empty()) {
+      const size_t scene = model_.defaultScene >= 0 &&
+                                   static_cast<size_t>(model_.defaultScene) < model_.scenes.size()
+                               ? model_.defaultScene
+                               : 0;
+      return model_.scenes[scene].nodes;
+    }
+    std::vector<bool> is_child(model_.nodes.size(), false);
+    for (const tinygltf::Node& node : model_.nodes) {
+      for (const int child : node.children) {
+        if (child >= 0 && static_cast<size_t>(child) < is_child.size()) is_child[child] = true;
+      }
+    }
+    std::vector<int> roots;
+    for (size_t i = 0; i < model_.nodes.size(); ++i) {
+      if (!is_child[i]) roots.push_back(static_cast<int>(i));
+    }
+    return roots;
+  }
+
+  static Affine local_transform(const tinygltf::Node& node) {
+    if (node.matrix.size() == 16) {
+      std::array<double, 16> columns;
+      std::copy(node.matrix.begin(), node.matrix.end(), columns.begin());
+      return from_column_major(columns);
+    }
+    Affine t;
+    if (node.translation.size() == 3) {
+      t = translation(to_vec3(node.translation, Vec3f(0)));
+    }
+    if (node.rotation.size() == 4) {
+      t = t * rotation_quaternion(node.rotation[0], node.rotation[1], node.rotation[2],
+                                  node.rotation[3]);
+    }
+    if (node.scale.size() == 3) t = t * scaling(to_vec3(node.scale, Vec3f(1)));
+    return t;
+  }
+
+  // Iterative, so a hostile chain of nodes cannot overflow the stack; glTF nodes form a forest,
+  // so a node reached twice means a cycle or a shared child, both invalid.
+  absl::Status visit_tree(int root) {
+    std::vector<std::pair<int, Affine>> pending = {{root, Affine()}};
+    while (!pending.empty()) {
+      const auto [index, parent] = pending.back();
+      pending.pop_back();
+      if (index < 0 || static_cast<size_t>(index) >= model_.nodes.size()) {
+        return absl::InvalidArgumentError(absl::StrCat("node ", index, " does not exist"));
+      }
+      if (node_seen_[index]) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("node ", index, " is reached twice: the node hierarchy is not a tree"));
+      }
+      node_seen_[index] = true;
+      const tinygltf::Node& node = model_.nodes[index];
+      const Affine world = parent * local_transform(node);
+      SCENE_RETURN_IF_ERROR(add_node_meshes(node, index, world));
+      SCENE_RETURN_IF_ERROR(add_node_light(node, world));
+      // Reversed onto the stack, so that meshes come out in document order.
+      for (auto child = node.children.rbegin(); child != node.children.rend(); ++child) {
+        pending.emplace_back(*child, world);
+      }
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status add_node_meshes(const tinygltf::Node& node, int node_index, const Affine& world) {
+    if (node.mesh < 0) return absl::OkStatus();
+    if (static_cast<size_t>(node.mesh) >= model_.meshes.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("node ", node_index, " refers to missing mesh ", node.mesh));
+    }
+    const tinygltf::Mesh& gltf_mesh = model_.meshes[node.mesh];
+    for (size_t p = 0; p < gltf_mesh.primitives.size(); ++p) {
+      const tinygltf::Primitive& primitive = gltf_mesh.primitives[p];
+      // Errors get the file name from load_gltf; mesh names need it themselves.
+      const std::string name =
+          absl::StrCat("mesh '", gltf_mesh.name, "' primitive ", p, " at node '",
+                       node.name.empty() ? absl::StrCat(node_index) : node.name, "'");
+      // tinygltf leaves mode at -1 when the file omits it; glTF's default is TRIANGLES.
+      const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
+      if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": triangle strips and fans are not supported"));
+      }
+      if (mode != TINYGLTF_MODE_TRIANGLES) continue;  // points and lines have no area
+      SCENE_ASSIGN_OR_RETURN(Mesh mesh, convert_primitive(primitive, name));
+      mesh.name = absl::StrCat(file_name_, ": ", name);
+      transform_mesh(world, &mesh);
+      file_.meshes.push_back(std::move(mesh));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<Mesh> convert_primitive(const tinygltf::Primitive& primitive,
+                                         const std::string& name) const {
+    constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    constexpr int kUbyte = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+    constexpr int kUshort = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    constexpr int kUint = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    Mesh mesh;
+    const auto position = primitive.attributes.find("POSITION");
+    if (position == primitive.attributes.end()) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": no POSITION attribute"));
+    }
+    SCENE_ASSIGN_OR_RETURN(const AccessorView positions,
+                           AccessorView::open(model_, position->second, TINYGLTF_TYPE_VEC3,
+                                              {kFloat}, absl::StrCat(name, ": POSITION")));
+    const size_t vertex_count = positions.count();
+    if (vertex_count > kMaxVerticesPerMesh) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": ", vertex_count, " vertices exceed the limit"));
+    }
+    mesh.positions.resize(vertex_count);
+    for (size_t i = 0; i < vertex_count; ++i) mesh.positions[i] = positions.get_vec3(i);
+
+    if (const auto normal = primitive.attributes.find("NORMAL");
+        normal != primitive.attributes.end()) {
+      SCENE_ASSIGN_OR_RETURN(const AccessorView normals,
+                             AccessorView::open(model_, normal->second, TINYGLTF_TYPE_VEC3,
+                                                {kFloat}, absl::StrCat(name, ": NORMAL")));
+      if (normals.count() == vertex_count) {
+        mesh.normals.resize(vertex_count);
+        for (size_t i = 0; i < vertex_count; ++i) mesh.normals[i] = normals.get_vec3(i);
+      }
+    }
+    if (const auto uv = primitive.attributes.find("TEXCOORD_0"); uv != primitive.attributes.end()) {
+      SCENE_ASSIGN_OR_RETURN(
+          const AccessorView uvs,
+          AccessorView::open(model_, uv->second, TINYGLTF_TYPE_VEC2, {kFloat, kUbyte, kUshort},
+                             absl::StrCat(name, ": TEXCOORD_0")));
+      if (uvs.count() == vertex_count) {
+        mesh.uvs.resize(vertex_count);
+        for (size_t i = 0; i < vertex_count; ++i) {
+          mesh.uvs[i] = {static_cast<float>(uvs.get(i, 0)), static_cast<float>(uvs.get(i, 1))};
+        }
+      }
+    }
+
+    if (primitive.indices >= 0) {
+      SCENE_ASSIGN_OR_RETURN(
+          const AccessorView indices,
+          AccessorView::open(model_, primitive.indices, TINYGLTF_TYPE_SCALAR,
+                             {kUbyte, kUshort, kUint}, absl::StrCat(name, ": indices")));
+      mesh.indices.resize(indices.count());
+      for (size_t i = 0; i < indices.count(); ++i) {
+        const double index = indices.get(i, 0);
+        if (index >= static_cast<double>(vertex_count)) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              name, ": index ", i, " is ", index, ", out of range (", vertex_count, " vertices)"));
+        }
+        mesh.indices[i] = static_cast<uint32_t>(index);
+      }
+    } else {
+      mesh.indices.resize(vertex_count);
+      for (size_t i = 0; i < vertex_count; ++i) mesh.indices[i] = static_cast<uint32_t>(i);
+    }
+    if (mesh.indices.size() % 3 != 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": ", mesh.indices.size(), " indices is not a multiple of 3"));
+    }
+    if (mesh.triangle_count() > kMaxTrianglesPerMesh) {
+      return absl::InvalidArgumentError(absl::StrCat(name, ": too many triangles"));
+    }
+
+    uint32_t material = kNoMaterial;
+    if (primitive.material >= 0) {
+      if (static_cast<size_t>(primitive.material) >= model_.materials.size()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": refers to missing material ", primitive.material));
+      }
+      material = static_cast<uint32_t>(primitive.material);
+    }
+    mesh.material_ids.assign(mesh.triangle_count(), material);
+    return mesh;
+  }
+
+  // KHR_lights_punctual puts {"light": index} into the node's extensions.
+  absl::Status add_node_light(const tinygltf::Node& node, const Affine& world) {
+    const auto it = node.extensions.find("KHR_lights_punctual");
+    if (it == node.extensions.end()) return absl::OkStatus();
+    if (!it->second.IsObject() || !it->second.Has("light") || !it->second.Get("light").IsNumber()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("node '", node.name, "': KHR_lights_punctual without a light index"));
+    }
+    const int index = it->second.Get("light").GetNumberAsInt();
+    if (index < 0 || static_cast<size_t>(index) >= model_.lights.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("node '", node.name, "' refers to missing light ", index));
+    }
+    SCENE_ASSIGN_OR_RETURN(Light light, convert_light(model_.lights[index], index));
+    transform_light(world, &light);
+    file_.lights.push_back(std::move(light));
+    return absl::OkStatus();
+  }
+
+  const tinygltf::Model& model_;
+  std::string file_name_;
+  std::vector<bool> node_seen_;
+  MeshFile file_;
+};
+
+}  // namespace
+
+absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
+  if (!std::filesystem::exists(path)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(&ignore_image, nullptr);
+  tinygltf::Model model;
+  std::string error, warning;
+  bool loaded = false;
+  const bool binary = absl::AsciiStrToLower(path.extension().string()) == ".glb";
+  try {
+    loaded = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, path.string())
+                    : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  if (!loaded) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": ", absl::StripTrailingAsciiWhitespace(error)));
+  }
+  absl::StatusOr<MeshFile> file = GltfReader(model, path).read();
+  if (!file.ok()) return annotate(file.status(), path.string());
+  return file;
+}
+
+}  // namespace caustica

@@ -1,0 +1,229 @@
+#include "renderer/scene/mesh_obj.h"
+
+#include <tiny_obj_loader.h>
+
+#include <exception>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/string_view.h"
+#include "absl/strings/strip.h"
+#include "renderer/scene/file_io.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/status_util.h"
+
+namespace caustica {
+namespace {
+
+Vec3f to_vec3(const tinyobj::real_t* v) { return {v[0], v[1], v[2]}; }
+
+Material convert_material(const tinyobj::material_t& mtl, size_t index) {
+  Material m;
+  m.name = mtl.name.empty() ? absl::StrCat("material ", index) : mtl.name;
+  const Vec3f emission = to_vec3(mtl.emission);
+  // MTL illumination models 4, 6, 7 and 9 are the glass ones.
+  const bool glass = mtl.illum == 4 || mtl.illum == 6 || mtl.illum == 7 || mtl.illum == 9;
+  if (!is_black(emission)) {
+    m.type = MaterialType::kEmissive;
+    m.color = Vec3f(0);
+    m.radiance = emission;
+  } else if (glass || mtl.dissolve < 1) {
+    m.type = MaterialType::kDielectric;
+    // tinyobj reports 1 when Ni is absent, and glass of index 1 would be invisible.
+    m.ior = mtl.ior > 1 ? mtl.ior : 1.5f;
+  } else if (mtl.illum == 3 || mtl.illum == 5 || mtl.illum == 8) {
+    m.type = MaterialType::kMirror;
+    m.color = to_vec3(mtl.specular);
+  } else {
+    m.type = MaterialType::kDiffuse;
+    m.color = to_vec3(mtl.diffuse);
+  }
+  return m;
+}
+
+// Line of the face_number-th (0-based) "f" statement: tinyobj keeps faces in file order but not
+// their lines, and an error without a line is hard to act on. Only called on the error path.
+size_t face_line(const std::filesystem::path& path, size_t face_number) {
+  const absl::StatusOr<std::string> text = read_file(path);
+  if (!text.ok()) return 0;
+  size_t line_number = 0;
+  for (absl::string_view line : absl::StrSplit(*text, '\n')) {
+    ++line_number;
+    line = absl::StripLeadingAsciiWhitespace(line);
+    if (line.size() >= 2 && line[0] == 'f' && (line[1] == ' ' || line[1] == '\t')) {
+      if (face_number-- == 0) return line_number;
+    }
+  }
+  return 0;
+}
+
+// A face corner as OBJ stores it: separate indices into positions, normals and texcoords.
+struct Corner {
+  int position, normal, uv;
+  bool operator==(const Corner&) const = default;
+};
+struct CornerHash {
+  size_t operator()(const Corner& c) const {
+    return std::hash<uint64_t>()((uint64_t(uint32_t(c.position)) << 32) ^
+                                 (uint64_t(uint32_t(c.normal)) << 16) ^ uint32_t(c.uv));
+  }
+};
+
+class ObjMeshBuilder {
+ public:
+  ObjMeshBuilder(const std::filesystem::path& path, const tinyobj::attrib_t& attrib)
+      : path_(path), attrib_(attrib) {}
+
+  // First pass: every index in range, and whether all corners carry normals and texcoords
+  // (a mesh has them for all vertices or none).
+  absl::Status check(const std::vector<tinyobj::shape_t>& shapes) {
+    const int positions = static_cast<int>(attrib_.vertices.size() / 3);
+    const int normals = static_cast<int>(attrib_.normals.size() / 3);
+    const int uvs = static_cast<int>(attrib_.texcoords.size() / 2);
+    size_t face = 0;
+    for (const tinyobj::shape_t& shape : shapes) {
+      // tinyobj keeps these in step; checked so that a surprise cannot turn into a bad read.
+      if (shape.mesh.material_ids.size() != shape.mesh.num_face_vertices.size()) {
+        return absl::InternalError(absl::StrCat(path_.string(), ": inconsistent tinyobj output"));
+      }
+      size_t offset = 0;
+      for (const unsigned char corners : shape.mesh.num_face_vertices) {
+        if (offset + corners > shape.mesh.indices.size()) {
+          return absl::InternalError(absl::StrCat(path_.string(), ": inconsistent tinyobj output"));
+        }
+        if (corners < 3) {
+          return face_error(
+              face, absl::StrCat("face has ", int{corners}, " vertices; a face needs at least 3"));
+        }
+        for (size_t k = 0; k < corners; ++k) {
+          const tinyobj::index_t& index = shape.mesh.indices[offset + k];
+          if (index.vertex_index < 0 || index.vertex_index >= positions) {
+            return face_error(
+                face, absl::StrCat("vertex index ", index.vertex_index + 1,
+                                   " is out of range (the file has ", positions, " vertices)"));
+          }
+          if (index.normal_index >= normals || index.texcoord_index >= uvs) {
+            return face_error(face, "normal or texture coordinate index is out of range");
+          }
+          all_normals_ = all_normals_ && index.normal_index >= 0;
+          all_uvs_ = all_uvs_ && index.texcoord_index >= 0;
+        }
+        offset += corners;
+        triangles_ += corners - 2;
+        ++face;
+      }
+    }
+    if (triangles_ > kMaxTrianglesPerMesh) {
+      return absl::InvalidArgumentError(absl::StrCat(path_.string(), ": ", triangles_,
+                                                     " triangles exceed the limit of ",
+                                                     kMaxTrianglesPerMesh));
+    }
+    return absl::OkStatus();
+  }
+
+  Mesh build(const std::vector<tinyobj::shape_t>& shapes, size_t material_count) {
+    Mesh mesh;
+    mesh.name = path_.filename().string();
+    mesh.indices.reserve(3 * triangles_);
+    mesh.material_ids.reserve(triangles_);
+    // Without per-corner attributes the OBJ positions are the vertices, as they are.
+    const bool share_positions = !all_normals_ && !all_uvs_;
+    if (share_positions) {
+      mesh.positions.reserve(attrib_.vertices.size() / 3);
+      for (size_t v = 0; v + 2 < attrib_.vertices.size(); v += 3) {
+        mesh.positions.push_back(to_vec3(&attrib_.vertices[v]));
+      }
+    }
+    std::vector<uint32_t> polygon;
+    for (const tinyobj::shape_t& shape : shapes) {
+      size_t offset = 0;
+      for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+        const size_t corners = shape.mesh.num_face_vertices[f];
+        polygon.clear();
+        for (size_t k = 0; k < corners; ++k) {
+          const tinyobj::index_t& index = shape.mesh.indices[offset + k];
+          polygon.push_back(share_positions ? static_cast<uint32_t>(index.vertex_index)
+                                            : vertex_for(index, &mesh));
+        }
+        offset += corners;
+        const int id = shape.mesh.material_ids[f];
+        const uint32_t material =
+            id >= 0 && static_cast<size_t>(id) < material_count ? id : kNoMaterial;
+        for (size_t k = 1; k + 1 < corners; ++k) {
+          mesh.indices.insert(mesh.indices.end(), {polygon[0], polygon[k], polygon[k + 1]});
+          mesh.material_ids.push_back(material);
+        }
+      }
+    }
+    return mesh;
+  }
+
+ private:
+  absl::Status face_error(size_t face, absl::string_view message) const {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path_.string(), ":", face_line(path_, face), ": face ", face, ": ", message));
+  }
+
+  uint32_t vertex_for(const tinyobj::index_t& index, Mesh* mesh) {
+    const Corner corner{index.vertex_index, all_normals_ ? index.normal_index : -1,
+                        all_uvs_ ? index.texcoord_index : -1};
+    const auto [it, inserted] =
+        vertex_of_corner_.try_emplace(corner, static_cast<uint32_t>(mesh->positions.size()));
+    if (inserted) {
+      mesh->positions.push_back(to_vec3(&attrib_.vertices[3 * size_t(corner.position)]));
+      if (all_normals_)
+        mesh->normals.push_back(to_vec3(&attrib_.normals[3 * size_t(corner.normal)]));
+      if (all_uvs_) {
+        const tinyobj::real_t* uv = &attrib_.texcoords[2 * size_t(corner.uv)];
+        mesh->uvs.push_back({uv[0], uv[1]});
+      }
+    }
+    return it->second;
+  }
+
+  const std::filesystem::path& path_;
+  const tinyobj::attrib_t& attrib_;
+  bool all_normals_ = true;
+  bool all_uvs_ = true;
+  size_t triangles_ = 0;
+  std::unordered_map<Corner, uint32_t, CornerHash> vertex_of_corner_;
+};
+
+}  // namespace
+
+absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
+  if (!std::filesystem::exists(path)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  tinyobj::ObjReaderConfig config;
+  config.triangulate = false;  // we fan polygons ourselves, keeping face numbers for errors
+  config.vertex_color = false;
+  tinyobj::ObjReader reader;
+  bool parsed = false;
+  try {
+    parsed = reader.ParseFromFile(path.string(), config);
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": ", e.what()));
+  }
+  if (!parsed) {
+    // tinyobj's messages carry the line ("... line 5.)"); trailing newlines are noise.
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": ", absl::StripTrailingAsciiWhitespace(reader.Error())));
+  }
+
+  MeshFile file;
+  const std::vector<tinyobj::material_t>& materials = reader.GetMaterials();
+  for (size_t i = 0; i < materials.size(); ++i) {
+    file.materials.push_back(convert_material(materials[i], i));
+  }
+  ObjMeshBuilder builder(path, reader.GetAttrib());
+  SCENE_RETURN_IF_ERROR(builder.check(reader.GetShapes()));
+  file.meshes.push_back(builder.build(reader.GetShapes(), materials.size()));
+  return file;
+}
+
+}  // namespace caustica

@@ -1,0 +1,84 @@
+// The scene model on the host: what loaders produce, validation checks and the engine uploads.
+// Units are the scene's own (the bundled Cornell boxes use millimetres); colours are linear RGB.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "renderer/base/vec.h"
+
+namespace caustica {
+
+enum class MaterialType : uint32_t { kDiffuse = 0, kMirror = 1, kDielectric = 2, kEmissive = 3 };
+
+struct Material {
+  std::string name;
+  MaterialType type = MaterialType::kDiffuse;
+  Vec3f color{0.8f, 0.8f, 0.8f};  // diffuse albedo or mirror reflectance (each channel in [0, 1])
+  float ior = 1.5f;               // dielectric index of refraction (outside medium is vacuum)
+  Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
+};
+
+// One triangle mesh; every triangle refers to a material by index into Scene::materials.
+struct Mesh {
+  std::string name;                     // file name or shape name, for error messages
+  std::vector<Vec3f> positions;
+  std::vector<Vec3f> normals;           // optional: per-vertex shading normals
+  std::vector<Vec2f> uvs;               // optional: per-vertex texture coordinates
+  std::vector<uint32_t> indices;        // 3 per triangle
+  std::vector<uint32_t> material_ids;   // 1 per triangle
+  size_t triangle_count() const { return indices.size() / 3; }
+};
+
+enum class LightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2 };
+
+// A light that is not geometry. Area lights are the triangles of emissive materials.
+struct Light {
+  std::string name;
+  LightType type = LightType::kPoint;
+  Vec3f position{0, 0, 0};     // point, spot
+  Vec3f direction{0, -1, 0};   // spot axis, or the direction a directional light travels
+  Vec3f intensity{1, 1, 1};    // point/spot: W/sr per channel; directional: irradiance W/m^2
+  float inner_angle_deg = 30;  // spot: full intensity inside this half-angle
+  float outer_angle_deg = 45;  // spot: zero outside this half-angle (smoothstep between)
+};
+
+struct Camera {
+  Vec3f position{0, 0, 1};
+  Vec3f look_at{0, 0, 0};
+  Vec3f up{0, 1, 0};
+  float vertical_fov_deg = 45;
+  int width = 512;
+  int height = 512;
+};
+
+enum class Kernel : uint32_t { kUniform = 0, kCone = 1, kEpanechnikov = 2 };
+
+struct RenderSettings {
+  uint32_t photons_per_pass = 200000;  // photons emitted per pass (global and caustic together)
+  uint32_t k_nearest = 64;             // photons per radiance estimate
+  float max_radius = 0;                // gather radius cap; 0 = 5% of the scene's diagonal
+  Kernel kernel = Kernel::kEpanechnikov;
+  uint32_t max_depth = 6;              // specular bounces of camera rays
+  uint32_t max_photon_bounces = 8;
+  uint32_t area_light_samples = 4;     // shadow rays per diffuse hit for area lights
+  uint32_t passes = 1;                 // progressive passes, fresh photons each
+  uint32_t seed = 1;
+};
+
+struct Scene {
+  std::vector<Material> materials;
+  std::vector<Mesh> meshes;
+  std::vector<Light> lights;
+  Camera camera;
+  RenderSettings settings;
+
+  size_t triangle_count() const {
+    size_t n = 0;
+    for (const Mesh& m : meshes) n += m.triangle_count();
+    return n;
+  }
+};
+
+}  // namespace caustica

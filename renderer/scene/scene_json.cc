@@ -1,0 +1,437 @@
+#include "renderer/scene/scene_json.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "renderer/scene/json_fields.h"
+#include "renderer/scene/mesh_file.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/shapes.h"
+#include "renderer/scene/status_util.h"
+#include "renderer/scene/transform.h"
+
+namespace caustica {
+namespace {
+
+constexpr Presence kRequired = Presence::kRequired;
+constexpr Presence kOptional = Presence::kOptional;
+
+// nlohmann reports a byte offset; people want line:column. The offset is 1-based and points at
+// the character that could not be parsed.
+absl::Status syntax_error(absl::string_view text, const Json::parse_error& error,
+                          absl::string_view source_name) {
+  const size_t offset = std::min<size_t>(error.byte > 0 ? error.byte - 1 : 0, text.size());
+  const absl::string_view before = text.substr(0, offset);
+  const size_t line = 1 + std::count(before.begin(), before.end(), '\n');
+  const size_t line_start = before.rfind('\n');
+  const size_t column = line_start == absl::string_view::npos ? offset + 1 : offset - line_start;
+  // Keep nlohmann's description, without its own "[json.exception...] ... column N: " prefix.
+  absl::string_view description = error.what();
+  if (const size_t at = description.find("column "); at != absl::string_view::npos) {
+    if (const size_t colon = description.find(": ", at); colon != absl::string_view::npos) {
+      description.remove_prefix(colon + 2);
+    }
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(source_name, ":", line, ":", column, ": JSON syntax error: ", description));
+}
+
+// Sizes of procedural shapes: required, and a zero or negative one is a mistake.
+absl::StatusOr<float> read_positive(JsonObject& object, absl::string_view key) {
+  float value = 0;
+  SCENE_RETURN_IF_ERROR(object.read(key, kRequired, &value));
+  if (!(value > 0)) {
+    return invalid_field(object.field_path(key), absl::StrCat("must be > 0, got ", value));
+  }
+  return value;
+}
+
+absl::StatusOr<std::vector<Vec3f>> read_points(JsonObject& object, absl::string_view key) {
+  SCENE_ASSIGN_OR_RETURN(const Json* array, object.find(key, kRequired));
+  const std::string path = object.field_path(key);
+  SCENE_RETURN_IF_ERROR(json_expect_array(*array, path));
+  std::vector<Vec3f> points;
+  points.reserve(array->size());
+  for (size_t i = 0; i < array->size(); ++i) {
+    SCENE_ASSIGN_OR_RETURN(const Vec3f p, json_to_vec3((*array)[i], element_path(path, i)));
+    points.push_back(p);
+  }
+  return points;
+}
+
+// "transform": scale, then rotate about x, y, z (degrees, in that order), then translate.
+absl::StatusOr<Affine> read_transform(const Json& value, std::string path) {
+  SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+  Vec3f scale{1, 1, 1}, rotate{0, 0, 0}, translate{0, 0, 0};
+  SCENE_ASSIGN_OR_RETURN(const Json* scale_value, object.find("scale", kOptional));
+  if (scale_value != nullptr && scale_value->is_number()) {
+    SCENE_ASSIGN_OR_RETURN(const float s, json_to_float(*scale_value, object.field_path("scale")));
+    scale = Vec3f(s);
+  } else if (scale_value != nullptr) {
+    SCENE_ASSIGN_OR_RETURN(scale, json_to_vec3(*scale_value, object.field_path("scale")));
+  }
+  if (scale.x == 0 || scale.y == 0 || scale.z == 0) {
+    return invalid_field(object.field_path("scale"), "must not be zero: it would flatten the mesh");
+  }
+  SCENE_RETURN_IF_ERROR(object.read("rotate", kOptional, &rotate));
+  SCENE_RETURN_IF_ERROR(object.read("translate", kOptional, &translate));
+  SCENE_RETURN_IF_ERROR(object.finish());
+  return translation(translate) * rotation_z_deg(rotate.z) * rotation_y_deg(rotate.y) *
+         rotation_x_deg(rotate.x) * scaling(scale);
+}
+
+// Shapes are named by their path, plus what the scene or the file calls them.
+std::string shape_label(absl::string_view path, absl::string_view scene_name,
+                        absl::string_view file_part) {
+  std::string label(path);
+  if (!scene_name.empty()) absl::StrAppend(&label, " '", scene_name, "'");
+  if (!file_part.empty()) absl::StrAppend(&label, " (", file_part, ")");
+  return label;
+}
+
+class SceneReader {
+ public:
+  explicit SceneReader(const std::filesystem::path& base_dir) : base_dir_(base_dir) {}
+
+  absl::StatusOr<Scene> read(const Json& root) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject top, JsonObject::open(root, ""));
+    SCENE_ASSIGN_OR_RETURN(const Json* camera, top.find("camera", kRequired));
+    SCENE_RETURN_IF_ERROR(read_camera(*camera));
+    SCENE_ASSIGN_OR_RETURN(const Json* settings, top.find("settings", kOptional));
+    if (settings != nullptr) SCENE_RETURN_IF_ERROR(read_settings(*settings));
+    SCENE_ASSIGN_OR_RETURN(const Json* materials, top.find("materials", kOptional));
+    if (materials != nullptr) SCENE_RETURN_IF_ERROR(read_materials(*materials));
+    // Lights before shapes: lights[i] of the file stays scene.lights[i], and lights that come
+    // with mesh files follow.
+    SCENE_ASSIGN_OR_RETURN(const Json* lights, top.find("lights", kOptional));
+    if (lights != nullptr) SCENE_RETURN_IF_ERROR(read_lights(*lights));
+    SCENE_ASSIGN_OR_RETURN(const Json* shapes, top.find("shapes", kOptional));
+    SCENE_RETURN_IF_ERROR(top.finish());
+    if (shapes != nullptr) SCENE_RETURN_IF_ERROR(read_shapes(*shapes));
+    return std::move(scene_);
+  }
+
+ private:
+  absl::Status read_camera(const Json& value) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, "camera"));
+    Camera& camera = scene_.camera;
+    SCENE_RETURN_IF_ERROR(object.read("position", kRequired, &camera.position));
+    SCENE_RETURN_IF_ERROR(object.read("look_at", kRequired, &camera.look_at));
+    SCENE_RETURN_IF_ERROR(object.read("up", kOptional, &camera.up));
+    SCENE_RETURN_IF_ERROR(object.read("fov", kRequired, &camera.vertical_fov_deg));
+    SCENE_RETURN_IF_ERROR(object.read_integer("width", kRequired, &camera.width));
+    SCENE_RETURN_IF_ERROR(object.read_integer("height", kRequired, &camera.height));
+    return object.finish();
+  }
+
+  absl::Status read_settings(const Json& value) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, "settings"));
+    RenderSettings& s = scene_.settings;
+    SCENE_RETURN_IF_ERROR(object.read_integer("photons", kOptional, &s.photons_per_pass));
+    SCENE_RETURN_IF_ERROR(object.read_integer("k", kOptional, &s.k_nearest));
+    SCENE_RETURN_IF_ERROR(object.read("max_radius", kOptional, &s.max_radius));
+    if (object.has("kernel")) {
+      std::string kernel;
+      SCENE_RETURN_IF_ERROR(object.read("kernel", kRequired, &kernel));
+      if (kernel == "uniform") {
+        s.kernel = Kernel::kUniform;
+      } else if (kernel == "cone") {
+        s.kernel = Kernel::kCone;
+      } else if (kernel == "epanechnikov") {
+        s.kernel = Kernel::kEpanechnikov;
+      } else {
+        return invalid_field(
+            object.field_path("kernel"),
+            absl::StrCat("unknown kernel '", kernel, "' (expected uniform, cone or epanechnikov)"));
+      }
+    }
+    SCENE_RETURN_IF_ERROR(object.read_integer("max_depth", kOptional, &s.max_depth));
+    SCENE_RETURN_IF_ERROR(
+        object.read_integer("max_photon_bounces", kOptional, &s.max_photon_bounces));
+    SCENE_RETURN_IF_ERROR(
+        object.read_integer("area_light_samples", kOptional, &s.area_light_samples));
+    SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));
+    SCENE_RETURN_IF_ERROR(object.read_integer("seed", kOptional, &s.seed));
+    return object.finish();
+  }
+
+  absl::Status read_materials(const Json& value) {
+    SCENE_ASSIGN_OR_RETURN(const JsonObject object, JsonObject::open(value, "materials"));
+    for (const auto& [name, material] : value.items()) {
+      SCENE_RETURN_IF_ERROR(read_material(name, material, object.field_path(name)));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status read_material(const std::string& name, const Json& value, std::string path) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+    Material material;
+    material.name = name;
+    std::string type;
+    SCENE_RETURN_IF_ERROR(object.read("type", kRequired, &type));
+    if (type == "diffuse") {
+      material.type = MaterialType::kDiffuse;
+      SCENE_RETURN_IF_ERROR(object.read("albedo", kRequired, &material.color));
+    } else if (type == "mirror") {
+      material.type = MaterialType::kMirror;
+      SCENE_RETURN_IF_ERROR(object.read("reflectance", kRequired, &material.color));
+    } else if (type == "dielectric") {
+      material.type = MaterialType::kDielectric;
+      SCENE_RETURN_IF_ERROR(object.read("ior", kOptional, &material.ior));
+    } else if (type == "emissive") {
+      material.type = MaterialType::kEmissive;
+      material.color = Vec3f(0);
+      SCENE_RETURN_IF_ERROR(object.read("radiance", kRequired, &material.radiance));
+    } else {
+      return invalid_field(object.field_path("type"),
+                           absl::StrCat("unknown material type '", type,
+                                        "' (expected diffuse, mirror, dielectric or emissive)"));
+    }
+    SCENE_RETURN_IF_ERROR(object.finish());
+    material_ids_[name] = static_cast<uint32_t>(scene_.materials.size());
+    scene_.materials.push_back(std::move(material));
+    return absl::OkStatus();
+  }
+
+  absl::Status read_lights(const Json& value) {
+    SCENE_RETURN_IF_ERROR(json_expect_array(value, "lights"));
+    for (size_t i = 0; i < value.size(); ++i) {
+      SCENE_RETURN_IF_ERROR(read_light(value[i], element_path("lights", i)));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status read_light(const Json& value, std::string path) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+    Light light;
+    std::string type;
+    SCENE_RETURN_IF_ERROR(object.read("type", kRequired, &type));
+    SCENE_RETURN_IF_ERROR(object.read("name", kOptional, &light.name));
+    if (type == "point") {
+      light.type = LightType::kPoint;
+      SCENE_RETURN_IF_ERROR(object.read("position", kRequired, &light.position));
+      SCENE_RETURN_IF_ERROR(object.read("intensity", kRequired, &light.intensity));
+    } else if (type == "spot") {
+      light.type = LightType::kSpot;
+      SCENE_RETURN_IF_ERROR(object.read("position", kRequired, &light.position));
+      SCENE_RETURN_IF_ERROR(object.read("direction", kRequired, &light.direction));
+      SCENE_RETURN_IF_ERROR(object.read("intensity", kRequired, &light.intensity));
+      SCENE_RETURN_IF_ERROR(object.read("inner_angle", kOptional, &light.inner_angle_deg));
+      SCENE_RETURN_IF_ERROR(object.read("outer_angle", kOptional, &light.outer_angle_deg));
+    } else if (type == "directional") {
+      light.type = LightType::kDirectional;
+      SCENE_RETURN_IF_ERROR(object.read("direction", kRequired, &light.direction));
+      SCENE_RETURN_IF_ERROR(object.read("irradiance", kRequired, &light.intensity));
+    } else {
+      return invalid_field(
+          object.field_path("type"),
+          absl::StrCat("unknown light type '", type, "' (expected point, spot or directional)"));
+    }
+    SCENE_RETURN_IF_ERROR(object.finish());
+    // A zero direction stays zero for validation to report.
+    if (length_squared(light.direction) > 0) light.direction = normalize(light.direction);
+    scene_.lights.push_back(std::move(light));
+    return absl::OkStatus();
+  }
+
+  absl::Status read_shapes(const Json& value) {
+    SCENE_RETURN_IF_ERROR(json_expect_array(value, "shapes"));
+    for (size_t i = 0; i < value.size(); ++i) {
+      SCENE_RETURN_IF_ERROR(read_shape(value[i], element_path("shapes", i)));
+    }
+    return absl::OkStatus();
+  }
+
+  // The material a shape names, or nullopt when it names none (allowed only when optional).
+  absl::StatusOr<std::optional<uint32_t>> read_material_ref(JsonObject& shape, Presence presence) {
+    SCENE_ASSIGN_OR_RETURN(const Json* value, shape.find("material", presence));
+    if (value == nullptr) return std::nullopt;
+    SCENE_ASSIGN_OR_RETURN(const std::string name,
+                           json_to_string(*value, shape.field_path("material")));
+    const auto it = material_ids_.find(name);
+    if (it == material_ids_.end()) {
+      return invalid_field(shape.field_path("material"),
+                           absl::StrCat("unknown material '", name, "' (not in materials)"));
+    }
+    return it->second;
+  }
+
+  absl::Status read_shape(const Json& value, std::string path) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject shape, JsonObject::open(value, std::move(path)));
+    std::string type, name;
+    SCENE_RETURN_IF_ERROR(shape.read("type", kRequired, &type));
+    SCENE_RETURN_IF_ERROR(shape.read("name", kOptional, &name));
+    if (type == "mesh") return read_mesh_shape(shape, name);
+
+    SCENE_ASSIGN_OR_RETURN(const std::optional<uint32_t> material,
+                           read_material_ref(shape, kRequired));
+    Mesh mesh;
+    if (type == "quad") {
+      SCENE_ASSIGN_OR_RETURN(mesh, read_quad(shape));
+    } else if (type == "triangles") {
+      SCENE_ASSIGN_OR_RETURN(mesh, read_triangles(shape));
+    } else if (type == "sphere") {
+      SCENE_ASSIGN_OR_RETURN(mesh, read_sphere(shape));
+    } else if (type == "ring") {
+      SCENE_ASSIGN_OR_RETURN(mesh, read_ring(shape));
+    } else {
+      return invalid_field(shape.field_path("type"),
+                           absl::StrCat("unknown shape type '", type,
+                                        "' (expected quad, triangles, sphere, ring or mesh)"));
+    }
+    SCENE_RETURN_IF_ERROR(shape.finish());
+    mesh.name = shape_label(shape.path(), name, "");
+    mesh.material_ids.assign(mesh.triangle_count(), *material);
+    scene_.meshes.push_back(std::move(mesh));
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<Mesh> read_quad(JsonObject& shape) {
+    SCENE_ASSIGN_OR_RETURN(const std::vector<Vec3f> points, read_points(shape, "vertices"));
+    if (points.size() != 4) {
+      return invalid_field(shape.field_path("vertices"),
+                           absl::StrCat("a quad needs 4 vertices, got ", points.size()));
+    }
+    return make_quad({points[0], points[1], points[2], points[3]});
+  }
+
+  absl::StatusOr<Mesh> read_triangles(JsonObject& shape) {
+    Mesh mesh;
+    SCENE_ASSIGN_OR_RETURN(mesh.positions, read_points(shape, "vertices"));
+    SCENE_ASSIGN_OR_RETURN(const Json* indices, shape.find("indices", kRequired));
+    const std::string path = shape.field_path("indices");
+    SCENE_RETURN_IF_ERROR(json_expect_array(*indices, path));
+    if (indices->size() % 3 != 0) {
+      return invalid_field(path, absl::StrCat(indices->size(), " indices is not a multiple of 3"));
+    }
+    mesh.indices.reserve(indices->size());
+    for (size_t i = 0; i < indices->size(); ++i) {
+      const std::string index_path = element_path(path, i);
+      SCENE_ASSIGN_OR_RETURN(const int64_t index,
+                             json_to_integer((*indices)[i], index_path, 0, UINT32_MAX));
+      if (static_cast<uint64_t>(index) >= mesh.positions.size()) {
+        return invalid_field(index_path,
+                             absl::StrCat("vertex index ", index, " is out of range (there are ",
+                                          mesh.positions.size(), " vertices)"));
+      }
+      mesh.indices.push_back(static_cast<uint32_t>(index));
+    }
+    return mesh;
+  }
+
+  // Rejects tessellations beyond the triangle limit before any memory is spent on them.
+  static absl::Status check_triangle_budget(const JsonObject& shape, size_t triangles) {
+    if (triangles > kMaxTrianglesPerMesh) {
+      return invalid_field(
+          shape.path(), absl::StrCat("tessellation gives ", triangles,
+                                     " triangles, more than the limit of ", kMaxTrianglesPerMesh));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<Mesh> read_sphere(JsonObject& shape) {
+    Vec3f center;
+    int rings = 32, segments = 64;
+    SCENE_RETURN_IF_ERROR(shape.read("center", kRequired, &center));
+    SCENE_ASSIGN_OR_RETURN(const float radius, read_positive(shape, "radius"));
+    SCENE_RETURN_IF_ERROR(shape.read_integer("rings", kOptional, &rings, 2, 1 << 20));
+    SCENE_RETURN_IF_ERROR(shape.read_integer("segments", kOptional, &segments, 3, 1 << 20));
+    SCENE_RETURN_IF_ERROR(check_triangle_budget(shape, sphere_triangle_count(rings, segments)));
+    return make_sphere(center, radius, rings, segments);
+  }
+
+  absl::StatusOr<Mesh> read_ring(JsonObject& shape) {
+    Vec3f center;
+    int segments = 128;
+    SCENE_RETURN_IF_ERROR(shape.read("center", kRequired, &center));
+    SCENE_ASSIGN_OR_RETURN(const float radius, read_positive(shape, "radius"));
+    SCENE_ASSIGN_OR_RETURN(const float thickness, read_positive(shape, "thickness"));
+    SCENE_ASSIGN_OR_RETURN(const float height, read_positive(shape, "height"));
+    SCENE_RETURN_IF_ERROR(shape.read_integer("segments", kOptional, &segments, 3, 1 << 24));
+    SCENE_RETURN_IF_ERROR(check_triangle_budget(shape, ring_triangle_count(segments)));
+    return make_ring(center, radius, thickness, height, segments);
+  }
+
+  absl::Status read_mesh_shape(JsonObject& shape, const std::string& name) {
+    std::string file;
+    SCENE_RETURN_IF_ERROR(shape.read("file", kRequired, &file));
+    SCENE_ASSIGN_OR_RETURN(const std::optional<uint32_t> material_override,
+                           read_material_ref(shape, kOptional));
+    // Absent means untouched: even an identity matrix would smear one NaN over x, y and z.
+    std::optional<Affine> transform;
+    SCENE_ASSIGN_OR_RETURN(const Json* transform_value, shape.find("transform", kOptional));
+    if (transform_value != nullptr) {
+      SCENE_ASSIGN_OR_RETURN(transform,
+                             read_transform(*transform_value, shape.field_path("transform")));
+    }
+    SCENE_RETURN_IF_ERROR(shape.finish());
+
+    const std::filesystem::path file_path = base_dir_ / file;
+    absl::StatusOr<MeshFile> loaded = load_mesh_file(file_path);
+    if (!loaded.ok()) return annotate(loaded.status(), shape.field_path("file"));
+    MeshFile& mesh_file = *loaded;
+
+    const std::string file_name = file_path.filename().string();
+    const uint32_t first_material = static_cast<uint32_t>(scene_.materials.size());
+    if (!material_override) {
+      for (Material& material : mesh_file.materials) {
+        material.name = absl::StrCat(file_name, ":", material.name);
+        scene_.materials.push_back(std::move(material));
+      }
+    }
+    for (Mesh& mesh : mesh_file.meshes) {
+      for (uint32_t& id : mesh.material_ids) {
+        if (material_override) {
+          id = *material_override;
+        } else if (id == kNoMaterial) {
+          return invalid_field(
+              shape.field_path("material"),
+              absl::StrCat("is required: ", mesh.name, " has triangles without a material"));
+        } else {
+          id += first_material;
+        }
+      }
+      if (transform) transform_mesh(*transform, &mesh);
+      mesh.name = shape_label(shape.path(), name, mesh.name);
+      scene_.meshes.push_back(std::move(mesh));
+    }
+    for (Light& light : mesh_file.lights) {
+      if (transform) transform_light(*transform, &light);
+      scene_.lights.push_back(std::move(light));
+    }
+    return absl::OkStatus();
+  }
+
+  std::filesystem::path base_dir_;
+  Scene scene_;
+  std::map<std::string, uint32_t, std::less<>> material_ids_;
+};
+
+}  // namespace
+
+absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
+                                      const std::filesystem::path& base_dir,
+                                      absl::string_view source_name) {
+  Json root;
+  // nlohmann reports errors by exception; they stop here, as module borders require.
+  try {
+    root = Json::parse(json_text, /*cb=*/nullptr, /*allow_exceptions=*/true,
+                       /*ignore_comments=*/true);
+  } catch (const Json::parse_error& error) {
+    return syntax_error(json_text, error, source_name);
+  } catch (const Json::exception& error) {
+    return absl::InvalidArgumentError(absl::StrCat(source_name, ": JSON error: ", error.what()));
+  }
+  absl::StatusOr<Scene> scene = SceneReader(base_dir).read(root);
+  if (!scene.ok()) return annotate(scene.status(), source_name);
+  return scene;
+}
+
+}  // namespace caustica

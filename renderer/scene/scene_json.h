@@ -1,0 +1,20 @@
+// The JSON scene format of docs/scene-format.md, read into a Scene. Mesh files named by the
+// scene are loaded and placed here; checks that need the whole scene are validate_scene's job.
+#pragma once
+
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica {
+
+// Errors start with `source_name` and then give line:column for JSON syntax errors or the JSON
+// path of the field (e.g. "shapes[3].vertices[2]") for everything else. Relative mesh paths
+// resolve against `base_dir`.
+absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
+                                      const std::filesystem::path& base_dir,
+                                      absl::string_view source_name);
+
+}  // namespace caustica

@@ -1,0 +1,22 @@
+// Upper bounds on what a scene may ask for. They keep a typo or a hostile file from requesting
+// absurd memory or time; loaders check them before allocating, validation checks them again.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace caustica {
+
+inline constexpr int kMaxImageSide = 16384;
+inline constexpr uint32_t kMaxPhotonsPerPass = 100'000'000;
+inline constexpr uint32_t kMaxNearestPhotons = 1024;
+inline constexpr uint32_t kMaxDepth = 64;
+inline constexpr uint32_t kMaxPhotonBounces = 64;
+inline constexpr uint32_t kMaxAreaLightSamples = 1024;
+inline constexpr uint32_t kMaxPasses = 100'000;
+inline constexpr size_t kMaxTrianglesPerMesh = 100'000'000;
+inline constexpr size_t kMaxVerticesPerMesh = 100'000'000;
+// What a (possibly compressed) file may expand to in memory; stops gzip bombs.
+inline constexpr size_t kMaxFileBytes = size_t{8} << 30;
+
+}  // namespace caustica

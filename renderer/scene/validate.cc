@@ -1,0 +1,237 @@
+#include "renderer/scene/validate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/status_util.h"
+
+namespace caustica {
+namespace {
+
+std::string format_vec(Vec3f v) { return absl::StrFormat("(%g, %g, %g)", v.x, v.y, v.z); }
+
+// Colours and intensities: finite, no negative channel, and at most `max` when given.
+absl::Status check_color(absl::string_view field, Vec3f c, float max = INFINITY) {
+  if (!is_finite(c)) return invalid_field(field, absl::StrCat(format_vec(c), " is not finite"));
+  if (c.x < 0 || c.y < 0 || c.z < 0) {
+    return invalid_field(field, absl::StrCat(format_vec(c), " has a negative channel"));
+  }
+  if (c.x > max || c.y > max || c.z > max) {
+    return invalid_field(field, absl::StrCat(format_vec(c), " has a channel above ", max,
+                                             " (a surface cannot reflect more than it receives)"));
+  }
+  return absl::OkStatus();
+}
+
+// For the integer fields: camera size and the settings counts.
+absl::Status check_in_range(absl::string_view field, int64_t value, int64_t lo, int64_t hi) {
+  if (!(value >= lo && value <= hi)) {
+    return invalid_field(field, absl::StrCat(value, " is outside [", lo, ", ", hi, "]"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status validate_camera(const Camera& camera) {
+  if (!is_finite(camera.position)) return invalid_field("camera.position", "is not finite");
+  if (!is_finite(camera.look_at)) return invalid_field("camera.look_at", "is not finite");
+  if (!is_finite(camera.up)) return invalid_field("camera.up", "is not finite");
+  const Vec3f view = camera.look_at - camera.position;
+  if (length_squared(view) == 0) {
+    return invalid_field("camera.look_at",
+                         absl::StrCat("equals camera.position ", format_vec(camera.position)));
+  }
+  if (length_squared(camera.up) == 0) return invalid_field("camera.up", "is the zero vector");
+  if (length(cross(normalize(view), normalize(camera.up))) < 1e-6f) {
+    return invalid_field("camera.up",
+                         absl::StrCat(format_vec(camera.up), " is parallel to the view direction"));
+  }
+  if (!(camera.vertical_fov_deg > 0 && camera.vertical_fov_deg < 180)) {
+    return invalid_field("camera.fov",
+                         absl::StrCat(camera.vertical_fov_deg, " degrees is outside (0, 180)"));
+  }
+  SCENE_RETURN_IF_ERROR(check_in_range("camera.width", camera.width, 1, kMaxImageSide));
+  return check_in_range("camera.height", camera.height, 1, kMaxImageSide);
+}
+
+absl::Status validate_settings(const RenderSettings& s) {
+  SCENE_RETURN_IF_ERROR(
+      check_in_range("settings.photons", s.photons_per_pass, 1, kMaxPhotonsPerPass));
+  SCENE_RETURN_IF_ERROR(check_in_range("settings.k", s.k_nearest, 1, kMaxNearestPhotons));
+  if (!(std::isfinite(s.max_radius) && s.max_radius >= 0)) {
+    return invalid_field("settings.max_radius",
+                         absl::StrCat(s.max_radius, " is not a finite number >= 0"));
+  }
+  if (static_cast<uint32_t>(s.kernel) > static_cast<uint32_t>(Kernel::kEpanechnikov)) {
+    return invalid_field("settings.kernel", "is not a known kernel");
+  }
+  SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));
+  SCENE_RETURN_IF_ERROR(
+      check_in_range("settings.max_photon_bounces", s.max_photon_bounces, 0, kMaxPhotonBounces));
+  SCENE_RETURN_IF_ERROR(
+      check_in_range("settings.area_light_samples", s.area_light_samples, 1, kMaxAreaLightSamples));
+  return check_in_range("settings.passes", s.passes, 1, kMaxPasses);
+}
+
+absl::Status validate_material(const Material& m) {
+  const std::string field = absl::StrCat("materials.", m.name);
+  switch (m.type) {
+    case MaterialType::kDiffuse:
+      return check_color(absl::StrCat(field, ".albedo"), m.color, 1);
+    case MaterialType::kMirror:
+      return check_color(absl::StrCat(field, ".reflectance"), m.color, 1);
+    case MaterialType::kDielectric:
+      if (!(std::isfinite(m.ior) && m.ior > 0)) {
+        return invalid_field(absl::StrCat(field, ".ior"),
+                             absl::StrCat(m.ior, " is not a positive number"));
+      }
+      return absl::OkStatus();
+    case MaterialType::kEmissive:
+      return check_color(absl::StrCat(field, ".radiance"), m.radiance);
+  }
+  return invalid_field(field, "has an unknown type");
+}
+
+absl::Status validate_light(const Light& light, size_t index) {
+  std::string field = absl::StrCat("lights[", index, "]");
+  if (!light.name.empty()) absl::StrAppend(&field, " ('", light.name, "')");
+  const bool directional = light.type == LightType::kDirectional;
+  SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, directional ? ".irradiance" : ".intensity"),
+                                    light.intensity));
+  if (light.type != LightType::kDirectional && !is_finite(light.position)) {
+    return invalid_field(absl::StrCat(field, ".position"), "is not finite");
+  }
+  if (light.type != LightType::kPoint &&
+      !(is_finite(light.direction) && length_squared(light.direction) > 0)) {
+    return invalid_field(
+        absl::StrCat(field, ".direction"),
+        absl::StrCat(format_vec(light.direction), " is not a finite nonzero vector"));
+  }
+  if (light.type == LightType::kSpot) {
+    if (!(light.outer_angle_deg > 0 && light.outer_angle_deg <= 180)) {
+      return invalid_field(absl::StrCat(field, ".outer_angle"),
+                           absl::StrCat(light.outer_angle_deg, " degrees is outside (0, 180]"));
+    }
+    if (!(light.inner_angle_deg >= 0 && light.inner_angle_deg <= light.outer_angle_deg)) {
+      return invalid_field(
+          absl::StrCat(field, ".inner_angle"),
+          absl::StrCat(light.inner_angle_deg, " degrees is outside [0, outer_angle]"));
+    }
+  } else if (light.type != LightType::kPoint && light.type != LightType::kDirectional) {
+    return invalid_field(field, "has an unknown type");
+  }
+  return absl::OkStatus();
+}
+
+bool is_emitter(const Material& m) {
+  return m.type == MaterialType::kEmissive && !is_black(m.radiance);
+}
+
+// Zero area up to rounding: the cross product is tiny next to the edges that make it.
+bool has_zero_area(Vec3f a, Vec3f b, Vec3f c) {
+  const Vec3f e1 = b - a, e2 = c - a;
+  const double twice_area = length(cross(e1, e2));
+  return !(twice_area > 1e-7 * std::max(length_squared(e1), length_squared(e2)));
+}
+
+// Returns the number of triangles that emit light.
+absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
+                                     const std::vector<Material>& materials) {
+  const std::string field =
+      mesh.name.empty() ? absl::StrCat("meshes[", index, "]") : absl::StrCat("mesh ", mesh.name);
+  if (mesh.indices.size() % 3 != 0) {
+    return invalid_field(
+        field, absl::StrCat("index count ", mesh.indices.size(), " is not a multiple of 3"));
+  }
+  const size_t triangles = mesh.triangle_count();
+  if (triangles > kMaxTrianglesPerMesh) {
+    return invalid_field(
+        field, absl::StrCat(triangles, " triangles exceed the limit of ", kMaxTrianglesPerMesh));
+  }
+  if (mesh.material_ids.size() != triangles) {
+    return invalid_field(field, absl::StrCat(triangles, " triangles but ", mesh.material_ids.size(),
+                                             " material ids"));
+  }
+  if (!mesh.normals.empty() && mesh.normals.size() != mesh.positions.size()) {
+    return invalid_field(field, absl::StrCat(mesh.positions.size(), " vertices but ",
+                                             mesh.normals.size(), " normals"));
+  }
+  if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size()) {
+    return invalid_field(field, absl::StrCat(mesh.positions.size(), " vertices but ",
+                                             mesh.uvs.size(), " texture coordinates"));
+  }
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    if (!is_finite(mesh.positions[v])) {
+      return invalid_field(field, absl::StrCat("vertex ", v, " position ",
+                                               format_vec(mesh.positions[v]), " is not finite"));
+    }
+  }
+  for (size_t v = 0; v < mesh.normals.size(); ++v) {
+    if (!is_finite(mesh.normals[v])) {
+      return invalid_field(field, absl::StrCat("vertex ", v, " normal ",
+                                               format_vec(mesh.normals[v]), " is not finite"));
+    }
+  }
+  size_t emitters = 0;
+  for (size_t t = 0; t < triangles; ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.indices[3 * t + k];
+      if (v >= mesh.positions.size()) {
+        return invalid_field(
+            field, absl::StrCat("triangle ", t, " refers to vertex ", v, ", but the mesh has ",
+                                mesh.positions.size(), " vertices"));
+      }
+    }
+    const uint32_t id = mesh.material_ids[t];
+    if (id >= materials.size()) {
+      return invalid_field(
+          field, absl::StrCat("triangle ", t, " refers to material ", id, ", but the scene has ",
+                              materials.size(), " materials"));
+    }
+    if (is_emitter(materials[id])) {
+      const uint32_t* tri = &mesh.indices[3 * t];
+      if (has_zero_area(mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]])) {
+        return invalid_field(
+            field, absl::StrCat("triangle ", t, " has zero area but emits light (material '",
+                                materials[id].name, "')"));
+      }
+      ++emitters;
+    }
+  }
+  return emitters;
+}
+
+}  // namespace
+
+absl::Status validate_scene(const Scene& scene) {
+  SCENE_RETURN_IF_ERROR(validate_camera(scene.camera));
+  SCENE_RETURN_IF_ERROR(validate_settings(scene.settings));
+  for (const Material& material : scene.materials) {
+    SCENE_RETURN_IF_ERROR(validate_material(material));
+  }
+  for (size_t i = 0; i < scene.lights.size(); ++i) {
+    SCENE_RETURN_IF_ERROR(validate_light(scene.lights[i], i));
+  }
+  size_t emitting_triangles = 0;
+  for (size_t i = 0; i < scene.meshes.size(); ++i) {
+    SCENE_ASSIGN_OR_RETURN(const size_t emitters,
+                           validate_mesh(scene.meshes[i], i, scene.materials));
+    emitting_triangles += emitters;
+  }
+  if (scene.triangle_count() == 0) {
+    return absl::InvalidArgumentError("scene has no triangles (shapes is empty or all meshes are)");
+  }
+  if (scene.lights.empty() && emitting_triangles == 0) {
+    return absl::InvalidArgumentError(
+        "scene has no light: add an entry to lights or a shape with an emissive material");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace caustica

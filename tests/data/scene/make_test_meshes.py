@@ -1,0 +1,291 @@
+#!/usr/bin/env python3
+"""Writes the binary and generated test meshes of tests/data/scene (run from anywhere).
+
+The outputs are committed; this script documents how they were made and regenerates them:
+  meshes/quad_tri_ascii.ply, quad_tri_le.ply, quad_tri_be.ply, quad_tri.ply.gz
+      one mesh (a quad and a triangle, 5 vertices with normals and texture coordinates) written
+      three ways with different property types and names; all must load equal.
+  meshes/lights.gltf, meshes/lights.glb
+      a node hierarchy with transforms, four materials (diffuse, mirror, glass, emissive),
+      index accessors of three component types and KHR_lights_punctual point/spot/directional.
+  bad/*.ply, bad/*.gz
+      broken PLY files, one per error class (see scene tests).
+"""
+
+import base64
+import gzip
+import json
+import math
+import os
+import struct
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+MESHES = os.path.join(HERE, "meshes")
+BAD = os.path.join(HERE, "bad")
+
+# (position, normal, uv); exactly representable in float so every encoding loads equal.
+VERTICES = [
+    ((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0)),
+    ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), (1.0, 0.0)),
+    ((1.0, 1.0, 0.0), (0.0, 0.0, 1.0), (1.0, 1.0)),
+    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 1.0)),
+    ((0.5, 2.0, 0.25), (0.0, 0.0, 1.0), (0.5, 1.0)),
+]
+FACES = [[0, 1, 2, 3], [3, 2, 4]]
+
+
+def write(path, data):
+    mode = "w" if isinstance(data, str) else "wb"
+    with open(path, mode) as f:
+        f.write(data)
+
+
+def ply_ascii(faces=FACES, vertices=VERTICES):
+    lines = [
+        "ply",
+        "format ascii 1.0",
+        "comment written by make_test_meshes.py",
+        f"element vertex {len(vertices)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        "property float nx",
+        "property float ny",
+        "property float nz",
+        "property float u",
+        "property float v",
+        f"element face {len(faces)}",
+        "property list uchar int vertex_indices",
+        "end_header",
+    ]
+    for p, n, uv in vertices:
+        lines.append(" ".join(f"{x:g}" for x in (*p, *n, *uv)))
+    for face in faces:
+        lines.append(" ".join(str(x) for x in [len(face), *face]))
+    return "\n".join(lines) + "\n"
+
+
+def ply_le(faces=FACES):
+    """Little-endian, float positions, s/t names, extra properties and elements to skip."""
+    header = "\n".join([
+        "ply",
+        "format binary_little_endian 1.0",
+        f"element vertex {len(VERTICES)}",
+        "property float x",
+        "property float y",
+        "property float z",
+        "property float confidence",
+        "property float nx",
+        "property float ny",
+        "property float nz",
+        "property float s",
+        "property float t",
+        f"element face {len(faces)}",
+        "property list uchar int vertex_indices",
+        "property uchar flags",
+        "element edge 2",
+        "property int vertex1",
+        "property int vertex2",
+        "element tag 1",
+        "property list ushort float values",
+        "end_header",
+    ]) + "\n"
+    body = b""
+    for p, n, uv in VERTICES:
+        body += struct.pack("<3ff3f2f", *p, 0.5, *n, *uv)
+    for face in faces:
+        body += struct.pack(f"<B{len(face)}iB", len(face), *face, 7)
+    body += struct.pack("<4i", 0, 1, 1, 2)
+    body += struct.pack("<H3f", 3, 1.0, 2.0, 3.0)
+    return header.encode("ascii"), body
+
+
+def ply_be():
+    """Big-endian, double positions, u/v names, uint counts with ushort indices."""
+    header = "\n".join([
+        "ply",
+        "format binary_big_endian 1.0",
+        f"element vertex {len(VERTICES)}",
+        "property double x",
+        "property double y",
+        "property double z",
+        "property float nx",
+        "property float ny",
+        "property float nz",
+        "property float u",
+        "property float v",
+        f"element face {len(FACES)}",
+        "property list uint ushort vertex_index",
+        "end_header",
+    ]) + "\r\n"
+    body = b""
+    for p, n, uv in VERTICES:
+        body += struct.pack(">3d3f2f", *p, *n, *uv)
+    for face in FACES:
+        body += struct.pack(f">I{len(face)}H", len(face), *face)
+    return header.encode("ascii") + body
+
+
+def write_plys():
+    write(os.path.join(MESHES, "quad_tri_ascii.ply"), ply_ascii())
+    header, body = ply_le()
+    write(os.path.join(MESHES, "quad_tri_le.ply"), header + body)
+    write(os.path.join(MESHES, "quad_tri_be.ply"), ply_be())
+    write(os.path.join(MESHES, "quad_tri.ply.gz"), gzip.compress(header + body, mtime=0))
+
+    # Truncated in the middle of the face data.
+    faces_start = len(header) + len(VERTICES) * 9 * 4
+    write(os.path.join(BAD, "truncated.ply"), header + body[: faces_start - len(header) + 7])
+    # Second face refers to vertex 9 of 5; the bad index sits at this byte offset.
+    bad_faces = [[0, 1, 2, 3], [3, 2, 9]]
+    header, body = ply_le(bad_faces)
+    write(os.path.join(BAD, "bad_index_binary.ply"), header + body)
+    offset = faces_start + (1 + 4 * 4 + 1) + 1 + 2 * 4
+    print("bad_index_binary.ply: bad index at byte", offset)
+    # The same in ascii: the bad face is on line 22.
+    write(os.path.join(BAD, "bad_index_ascii.ply"), ply_ascii(bad_faces))
+    # Vertex 2 is NaN.
+    text = ply_ascii().replace("1 1 0 0 0 1 1 1", "nan 1 0 0 0 1 1 1")
+    write(os.path.join(BAD, "nan_vertex.ply"), text)
+    # A malformed number on line 18 (vertex 2).
+    write(os.path.join(BAD, "bad_number.ply"),
+          ply_ascii().replace("1 1 0 0 0 1 1 1", "1 1.2.3 0 0 0 1 1 1"))
+    # Claims more faces than the limit allows; must fail before reading or allocating.
+    write(os.path.join(BAD, "too_many_faces.ply"),
+          ply_ascii().replace(f"element face {len(FACES)}", "element face 100000001"))
+    # A gzip stream cut short.
+    packed = gzip.compress((header + body) * 50, mtime=0)
+    write(os.path.join(BAD, "corrupt.ply.gz"), packed[: len(packed) // 2])
+
+
+# ------------------------------------------------------------------------------------------------
+# glTF
+
+def gltf_buffer():
+    chunks = []
+
+    def add(data, align=4):
+        offset = sum(len(c) for c in chunks)
+        chunks.append(data)
+        pad = (-len(data)) % align
+        if pad:
+            chunks.append(b"\0" * pad)
+        return offset, len(data)
+
+    quad = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)]
+    views = [
+        add(b"".join(struct.pack("<3f", *p) for p in quad)),               # 0 positions
+        add(b"".join(struct.pack("<3f", 0, 1, 0) for _ in quad)),          # 1 normals
+        add(struct.pack("<8f", 0, 0, 1, 0, 1, 1, 0, 1)),                   # 2 uvs
+        add(struct.pack("<6H", 0, 2, 1, 0, 3, 2)),                         # 3 uint16 indices
+        add(struct.pack("<3B", 0, 1, 2)),                                  # 4 uint8 indices
+        add(struct.pack("<3I", 0, 2, 3)),                                  # 5 uint32 indices
+        add(struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 0, 1)),                # 6 lamp positions
+    ]
+    return b"".join(chunks), views
+
+
+def gltf_document(buffer, views, uri):
+    s = math.sqrt(0.5)
+    buffer_entry = {"byteLength": len(buffer)}
+    if uri is not None:
+        buffer_entry["uri"] = uri
+    vec3, scalar = "VEC3", "SCALAR"
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": 4, "type": vec3,
+         "min": [-1, 0, -1], "max": [1, 0, 1]},
+        {"bufferView": 1, "componentType": 5126, "count": 4, "type": vec3},
+        {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+        {"bufferView": 3, "componentType": 5123, "count": 6, "type": scalar},
+        {"bufferView": 4, "componentType": 5121, "count": 3, "type": scalar},
+        {"bufferView": 5, "componentType": 5125, "count": 3, "type": scalar},
+        {"bufferView": 6, "componentType": 5126, "count": 3, "type": vec3,
+         "min": [0, 0, 0], "max": [1, 0, 1]},
+    ]
+    return {
+        "asset": {"version": "2.0", "generator": "caustica make_test_meshes.py"},
+        "extensionsUsed": ["KHR_lights_punctual", "KHR_materials_transmission",
+                           "KHR_materials_ior", "KHR_materials_emissive_strength"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "Bulb", "type": "point", "color": [1, 0.5, 0.25], "intensity": 100},
+            {"name": "Spot", "type": "spot", "intensity": 50,
+             "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.5}},
+            {"name": "Sun", "type": "directional", "intensity": 3},
+        ]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 4, 5, 6]}],
+        "nodes": [
+            {"name": "Root", "scale": [2, 2, 2], "children": [1, 2]},
+            {"name": "QuadNode", "mesh": 0, "translation": [0, 1, 0]},
+            {"name": "Spinner", "rotation": [0, s, 0, s], "children": [3]},
+            {"name": "TriNode", "mesh": 1, "translation": [1, 0, 0]},
+            {"name": "PointLight", "translation": [0, 5, 0],
+             "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "SpotLight", "translation": [1, 2, 3], "rotation": [-s, 0, 0, s],
+             "extensions": {"KHR_lights_punctual": {"light": 1}}},
+            {"name": "SunNode", "matrix": [0, 0, -1, 0, 0, 1, 0, 0, 1, 0, 0, 0, 7, 8, 9, 1],
+             "extensions": {"KHR_lights_punctual": {"light": 2}}},
+            {"name": "Orphan", "mesh": 0},
+        ],
+        "meshes": [
+            {"name": "Quad", "primitives": [
+                {"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
+                 "material": 0}]},
+            {"name": "Tri", "primitives": [
+                {"attributes": {"POSITION": 0}, "indices": 4, "material": 1},
+                {"attributes": {"POSITION": 0}, "indices": 5, "material": 2},
+                {"attributes": {"POSITION": 6}, "material": 3},
+                {"attributes": {"POSITION": 0}, "mode": 0},
+            ]},
+        ],
+        "materials": [
+            {"name": "Clay", "pbrMetallicRoughness": {
+                "baseColorFactor": [0.5, 0.25, 0.125, 1], "metallicFactor": 0,
+                "roughnessFactor": 1}},
+            {"name": "Chrome", "pbrMetallicRoughness": {
+                "baseColorFactor": [0.9, 0.8, 0.7, 1], "metallicFactor": 1,
+                "roughnessFactor": 0}},
+            {"name": "Glass", "pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 0},
+             "extensions": {"KHR_materials_transmission": {"transmissionFactor": 1},
+                            "KHR_materials_ior": {"ior": 1.33}}},
+            {"name": "Lamp", "emissiveFactor": [1, 0.5, 0.25],
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}},
+        ],
+        "buffers": [buffer_entry],
+        "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": n} for o, n in views],
+        "accessors": accessors,
+    }
+
+
+def write_gltf():
+    buffer, views = gltf_buffer()
+    uri = "data:application/octet-stream;base64," + base64.b64encode(buffer).decode("ascii")
+    doc = gltf_document(buffer, views, uri)
+    write(os.path.join(MESHES, "lights.gltf"), json.dumps(doc, indent=1) + "\n")
+
+    text = json.dumps(gltf_document(buffer, views, None), separators=(",", ":")).encode()
+    text += b" " * ((-len(text)) % 4)
+    binary = buffer + b"\0" * ((-len(buffer)) % 4)
+    chunks = (struct.pack("<I4s", len(text), b"JSON") + text +
+              struct.pack("<I4s", len(binary), b"BIN\0") + binary)
+    write(os.path.join(MESHES, "lights.glb"),
+          struct.pack("<4sII", b"glTF", 2, 12 + len(chunks)) + chunks)
+
+    # An accessor that claims more elements than its bufferView holds.
+    doc = gltf_document(buffer, views, uri)
+    doc["accessors"][0]["count"] = 1000
+    write(os.path.join(BAD, "overflowing_accessor.gltf"), json.dumps(doc, indent=1) + "\n")
+    # An index beyond the vertex count.
+    bad_buffer = bytearray(buffer)
+    struct.pack_into("<H", bad_buffer, views[3][0] + 2, 7)
+    bad_uri = ("data:application/octet-stream;base64," +
+               base64.b64encode(bytes(bad_buffer)).decode("ascii"))
+    write(os.path.join(BAD, "bad_index.gltf"),
+          json.dumps(gltf_document(bytes(bad_buffer), views, bad_uri), indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    os.makedirs(MESHES, exist_ok=True)
+    os.makedirs(BAD, exist_ok=True)
+    write_plys()
+    write_gltf()

@@ -1,0 +1,230 @@
+// LBVH structure invariants and traversal against brute force over every triangle.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+
+#include "renderer/accel/traversal.h"
+#include "renderer/base/sampling.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+std::vector<TriangleVertices> random_soup(size_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> pos(-10.0f, 10.0f), small(-0.6f, 0.6f);
+  std::vector<TriangleVertices> tris(n);
+  for (auto& t : tris) {
+    Vec3f c(pos(rng), pos(rng), pos(rng));
+    t = {c + Vec3f(small(rng), small(rng), small(rng)), c + Vec3f(small(rng), small(rng), small(rng)),
+         c + Vec3f(small(rng), small(rng), small(rng))};
+  }
+  // Duplicates and identical centroids stress the Morton tie-breaking.
+  for (size_t i = 0; i + 1 < n; i += 97) tris[i + 1] = tris[i];
+  return tris;
+}
+
+std::vector<TriangleVertices> scene_triangles(const std::string& name) {
+  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  std::vector<TriangleVertices> tris;
+  if (!scene.ok()) return tris;
+  for (const Mesh& m : scene->meshes)
+    for (size_t t = 0; t < m.triangle_count(); ++t)
+      tris.push_back({m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
+                      m.positions[m.indices[3 * t + 2]]});
+  return tris;
+}
+
+Aabb box_of(const TriangleVertices& t) {
+  Aabb b;
+  b.extend(t.p0);
+  b.extend(t.p1);
+  b.extend(t.p2);
+  return b;
+}
+
+struct Built {
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(2) << 30);
+  Buffer<TriangleVertices> input;
+  TriangleBvh bvh;
+  explicit Built(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
+    input.upload(tris);
+    bvh = build_triangle_bvh(*backend, input.data(), uint32_t(tris.size()));
+  }
+};
+
+// Walks the tree from the root: every leaf reached once, every child box inside its parent's.
+void check_invariants(const std::vector<TriangleVertices>& tris) {
+  Built b(tris);
+  const size_t n = tris.size();
+  ASSERT_EQ(b.bvh.bvh.leaf_count, n);
+  ASSERT_EQ(b.bvh.bvh.node_count(), 2 * n - 1);
+  ASSERT_EQ(b.bvh.bvh.nodes.size(), n - 1);
+  auto nodes = b.bvh.bvh.nodes.download();
+  auto sorted = b.bvh.triangles.download();
+  auto ids = b.bvh.triangle_ids.download();
+  // Leaves in sorted order hold the triangles their ids name.
+  std::vector<int> id_seen(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    ASSERT_LT(ids[i], n);
+    ++id_seen[ids[i]];
+    ASSERT_EQ(sorted[i].p0, tris[ids[i]].p0);
+  }
+  for (int c : id_seen) ASSERT_EQ(c, 1);
+
+  std::vector<int> leaf_seen(n, 0), internal_seen(n - 1, 0);
+  struct Item {
+    uint32_t node;
+    Aabb box;
+  };
+  std::vector<Item> todo{{b.bvh.bvh.root, b.bvh.bvh.bounds}};
+  size_t visited = 0;
+  while (!todo.empty()) {
+    Item it = todo.back();
+    todo.pop_back();
+    ASSERT_LT(it.node, n - 1);
+    ++internal_seen[it.node];
+    ++visited;
+    for (int c = 0; c < 2; ++c) {
+      const Aabb& child_box = nodes[it.node].child_bounds[c];
+      ASSERT_TRUE(it.box.contains(child_box)) << "node " << it.node << " child " << c;
+      uint32_t child = nodes[it.node].child[c];
+      if (is_leaf(child)) {
+        uint32_t leaf = leaf_index(child);
+        ASSERT_LT(leaf, n);
+        ++leaf_seen[leaf];
+        Aabb tb = box_of(sorted[leaf]);
+        ASSERT_EQ(child_box.lower, tb.lower);
+        ASSERT_EQ(child_box.upper, tb.upper);
+      } else {
+        todo.push_back({child, child_box});
+      }
+    }
+  }
+  EXPECT_EQ(visited, n - 1);
+  for (int c : internal_seen) ASSERT_EQ(c, 1);
+  for (int c : leaf_seen) ASSERT_EQ(c, 1);
+}
+
+TEST(Lbvh, InvariantsOnRandomSoups) {
+  for (size_t n : {2, 3, 5, 64, 1000, 50000}) {
+    SCOPED_TRACE(n);
+    check_invariants(random_soup(n, uint32_t(n)));
+  }
+}
+
+TEST(Lbvh, InvariantsWhenEveryCentroidCoincides) {
+  std::vector<TriangleVertices> same(777, {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0)});
+  check_invariants(same);
+}
+
+TEST(Lbvh, InvariantsOnBundledScene) { check_invariants(scene_triangles("cornell-caustics")); }
+
+TEST(Lbvh, EmptyAndSingleTriangle) {
+  Built empty({});
+  EXPECT_EQ(empty.bvh.bvh.node_count(), 0u);
+  Hit h = closest_hit(empty.bvh.view(), Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
+  EXPECT_FALSE(h.valid());
+
+  Built one({{Vec3f(-1, -1, 0), Vec3f(1, -1, 0), Vec3f(0, 1, 0)}});
+  EXPECT_EQ(one.bvh.bvh.node_count(), 1u);
+  h = closest_hit(one.bvh.view(), Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
+  ASSERT_TRUE(h.valid());
+  EXPECT_FLOAT_EQ(h.t, 1.0f);
+  EXPECT_EQ(h.triangle, 0u);
+}
+
+Hit brute_force(const std::vector<TriangleVertices>& tris, const Ray& ray) {
+  Hit best;
+  WatertightRay w(ray);
+  float t_max = ray.t_max;
+  for (size_t i = 0; i < tris.size(); ++i) {
+    float t, u, v;
+    if (intersect_triangle(w, tris[i], ray.t_min, t_max, t, u, v)) {
+      t_max = t;
+      best.t = t;
+      best.u = u;
+      best.v = v;
+      best.triangle = uint32_t(i);
+    }
+  }
+  return best;
+}
+
+// Rays from a sphere around the mesh towards random points inside its box: most hit something.
+void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, uint32_t seed) {
+  Built b(tris);
+  TriangleBvhView view = b.bvh.view();
+  Aabb bounds = view.bounds;
+  Vec3f c = bounds.center();
+  float r = length(bounds.extent());
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int hits = 0;
+  for (int i = 0; i < ray_count; ++i) {
+    Ray ray;
+    bool inside = i % 2 == 0;  // half the rays start inside the box, in random directions
+    Vec3f target = bounds.lower + bounds.extent() * Vec3f(u(rng), u(rng), u(rng));
+    if (inside) {
+      ray.origin = target;
+      ray.direction = sample_uniform_sphere(u(rng), u(rng));
+    } else {
+      ray.origin = c + sample_uniform_sphere(u(rng), u(rng)) * r;
+      ray.direction = normalize(target - ray.origin);
+    }
+    Hit expected = brute_force(tris, ray);
+    Hit got = closest_hit(view, ray);
+    ASSERT_EQ(got.valid(), expected.valid()) << "ray " << i;
+    ASSERT_EQ(any_hit(view, ray), expected.valid()) << "ray " << i;
+    if (expected.valid()) {
+      ++hits;
+      ASSERT_EQ(got.t, expected.t) << "ray " << i;
+      // Coplanar or duplicate triangles may tie exactly; then the one found must also be hit
+      // at that very distance.
+      if (got.triangle != expected.triangle) {
+        float t, u, v;
+        ASSERT_TRUE(intersect_triangle(WatertightRay(ray), tris[got.triangle], ray.t_min, FLT_MAX, t, u, v));
+        ASSERT_EQ(t, expected.t) << "ray " << i;
+      }
+      // A shadow ray stopping just short of the hit sees nothing.
+      Ray shadow = ray;
+      shadow.t_max = expected.t * 0.999f;
+      ASSERT_EQ(any_hit(view, shadow), brute_force(tris, shadow).valid()) << "ray " << i;
+    }
+  }
+  EXPECT_GT(hits, ray_count / 10);
+}
+
+TEST(Traversal, MatchesBruteForceOnRandomSoup) { check_traversal(random_soup(4000, 99), 10000, 1); }
+
+TEST(Traversal, MatchesBruteForceOnBundledScenes) {
+  check_traversal(scene_triangles("cornell-caustics"), 10000, 2);
+  check_traversal(scene_triangles("cornell-box"), 4000, 3);
+  check_traversal(scene_triangles("ring"), 2000, 4);
+}
+
+TEST(Watertight, RaysThroughSharedEdgesAndVerticesNeverSlipThrough) {
+  // A fan of triangles around the origin: every ray along -z through a shared edge or the shared
+  // vertex must hit at least one triangle.
+  std::vector<TriangleVertices> fan;
+  const int k = 16;
+  for (int i = 0; i < k; ++i) {
+    float a0 = 2 * kPi * i / k, a1 = 2 * kPi * (i + 1) / k;
+    fan.push_back({Vec3f(0, 0, 0), Vec3f(cosf(a0), sinf(a0), 0), Vec3f(cosf(a1), sinf(a1), 0)});
+  }
+  Built b(fan);
+  for (int i = 0; i < k; ++i) {
+    float a = 2 * kPi * i / k;
+    for (float s : {0.0f, 0.25f, 0.5f, 0.9f}) {
+      Ray ray{Vec3f(s * cosf(a), s * sinf(a), 1.0f), Vec3f(0, 0, -1)};
+      Hit h = closest_hit(b.bvh.view(), ray);
+      ASSERT_TRUE(h.valid()) << "edge " << i << " at " << s;
+      EXPECT_FLOAT_EQ(h.t, 1.0f);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace caustica

@@ -1,0 +1,125 @@
+// Photon map kNN against brute force, and the kernels' normalisation.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "renderer/photon/density.h"
+
+namespace caustica {
+namespace {
+
+struct Points {
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(1) << 30);
+  PhotonMap map;
+  std::vector<Photon> photons;
+};
+
+std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered) {
+  auto p = std::make_unique<Points>();
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  p->photons.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    Vec3f pos(u(rng), u(rng), clustered ? 0.0f : u(rng));  // clustered: all on a plane
+    if (clustered && i % 10 == 0) pos = Vec3f(0.5f, 0.5f, 0.0f);  // many coincident points
+    p->photons[i] = {pos, Vec3f(float(i), 1, 1), Vec3f(0, 0, 1)};
+  }
+  Buffer<Photon> buf(*p->backend, n);
+  buf.upload(p->photons);
+  p->map = build_photon_map(*p->backend, std::move(buf));
+  return p;
+}
+
+void check_knn(size_t n, bool clustered) {
+  auto p = make_map(n, 5, clustered);
+  auto sorted = p->map.photons.download();
+  ASSERT_EQ(sorted.size(), n);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-0.1f, 1.1f);
+  std::vector<Neighbour> heap(kMaxNearest);
+  for (int q = 0; q < 2000; ++q) {
+    Vec3f x(u(rng), u(rng), clustered ? 0.01f * u(rng) : u(rng));
+    uint32_t k = std::vector<uint32_t>{1, 8, 64, 200}[q % 4];
+    float max_r = q % 3 == 0 ? 0.05f : 10.0f;
+    uint32_t found = find_nearest(p->map.view(), x, k, max_r * max_r, heap.data());
+
+    std::vector<float> d2(n);
+    for (size_t i = 0; i < n; ++i) d2[i] = length_squared(sorted[i].position - x);
+    std::vector<float> within;
+    for (float d : d2)
+      if (d < max_r * max_r) within.push_back(d);
+    std::sort(within.begin(), within.end());
+    size_t expected = std::min<size_t>(k, within.size());
+    ASSERT_EQ(found, expected) << "query " << q;
+    std::vector<float> got(found);
+    for (uint32_t i = 0; i < found; ++i) {
+      got[i] = heap[i].distance_squared;
+      ASSERT_EQ(got[i], d2[heap[i].index]);  // distance matches the photon it names
+    }
+    std::sort(got.begin(), got.end());
+    for (size_t i = 0; i < expected; ++i) ASSERT_EQ(got[i], within[i]) << "query " << q << " #" << i;
+  }
+}
+
+TEST(PhotonMapKnn, MatchesBruteForceUniform) { check_knn(20000, false); }
+TEST(PhotonMapKnn, MatchesBruteForceOnPlaneWithCoincidentPoints) { check_knn(20000, true); }
+TEST(PhotonMapKnn, SmallMaps) {
+  for (size_t n : {1, 2, 3, 17}) check_knn(n, false);
+}
+
+TEST(PhotonMap, KeepsEveryPhotonOnce) {
+  auto p = make_map(5000, 3, false);
+  auto sorted = p->map.photons.download();
+  std::vector<int> seen(5000);
+  for (const Photon& ph : sorted) ++seen[size_t(ph.power.x)];
+  for (int s : seen) ASSERT_EQ(s, 1);
+}
+
+// Each kernel, integrated over the unit disk, gives pi (the area), so estimates are unbiased for
+// constant density whatever the kernel.
+TEST(Kernels, IntegrateToDiskArea) {
+  for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
+    double sum = 0;
+    const int steps = 200000;
+    for (int i = 0; i < steps; ++i) {
+      double r = (i + 0.5) / steps;
+      sum += kernel_weight(k, float(r * r)) * 2 * kPi * r / steps;
+    }
+    EXPECT_NEAR(sum, kPi, 1e-3) << int(k);
+  }
+}
+
+// Photons of equal power spread uniformly on a plane: the estimate recovers the irradiance.
+TEST(Density, RecoversUniformIrradiance) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const size_t n = 400000;
+  const float total_flux = 4.0f;  // W over a unit square: E = 4 W/m^2
+  std::vector<Photon> photons(n);
+  for (auto& ph : photons)
+    ph = {Vec3f(u(rng), u(rng), 0), Vec3f(total_flux / n), normalize(Vec3f(0.3f, 0, 1))};
+  Buffer<Photon> buf(*backend, n);
+  buf.upload(photons);
+  PhotonMap map = build_photon_map(*backend, std::move(buf));
+  std::vector<Neighbour> heap(kMaxNearest);
+  for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
+    double mean = 0;
+    const int queries = 400;
+    for (int q = 0; q < queries; ++q) {
+      Vec3f x(0.2f + 0.6f * u(rng), 0.2f + 0.6f * u(rng), 0);
+      Vec3f l = estimate_radiance(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), 256, 1.0f, k, heap.data());
+      mean += l.x / queries;
+    }
+    // L = rho E / pi with rho = 1.
+    EXPECT_NEAR(mean, total_flux / kPi, 0.01 * total_flux / kPi) << int(k);
+    // Photons arriving from below the surface do not count.
+    Vec3f back = estimate_radiance(map.view(), Vec3f(0.5f, 0.5f, 0), Vec3f(0, 0, -1), Vec3f(1.0f), 64,
+                                   1.0f, k, heap.data());
+    EXPECT_EQ(back.x, 0.0f);
+  }
+}
+
+}  // namespace
+}  // namespace caustica

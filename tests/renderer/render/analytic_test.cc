@@ -1,0 +1,179 @@
+// Whole-renderer checks against closed-form answers, determinism, and every bundled scene.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "absl/strings/str_format.h"
+#include "renderer/engine.h"
+#include "renderer/render/camera.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+Scene parse_or_die(const std::string& json) {
+  absl::StatusOr<Scene> scene = parse_scene(json, ".", "test.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  return scene.ok() ? *scene : Scene{};
+}
+
+std::unique_ptr<Engine> engine_with(const Scene& scene) {
+  auto engine = Engine::create({});
+  EXPECT_TRUE(engine.ok());
+  absl::Status s = (*engine)->load(scene);
+  EXPECT_TRUE(s.ok()) << s;
+  return std::move(*engine);
+}
+
+// A 2 x 2 diffuse square at z = 0 lit by a point light at height 1: the radiance at every pixel
+// is rho / pi * I cos(theta) / r^2 (no other surface, so no indirect light and no photons stored).
+TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
+  const float rho = 0.6f, intensity = 3.0f;
+  const Vec3f light(0.3f, -0.2f, 1.0f);
+  Scene scene = parse_or_die(absl::StrFormat(R"({
+    "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30,
+               "width": 128, "height": 128},
+    "settings": {"photons": 10000, "passes": 1},
+    "materials": {"grey": {"type": "diffuse", "albedo": [%f, %f, %f]}},
+    "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [%f, %f, %f]}],
+    "shapes": [{"type": "quad", "material": "grey",
+                "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
+  })", rho, rho, rho, light.x, light.y, light.z, intensity, intensity, intensity));
+  auto engine = engine_with(scene);
+  // 32 jittered passes average each pixel over its area, which matches the value at its centre
+  // to second order.
+  ASSERT_TRUE(engine->render(32).ok());
+  std::vector<float> image = engine->image_linear();
+  PinholeCamera cam = PinholeCamera::from(scene.camera);
+  double worst = 0;
+  int checked = 0;
+  for (int y = 4; y < 128; y += 8) {
+    for (int x = 4; x < 128; x += 8) {
+      // Where the pixel centre's ray meets the plane.
+      Ray r = cam.ray_through(x + 0.5f, y + 0.5f);
+      Vec3f p = r.origin + r.direction * (-r.origin.z / r.direction.z);
+      if (std::fabs(p.x) > 0.95f || std::fabs(p.y) > 0.95f) continue;
+      Vec3f d = light - p;
+      float dist2 = length_squared(d);
+      float expected = rho / kPi * intensity * (d.z / std::sqrt(dist2)) / dist2;
+      float got = image[4 * (y * 128 + x)];
+      worst = std::max(worst, double(std::fabs(got - expected) / expected));
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 150);
+  EXPECT_LT(worst, 0.01) << "largest relative error";
+  RecordProperty("max_relative_error", absl::StrFormat("%.5f", worst));
+  std::printf("plane under point light: max relative error %.4f%% over %d pixels\n", 100 * worst, checked);
+}
+
+// Inside a closed diffuse sphere of albedo rho with a point light of power Phi at its centre, the
+// radiance everywhere is rho Phi / (4 pi^2 R^2 (1 - rho)): direct light plus every interreflection.
+TEST(Analytic, InsideDiffuseSphereMatchesInterreflectionSeries) {
+  const float rho = 0.5f, radius = 1.0f, intensity = 2.0f;
+  const float phi = 4.0f * kPi * intensity;
+  Scene scene = parse_or_die(absl::StrFormat(R"({
+    "camera": {"position": [0.1, 0.05, 0.0], "look_at": [0.1, 0.05, 1], "up": [0, 1, 0],
+               "fov": 90, "width": 64, "height": 64},
+    "settings": {"photons": 200000, "k": 64, "max_radius": 0.2, "max_photon_bounces": 40,
+                 "passes": 4},
+    "materials": {"wall": {"type": "diffuse", "albedo": [%f, %f, %f]}},
+    "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [%f, %f, %f]}],
+    "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": %f, "rings": 96,
+                "segments": 192, "material": "wall"}]
+  })", rho, rho, rho, intensity, intensity, intensity, radius));
+  auto engine = engine_with(scene);
+  auto report = engine->render(4);
+  ASSERT_TRUE(report.ok()) << report.status();
+  std::vector<float> image = engine->image_linear();
+  double mean = 0;
+  for (size_t i = 0; i < image.size(); i += 4) mean += image[i + 1];
+  mean /= double(image.size() / 4);
+  const double expected = rho * phi / (4 * kPi * kPi * radius * radius * (1 - rho));
+  const double error = std::fabs(mean - expected) / expected;
+  EXPECT_LT(error, 0.03) << "mean " << mean << " expected " << expected;
+  std::printf("inside diffuse sphere: mean radiance %.5f, analytic %.5f, relative error %.3f%%\n",
+              mean, expected, 100 * error);
+  EXPECT_GT(report->global_photons, 0u);
+  EXPECT_EQ(report->caustic_photons, 0u);  // no specular surface, so no caustic paths
+}
+
+std::string scene_path(const char* name) {
+  return std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json";
+}
+
+std::vector<float> render_small(const char* name, uint32_t seed, uint32_t passes = 1) {
+  absl::StatusOr<Scene> scene = load_scene(scene_path(name));
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  if (!scene.ok()) return {};
+  scene->camera.width = 48;
+  scene->camera.height = 40;
+  scene->settings.photons_per_pass = 20000;
+  scene->settings.seed = seed;
+  auto engine = engine_with(*scene);
+  EXPECT_TRUE(engine->render(passes).ok());
+  return engine->image_linear();
+}
+
+TEST(Determinism, SameSeedGivesBitIdenticalImage) {
+  std::vector<float> a = render_small("cornell-caustics", 7, 2);
+  std::vector<float> b = render_small("cornell-caustics", 7, 2);
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float)));
+  std::vector<float> c = render_small("cornell-caustics", 8, 2);
+  EXPECT_NE(0, std::memcmp(a.data(), c.data(), a.size() * sizeof(float)));
+}
+
+TEST(BundledScenes, EveryOneLoadsAndRendersSmall) {
+  int scenes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(CAUSTICA_SCENES_DIR)) {
+    if (!std::filesystem::exists(entry.path() / "scene.json")) continue;
+    std::string name = entry.path().filename().string();
+    SCOPED_TRACE(name);
+    std::vector<float> image = render_small(name.c_str(), 1);
+    ASSERT_EQ(image.size(), 48u * 40u * 4u);
+    double sum = 0;
+    for (float v : image) {
+      ASSERT_TRUE(std::isfinite(v));
+      ASSERT_GE(v, 0.0f);
+      sum += v;
+    }
+    EXPECT_GT(sum, 48 * 40) << "image is black";  // alpha alone adds 1 per pixel
+    ++scenes;
+  }
+  EXPECT_GE(scenes, 3);
+}
+
+TEST(Engine, LightChangeRestartsAccumulationAndBumpsEpoch) {
+  absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
+  ASSERT_TRUE(scene.ok());
+  scene->camera.width = scene->camera.height = 16;
+  scene->settings.photons_per_pass = 2000;
+  auto engine = engine_with(*scene);
+  ASSERT_TRUE(engine->render(2).ok());
+  uint64_t lights_epoch = engine->epochs().lights;
+  std::vector<Light> lights = {Light{"key", LightType::kPoint, Vec3f(278, 400, 279), Vec3f(0, -1, 0),
+                                     Vec3f(1e5f, 1e5f, 1e5f)}};
+  ASSERT_TRUE(engine->set_lights(lights).ok());
+  EXPECT_EQ(engine->epochs().lights, lights_epoch + 1);
+  auto report = engine->render(1);
+  ASSERT_TRUE(report.ok());
+  EXPECT_EQ(report->total_passes, 1u);
+  // A light with negative intensity is refused and changes nothing.
+  lights[0].intensity = Vec3f(-1, 0, 0);
+  EXPECT_FALSE(engine->set_lights(lights).ok());
+  EXPECT_EQ(engine->epochs().lights, lights_epoch + 1);
+}
+
+TEST(Engine, MemoryBudgetOverrunIsResourceExhausted) {
+  absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
+  ASSERT_TRUE(scene.ok());
+  auto engine = Engine::create({DeviceKind::kCpu, 4096});
+  ASSERT_TRUE(engine.ok());
+  absl::Status s = (*engine)->load(*scene);
+  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
+}
+
+}  // namespace
+}  // namespace caustica

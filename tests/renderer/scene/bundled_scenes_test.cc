@@ -1,0 +1,111 @@
+// The scenes shipped in scenes/ load, validate and are what they claim to be.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <vector>
+
+#include "renderer/scene/load_scene.h"
+#include "renderer/scene/validate.h"
+#include "tests/renderer/scene/scene_test_util.h"
+
+namespace caustica {
+namespace {
+
+using ::caustica::testing::find_mesh;
+using ::caustica::testing::triangle_cross;
+using ::caustica::testing::Vec3Near;
+
+std::vector<std::filesystem::path> bundled_scene_files() {
+  std::vector<std::filesystem::path> files;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(CAUSTICA_SCENES_DIR)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".json") {
+      files.push_back(entry.path());
+    }
+  }
+  return files;
+}
+
+TEST(BundledScenes, EveryOneLoadsAndValidates) {
+  const std::vector<std::filesystem::path> files = bundled_scene_files();
+  EXPECT_GE(files.size(), 3u);
+  for (const std::filesystem::path& file : files) {
+    SCOPED_TRACE(file.string());
+    const absl::StatusOr<Scene> scene = load_scene(file);
+    ASSERT_TRUE(scene.ok()) << scene.status();
+    EXPECT_TRUE(validate_scene(*scene).ok());
+    EXPECT_GT(scene->triangle_count(), 0u);
+  }
+}
+
+Scene load(const char* relative) {
+  absl::StatusOr<Scene> scene = load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / relative);
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  return scene.ok() ? *std::move(scene) : Scene();
+}
+
+TEST(BundledScenes, CornellBoxMatchesTheReference) {
+  const Scene scene = load("cornell-box/scene.json");
+  EXPECT_EQ(scene.meshes.size(), 16u);  // 5 walls, light, 2 blocks of 5 faces
+  EXPECT_EQ(scene.triangle_count(), 32u);
+  EXPECT_THAT(scene.camera.position, Vec3Near(Vec3f(278, 273, -800), 0));
+  EXPECT_FLOAT_EQ(scene.camera.vertical_fov_deg, 39.3077f);
+  EXPECT_EQ(scene.settings.photons_per_pass, 200000u);
+  EXPECT_EQ(scene.settings.k_nearest, 64u);
+  EXPECT_TRUE(scene.lights.empty());
+
+  const Mesh* light = find_mesh(scene, "'light'");
+  ASSERT_NE(light, nullptr);
+  const Material& emitter = scene.materials[light->material_ids[0]];
+  EXPECT_EQ(emitter.type, MaterialType::kEmissive);
+  EXPECT_THAT(emitter.radiance, Vec3Near(Vec3f(17, 12, 4), 0));
+  double area = 0;
+  for (size_t t = 0; t < light->triangle_count(); ++t) {
+    const Vec3f n = triangle_cross(*light, t);
+    EXPECT_LT(n.y, 0) << "the light must face down";
+    EXPECT_THAT(normalize(n), Vec3Near(Vec3f(0, -1, 0), 1e-6f));
+    area += 0.5 * length(n);
+  }
+  EXPECT_NEAR(area, 130.0 * 105.0, 1e-2);
+
+  const Mesh* red = find_mesh(scene, "'left wall'");
+  ASSERT_NE(red, nullptr);
+  EXPECT_THAT(scene.materials[red->material_ids[0]].color,
+              Vec3Near(Vec3f(0.63f, 0.065f, 0.05f), 0));
+  const Mesh* green = find_mesh(scene, "'right wall'");
+  ASSERT_NE(green, nullptr);
+  EXPECT_THAT(scene.materials[green->material_ids[0]].color,
+              Vec3Near(Vec3f(0.14f, 0.45f, 0.091f), 0));
+}
+
+TEST(BundledScenes, CornellCausticsHasTheTwoSpheres) {
+  const Scene scene = load("cornell-caustics/scene.json");
+  const Mesh* glass = find_mesh(scene, "'glass sphere'");
+  const Mesh* mirror = find_mesh(scene, "'mirror sphere'");
+  ASSERT_NE(glass, nullptr);
+  ASSERT_NE(mirror, nullptr);
+  EXPECT_EQ(glass->triangle_count(), 3968u);
+  EXPECT_EQ(scene.materials[glass->material_ids[0]].type, MaterialType::kDielectric);
+  EXPECT_EQ(scene.materials[glass->material_ids[0]].ior, 1.5f);
+  EXPECT_EQ(scene.materials[mirror->material_ids[0]].type, MaterialType::kMirror);
+  for (const Vec3f& p : glass->positions) EXPECT_NEAR(length(p - Vec3f(370, 100, 350)), 100, 1e-2);
+  for (const Vec3f& p : mirror->positions) EXPECT_NEAR(length(p - Vec3f(180, 100, 200)), 100, 1e-2);
+  EXPECT_EQ(find_mesh(scene, "block"), nullptr);
+}
+
+TEST(BundledScenes, RingSceneHasAMirrorRingAndAPointLight) {
+  const Scene scene = load("ring/scene.json");
+  const Mesh* ring = find_mesh(scene, "'ring'");
+  ASSERT_NE(ring, nullptr);
+  EXPECT_EQ(ring->triangle_count(), 8u * 256u);
+  EXPECT_EQ(scene.materials[ring->material_ids[0]].type, MaterialType::kMirror);
+  ASSERT_EQ(scene.lights.size(), 1u);
+  EXPECT_EQ(scene.lights[0].type, LightType::kPoint);
+  // 45 degrees above the horizon, 600 mm from the ring's base.
+  EXPECT_NEAR(length(scene.lights[0].position), 600, 0.01);
+  EXPECT_NEAR(scene.lights[0].position.y, 600 / std::sqrt(2.0), 0.01);
+  EXPECT_EQ(scene.settings.photons_per_pass, 500000u);
+}
+
+}  // namespace
+}  // namespace caustica

@@ -1,0 +1,140 @@
+#include "renderer/scene/mesh_gltf.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "tests/renderer/scene/scene_test_util.h"
+
+namespace caustica {
+namespace {
+
+using ::caustica::testing::message_of;
+using ::caustica::testing::scene_data;
+using ::caustica::testing::triangle_cross;
+using ::caustica::testing::Vec3Near;
+using ::testing::HasSubstr;
+
+constexpr float kRadToDeg = 180.0f / 3.14159265358979f;
+
+const Mesh* mesh_named(const MeshFile& file, const std::string& part) {
+  for (const Mesh& mesh : file.meshes) {
+    if (mesh.name.find(part) != std::string::npos) return &mesh;
+  }
+  return nullptr;
+}
+
+class LoadGltfTest : public ::testing::TestWithParam<const char*> {
+ protected:
+  void SetUp() override {
+    absl::StatusOr<MeshFile> loaded = load_gltf(scene_data(GetParam()));
+    ASSERT_TRUE(loaded.ok()) << loaded.status();
+    file_ = *std::move(loaded);
+  }
+  MeshFile file_;
+};
+
+TEST_P(LoadGltfTest, TakesTrianglePrimitivesOfTheDefaultScene) {
+  // Quad (1 primitive) and Tri (3 triangle primitives; the POINTS one and the orphan node's
+  // mesh are left out).
+  ASSERT_EQ(file_.meshes.size(), 4u);
+  size_t triangles = 0;
+  for (const Mesh& mesh : file_.meshes) triangles += mesh.triangle_count();
+  EXPECT_EQ(triangles, 5u);
+  EXPECT_THAT(file_.meshes[0].name, HasSubstr("mesh 'Quad' primitive 0 at node 'QuadNode'"));
+}
+
+TEST_P(LoadGltfTest, AppliesTheNodeHierarchy) {
+  // Root scales by 2 and QuadNode moves up by 1: p -> 2 (p + (0, 1, 0)).
+  const Mesh* quad = mesh_named(file_, "'Quad' primitive 0");
+  ASSERT_NE(quad, nullptr);
+  EXPECT_THAT(quad->positions[0], Vec3Near(Vec3f(-2, 2, -2), 1e-6f));
+  EXPECT_THAT(quad->positions[2], Vec3Near(Vec3f(2, 2, 2), 1e-6f));
+  ASSERT_EQ(quad->normals.size(), 4u);
+  EXPECT_THAT(quad->normals[0], Vec3Near(Vec3f(0, 1, 0), 1e-6f));
+  ASSERT_EQ(quad->uvs.size(), 4u);
+  EXPECT_EQ(quad->uvs[2].x, 1.0f);
+  EXPECT_EQ(quad->indices, (std::vector<uint32_t>{0, 2, 1, 0, 3, 2}));
+  EXPECT_GT(triangle_cross(*quad, 0).y, 0);
+
+  // Root (scale 2) * Spinner (90 degrees about y) * TriNode (x + 1): p -> 2 Ry(p + (1, 0, 0)).
+  const Mesh* mirror = mesh_named(file_, "'Tri' primitive 0");
+  ASSERT_NE(mirror, nullptr);
+  EXPECT_EQ(mirror->indices, (std::vector<uint32_t>{0, 1, 2}));  // uint8 indices
+  EXPECT_THAT(mirror->positions[0], Vec3Near(Vec3f(-2, 0, 0), 1e-5f));
+  EXPECT_THAT(mirror->positions[1], Vec3Near(Vec3f(-2, 0, -4), 1e-5f));
+  const Mesh* glass = mesh_named(file_, "'Tri' primitive 1");
+  ASSERT_NE(glass, nullptr);
+  EXPECT_EQ(glass->indices, (std::vector<uint32_t>{0, 2, 3}));  // uint32 indices
+  const Mesh* lamp = mesh_named(file_, "'Tri' primitive 2");
+  ASSERT_NE(lamp, nullptr);
+  EXPECT_EQ(lamp->indices, (std::vector<uint32_t>{0, 1, 2}));  // not indexed
+  EXPECT_THAT(lamp->positions[0], Vec3Near(Vec3f(0, 0, -2), 1e-5f));
+}
+
+TEST_P(LoadGltfTest, MapsPbrMaterials) {
+  ASSERT_EQ(file_.materials.size(), 4u);
+  EXPECT_EQ(file_.materials[0].name, "Clay");
+  EXPECT_EQ(file_.materials[0].type, MaterialType::kDiffuse);
+  EXPECT_THAT(file_.materials[0].color, Vec3Near(Vec3f(0.5f, 0.25f, 0.125f), 0));
+  EXPECT_EQ(file_.materials[1].type, MaterialType::kMirror);
+  EXPECT_THAT(file_.materials[1].color, Vec3Near(Vec3f(0.9f, 0.8f, 0.7f), 1e-6f));
+  EXPECT_EQ(file_.materials[2].type, MaterialType::kDielectric);
+  EXPECT_FLOAT_EQ(file_.materials[2].ior, 1.33f);
+  EXPECT_EQ(file_.materials[3].type, MaterialType::kEmissive);
+  EXPECT_THAT(file_.materials[3].radiance, Vec3Near(Vec3f(4, 2, 1), 0));
+  EXPECT_EQ(mesh_named(file_, "'Quad'")->material_ids, (std::vector<uint32_t>{0, 0}));
+  EXPECT_EQ(mesh_named(file_, "'Tri' primitive 2")->material_ids, (std::vector<uint32_t>{3}));
+}
+
+TEST_P(LoadGltfTest, ReadsPunctualLightsWithNodeTransforms) {
+  ASSERT_EQ(file_.lights.size(), 3u);
+  const Light& bulb = file_.lights[0];
+  EXPECT_EQ(bulb.name, "Bulb");
+  EXPECT_EQ(bulb.type, LightType::kPoint);
+  EXPECT_THAT(bulb.position, Vec3Near(Vec3f(0, 5, 0), 1e-6f));
+  EXPECT_THAT(bulb.intensity, Vec3Near(Vec3f(100, 50, 25), 1e-4f));
+
+  const Light& spot = file_.lights[1];
+  EXPECT_EQ(spot.type, LightType::kSpot);
+  EXPECT_THAT(spot.position, Vec3Near(Vec3f(1, 2, 3), 1e-6f));
+  // -90 degrees about x turns the light's -z axis to -y.
+  EXPECT_THAT(spot.direction, Vec3Near(Vec3f(0, -1, 0), 1e-6f));
+  EXPECT_THAT(spot.intensity, Vec3Near(Vec3f(50, 50, 50), 1e-4f));
+  EXPECT_NEAR(spot.inner_angle_deg, 0.2f * kRadToDeg, 1e-4f);
+  EXPECT_NEAR(spot.outer_angle_deg, 0.5f * kRadToDeg, 1e-4f);
+
+  const Light& sun = file_.lights[2];
+  EXPECT_EQ(sun.type, LightType::kDirectional);
+  // The node matrix turns 90 degrees about y: -z becomes -x.
+  EXPECT_THAT(sun.direction, Vec3Near(Vec3f(-1, 0, 0), 1e-6f));
+  EXPECT_THAT(sun.intensity, Vec3Near(Vec3f(3, 3, 3), 0));
+}
+
+INSTANTIATE_TEST_SUITE_P(TextAndBinary, LoadGltfTest,
+                         ::testing::Values("meshes/lights.gltf", "meshes/lights.glb"));
+
+TEST(LoadGltf, AccessorPastItsBufferIsRejected) {
+  const absl::StatusOr<MeshFile> file = load_gltf(scene_data("bad/overflowing_accessor.gltf"));
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(file.status()), HasSubstr("overflowing_accessor.gltf"));
+  EXPECT_THAT(message_of(file.status()), HasSubstr("POSITION (accessor 0)"));
+}
+
+TEST(LoadGltf, IndexOutOfRangeIsRejected) {
+  const absl::StatusOr<MeshFile> file = load_gltf(scene_data("bad/bad_index.gltf"));
+  ASSERT_FALSE(file.ok());
+  EXPECT_THAT(message_of(file.status()), HasSubstr("bad_index.gltf"));
+  EXPECT_THAT(message_of(file.status()), HasSubstr("index 1 is 7, out of range (4 vertices)"));
+}
+
+TEST(LoadGltf, MissingFileIsNotFound) {
+  const absl::StatusOr<MeshFile> file = load_gltf(scene_data("meshes/nope.glb"));
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(message_of(file.status()), HasSubstr("nope.glb"));
+}
+
+}  // namespace
+}  // namespace caustica

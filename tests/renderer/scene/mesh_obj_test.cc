@@ -1,0 +1,90 @@
+#include "renderer/scene/mesh_obj.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tests/renderer/scene/scene_test_util.h"
+
+namespace caustica {
+namespace {
+
+using ::caustica::testing::message_of;
+using ::caustica::testing::scene_data;
+using ::caustica::testing::triangle_cross;
+using ::caustica::testing::Vec3Near;
+using ::testing::HasSubstr;
+
+TEST(LoadObj, MapsMtlMaterialsToOurTypes) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("meshes/box.obj"));
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 4u);
+  const Material& white = file->materials[0];
+  EXPECT_EQ(white.name, "white");
+  EXPECT_EQ(white.type, MaterialType::kDiffuse);
+  EXPECT_THAT(white.color, Vec3Near(Vec3f(0.8f, 0.7f, 0.6f), 1e-6f));
+  const Material& chrome = file->materials[1];
+  EXPECT_EQ(chrome.type, MaterialType::kMirror);
+  EXPECT_THAT(chrome.color, Vec3Near(Vec3f(0.9f, 0.85f, 0.8f), 1e-6f));
+  const Material& glass = file->materials[2];
+  EXPECT_EQ(glass.type, MaterialType::kDielectric);
+  EXPECT_FLOAT_EQ(glass.ior, 1.45f);
+  const Material& lamp = file->materials[3];
+  EXPECT_EQ(lamp.type, MaterialType::kEmissive);
+  EXPECT_THAT(lamp.radiance, Vec3Near(Vec3f(5, 4, 3), 0));
+}
+
+TEST(LoadObj, SplitsVerticesWhoseCornersDiffer) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("meshes/box.obj"));
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->meshes.size(), 1u);
+  const Mesh& mesh = file->meshes[0];
+  EXPECT_EQ(mesh.name, "box.obj");
+  // Quad (2 triangles) + 3 triangles; 11 distinct position/normal/uv corners.
+  EXPECT_EQ(mesh.triangle_count(), 5u);
+  EXPECT_EQ(mesh.positions.size(), 11u);
+  EXPECT_EQ(mesh.normals.size(), 11u);
+  EXPECT_EQ(mesh.uvs.size(), 11u);
+  EXPECT_EQ(mesh.material_ids, (std::vector<uint32_t>{0, 0, 1, 2, 3}));
+  // The chrome triangle (1/1/2 2/2/2 5/1/2) carries normal 2 = +x.
+  const uint32_t corner = mesh.indices[3 * 2 + 2];
+  EXPECT_THAT(mesh.positions[corner], Vec3Near(Vec3f(0, 0, 1), 0));
+  EXPECT_THAT(mesh.normals[corner], Vec3Near(Vec3f(1, 0, 0), 0));
+  EXPECT_EQ(mesh.uvs[corner].x, 0.0f);
+}
+
+TEST(LoadObj, PlainPolygonKeepsFilePositionsAndFans) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("meshes/plain.obj"));
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Mesh& mesh = file->meshes[0];
+  EXPECT_TRUE(file->materials.empty());
+  EXPECT_EQ(mesh.positions.size(), 5u);
+  EXPECT_THAT(mesh.positions[2], Vec3Near(Vec3f(3, 1, 0), 0));
+  EXPECT_TRUE(mesh.normals.empty());
+  EXPECT_EQ(mesh.indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 0, 3, 4}));
+  EXPECT_EQ(mesh.material_ids, (std::vector<uint32_t>(3, kNoMaterial)));
+  for (size_t t = 0; t < 3; ++t) EXPECT_GT(triangle_cross(mesh, t).z, 0);
+}
+
+TEST(LoadObj, ZeroIndexReportsTinyobjLine) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("bad/zero_index.obj"));
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(file.status()), HasSubstr("zero_index.obj"));
+  EXPECT_THAT(message_of(file.status()), HasSubstr("line 6"));
+}
+
+TEST(LoadObj, OutOfRangeIndexReportsFaceLine) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("bad/obj_index_out_of_range.obj"));
+  ASSERT_FALSE(file.ok());
+  EXPECT_THAT(message_of(file.status()), HasSubstr("obj_index_out_of_range.obj:7: face 1"));
+  EXPECT_THAT(message_of(file.status()), HasSubstr("vertex index 9 is out of range"));
+}
+
+TEST(LoadObj, MissingFileIsNotFound) {
+  const absl::StatusOr<MeshFile> file = load_obj(scene_data("meshes/nope.obj"));
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(message_of(file.status()), HasSubstr("nope.obj"));
+}
+
+}  // namespace
+}  // namespace caustica

@@ -1,0 +1,184 @@
+// Good scene files load into the values they spell out.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "renderer/scene/load_scene.h"
+#include "renderer/scene/mesh_file.h"
+#include "tests/renderer/scene/scene_test_util.h"
+
+namespace caustica {
+namespace {
+
+using ::caustica::testing::find_material;
+using ::caustica::testing::find_mesh;
+using ::caustica::testing::scene_data;
+using ::caustica::testing::triangle_cross;
+using ::caustica::testing::Vec3Near;
+using ::testing::HasSubstr;
+
+class ShapesSceneTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    absl::StatusOr<Scene> loaded = load_scene(scene_data("good/shapes.json"));
+    ASSERT_TRUE(loaded.ok()) << loaded.status();
+    scene_ = *std::move(loaded);
+  }
+  Scene scene_;
+};
+
+TEST_F(ShapesSceneTest, CameraAndSettings) {
+  EXPECT_THAT(scene_.camera.position, Vec3Near(Vec3f(0, 1, -5), 0));
+  EXPECT_THAT(scene_.camera.look_at, Vec3Near(Vec3f(0, 1, 0), 0));
+  EXPECT_THAT(scene_.camera.up, Vec3Near(Vec3f(0, 1, 0), 0));  // default
+  EXPECT_EQ(scene_.camera.vertical_fov_deg, 50);
+  EXPECT_EQ(scene_.camera.width, 320);
+  EXPECT_EQ(scene_.camera.height, 240);
+  const RenderSettings& s = scene_.settings;
+  EXPECT_EQ(s.photons_per_pass, 100000u);  // written 1e5
+  EXPECT_EQ(s.k_nearest, 32u);
+  EXPECT_EQ(s.max_radius, 0.5f);
+  EXPECT_EQ(s.kernel, Kernel::kCone);
+  EXPECT_EQ(s.max_depth, 10u);
+  EXPECT_EQ(s.max_photon_bounces, 12u);
+  EXPECT_EQ(s.area_light_samples, 8u);
+  EXPECT_EQ(s.passes, 4u);
+  EXPECT_EQ(s.seed, 7u);
+}
+
+TEST_F(ShapesSceneTest, Materials) {
+  ASSERT_EQ(scene_.materials.size(), 5u);
+  const Material* white = find_material(scene_, "white");
+  ASSERT_NE(white, nullptr);
+  EXPECT_EQ(white->type, MaterialType::kDiffuse);
+  EXPECT_THAT(white->color, Vec3Near(Vec3f(0.8f, 0.7f, 0.6f), 0));
+  EXPECT_EQ(find_material(scene_, "chrome")->type, MaterialType::kMirror);
+  EXPECT_EQ(find_material(scene_, "glass")->type, MaterialType::kDielectric);
+  EXPECT_EQ(find_material(scene_, "glass")->ior, 1.33f);
+  EXPECT_EQ(find_material(scene_, "default glass")->ior, 1.5f);
+  const Material* lamp = find_material(scene_, "lamp");
+  EXPECT_EQ(lamp->type, MaterialType::kEmissive);
+  EXPECT_THAT(lamp->radiance, Vec3Near(Vec3f(10, 9, 8), 0));
+}
+
+TEST_F(ShapesSceneTest, Lights) {
+  ASSERT_EQ(scene_.lights.size(), 3u);
+  const Light& point = scene_.lights[0];
+  EXPECT_EQ(point.name, "bulb");
+  EXPECT_EQ(point.type, LightType::kPoint);
+  EXPECT_THAT(point.position, Vec3Near(Vec3f(0, 3, 0), 0));
+  EXPECT_THAT(point.intensity, Vec3Near(Vec3f(5, 5, 5), 0));
+  const Light& spot = scene_.lights[1];
+  EXPECT_EQ(spot.type, LightType::kSpot);
+  EXPECT_THAT(spot.direction, Vec3Near(Vec3f(0, -1, 0), 0));  // normalised
+  EXPECT_THAT(spot.intensity, Vec3Near(Vec3f(1, 2, 3), 0));
+  EXPECT_EQ(spot.inner_angle_deg, 10);
+  EXPECT_EQ(spot.outer_angle_deg, 20);
+  const Light& sun = scene_.lights[2];
+  EXPECT_EQ(sun.type, LightType::kDirectional);
+  EXPECT_THAT(sun.direction, Vec3Near(Vec3f(0, 0, 1), 0));
+  EXPECT_THAT(sun.intensity, Vec3Near(Vec3f(0.5f, 0.5f, 0.5f), 0));
+}
+
+TEST_F(ShapesSceneTest, Shapes) {
+  ASSERT_EQ(scene_.meshes.size(), 5u);
+  const Mesh& lamp = scene_.meshes[0];
+  EXPECT_EQ(lamp.name, "shapes[0] 'lamp'");
+  EXPECT_EQ(lamp.triangle_count(), 2u);
+  EXPECT_EQ(scene_.materials[lamp.material_ids[0]].name, "lamp");
+  EXPECT_LT(triangle_cross(lamp, 0).y, 0);  // faces down into the room
+
+  const Mesh& triangles = scene_.meshes[1];
+  EXPECT_EQ(triangles.name, "shapes[1]");
+  EXPECT_EQ(triangles.indices, (std::vector<uint32_t>{0, 2, 1, 0, 3, 2}));
+  EXPECT_THAT(triangles.positions[2], Vec3Near(Vec3f(1, 0, 1), 0));
+
+  EXPECT_EQ(scene_.meshes[2].triangle_count(), 2u * 16u * 7u);  // rings 8, segments 16
+  EXPECT_EQ(scene_.meshes[3].triangle_count(), 3968u);          // defaults 32 x 64
+  EXPECT_EQ(scene_.meshes[3].positions.size(), 2u + 31u * 64u);
+  EXPECT_EQ(scene_.meshes[4].triangle_count(), 8u * 32u);
+  for (const Mesh& mesh : scene_.meshes) {
+    EXPECT_EQ(mesh.material_ids.size(), mesh.triangle_count()) << mesh.name;
+  }
+}
+
+class MeshesSceneTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    absl::StatusOr<Scene> loaded = load_scene(scene_data("good/meshes.json"));
+    ASSERT_TRUE(loaded.ok()) << loaded.status();
+    scene_ = *std::move(loaded);
+  }
+  Scene scene_;
+};
+
+TEST_F(MeshesSceneTest, TransformScalesThenRotatesThenTranslates) {
+  const Mesh* moved = find_mesh(scene_, "'moved'");
+  ASSERT_NE(moved, nullptr);
+  EXPECT_THAT(moved->name, HasSubstr("quad_tri_le.ply"));
+  // (1, 0, 0) -> scale 2 -> (2, 0, 0) -> 90 degrees about y -> (0, 0, -2) -> (10, 0, -2).
+  EXPECT_THAT(moved->positions[1], Vec3Near(Vec3f(10, 0, -2), 1e-5f));
+  // Normals turn with the mesh: +z -> +x.
+  EXPECT_THAT(moved->normals[1], Vec3Near(Vec3f(1, 0, 0), 1e-6f));
+}
+
+TEST_F(MeshesSceneTest, RotationsApplyXThenYThenZ) {
+  const Mesh* ordered = find_mesh(scene_, "'ordered'");
+  ASSERT_NE(ordered, nullptr);
+  // (0.5, 2, 0.25) -> scale (1, 2, 3) -> (0.5, 4, 0.75) -> x 90 -> (0.5, -0.75, 4)
+  // -> z 90 -> (0.75, 0.5, 4) -> translate (1, 2, 3) -> (1.75, 2.5, 7).
+  EXPECT_THAT(ordered->positions[4], Vec3Near(Vec3f(1.75f, 2.5f, 7), 1e-5f));
+}
+
+TEST_F(MeshesSceneTest, MirroringTransformKeepsTrianglesFacingTheSameSide) {
+  const Mesh* mirrored = find_mesh(scene_, "'mirrored'");
+  ASSERT_NE(mirrored, nullptr);
+  EXPECT_THAT(mirrored->positions[1], Vec3Near(Vec3f(-1, 0, 0), 0));
+  // The original faces +z; a mirror in x must not turn it round.
+  EXPECT_GT(triangle_cross(*mirrored, 0).z, 0);
+  EXPECT_THAT(mirrored->normals[0], Vec3Near(Vec3f(0, 0, 1), 1e-6f));
+}
+
+TEST_F(MeshesSceneTest, FileMaterialsAreMergedUnlessOverridden) {
+  // grey, then box.obj's four, then lights.glb's four; the overridden box adds none.
+  ASSERT_EQ(scene_.materials.size(), 9u);
+  const Material* chrome = find_material(scene_, "box.obj:chrome");
+  ASSERT_NE(chrome, nullptr);
+  EXPECT_EQ(chrome->type, MaterialType::kMirror);
+  ASSERT_NE(find_material(scene_, "lights.glb:Lamp"), nullptr);
+
+  const Mesh* own = find_mesh(scene_, "'own materials'");
+  ASSERT_NE(own, nullptr);
+  std::vector<std::string> names;
+  for (uint32_t id : own->material_ids) names.push_back(scene_.materials[id].name);
+  EXPECT_THAT(names, ::testing::ElementsAre("box.obj:white", "box.obj:white", "box.obj:chrome",
+                                            "box.obj:glass", "box.obj:lamp"));
+  const Mesh* overridden = find_mesh(scene_, "'overridden'");
+  ASSERT_NE(overridden, nullptr);
+  for (uint32_t id : overridden->material_ids) EXPECT_EQ(scene_.materials[id].name, "grey");
+}
+
+TEST_F(MeshesSceneTest, MeshFileLightsFollowSceneLightsAndTheTransform) {
+  ASSERT_EQ(scene_.lights.size(), 4u);
+  EXPECT_THAT(scene_.lights[0].position, Vec3Near(Vec3f(0, 10, 0), 0));
+  EXPECT_EQ(scene_.lights[1].name, "Bulb");
+  EXPECT_THAT(scene_.lights[1].position, Vec3Near(Vec3f(0, 5, 100), 1e-5f));
+  const Mesh* gltf_lamp = find_mesh(scene_, "'Tri' primitive 2");
+  ASSERT_NE(gltf_lamp, nullptr);
+  EXPECT_THAT(gltf_lamp->name, HasSubstr("shapes[5] 'gltf' (lights.glb: mesh 'Tri'"));
+  EXPECT_THAT(gltf_lamp->positions[0], Vec3Near(Vec3f(0, 0, 98), 1e-5f));
+}
+
+TEST(ParseScene, ResolvesMeshPathsAgainstBaseDir) {
+  const std::string text = R"({
+    "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+    "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "lights": [{"type": "directional", "direction": [0, -1, 0], "irradiance": [1, 1, 1]}],
+    "shapes": [{"type": "mesh", "file": "quad_tri_be.ply", "material": "grey"}]
+  })";
+  const absl::StatusOr<Scene> scene = parse_scene(text, scene_data("meshes"), "inline.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->triangle_count(), 3u);
+}
+
+}  // namespace
+}  // namespace caustica

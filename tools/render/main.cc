@@ -1,0 +1,31 @@
+// caustica-render: renders a scene file locally on the CPU backend and writes an image.
+#include <unistd.h>
+
+#include <iostream>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/render/render_job.h"
+
+int main(int argc, char** argv) {
+  caustica::RenderJob job;
+  CLI::App app{"Render a Caustica scene file with photon-mapped global illumination."};
+  app.add_option("scene", job.scene, "scene file (JSON, see docs/scene-format.md)")->required()->check(CLI::ExistingFile);
+  app.add_option("-o,--output", job.output, "output image: .png/.jpg (tone-mapped sRGB) or .exr/.pfm (linear)")->required();
+  app.add_option("--width", job.width, "image width in pixels (default: the scene's camera)");
+  app.add_option("--height", job.height, "image height in pixels (default: the scene's camera)");
+  app.add_option("--photons", job.photons, "photons emitted per pass");
+  app.add_option("--k", job.k, "photons per radiance estimate (k nearest)");
+  app.add_option("--passes", job.passes, "progressive passes, fresh photons each");
+  app.add_option("--seed", job.seed, "random seed; the same seed gives the same image");
+  app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
+  CLI11_PARSE(app, argc, argv);
+  job.show_progress = isatty(STDERR_FILENO);
+
+  auto summary = caustica::run_render_job(job, std::cout);
+  if (!summary.ok()) {
+    std::cerr << "caustica-render: " << summary.status().message() << "\n";
+    return 1;
+  }
+  return 0;
+}
