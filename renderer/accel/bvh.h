@@ -31,10 +31,4 @@ struct Bvh {
   size_t node_count() const { return leaf_count == 0 ? 0 : 2 * size_t(leaf_count) - 1; }
 };
 
-// Builds the binary radix tree of Karras (2012) over `n` primitives whose Morton codes are sorted
-// ascending, with boxes from `sorted_leaf_bounds` (the primitives' boxes in the same order).
-// Equal codes are split by index, so any input gives a valid tree.
-Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes,
-                                const Aabb* sorted_leaf_bounds, uint32_t n, Aabb bounds);
-
 }  // namespace caustica

@@ -5,6 +5,7 @@
 
 #include <cfloat>
 
+#include "renderer/base/aabb.h"
 #include "renderer/base/ray.h"
 
 namespace caustica {
@@ -65,6 +66,14 @@ CAUSTICA_HDI bool intersect_triangle(const WatertightRay& r, const TriangleVerti
   u_out = v * inv_det;
   v_out = w * inv_det;
   return true;
+}
+
+CAUSTICA_HDI Aabb triangle_bounds(const TriangleVertices& t) {
+  Aabb b;
+  b.extend(t.p0);
+  b.extend(t.p1);
+  b.extend(t.p2);
+  return b;
 }
 
 CAUSTICA_HDI Vec3f geometric_normal(const TriangleVertices& tri) {

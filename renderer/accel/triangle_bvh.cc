@@ -1,6 +1,7 @@
 #include "renderer/accel/triangle_bvh.h"
 
-#include "renderer/base/morton.h"
+#include "renderer/accel/bvh_build.h"
+#include "renderer/accel/morton_order.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -13,44 +14,26 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
     out.bvh.nodes.bind(backend);
     return out;
   }
-  // Pass 1: triangle boxes, and centroid points whose reduction is the box the codes quantise.
+  // Pass 1: triangle boxes and the scene box. Codes quantise box centres over the scene box (not
+  // the tighter centroid box): one reduction less, and no measurable loss on scanned meshes.
   Buffer<Aabb> boxes(backend, count);
-  Buffer<Aabb> centroids(backend, count);
   Aabb* box = boxes.data();
-  Aabb* centroid = centroids.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
-    const TriangleVertices& t = triangles[i];
-    Aabb b;
-    b.extend(t.p0);
-    b.extend(t.p1);
-    b.extend(t.p2);
-    box[i] = b;
-    Vec3f c = b.center();
-    centroid[i] = Aabb{c, c};
-  });
+  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
   const Aabb scene_bounds = backend.reduce_bounds(box, count);
-  const Aabb centroid_bounds = backend.reduce_bounds(centroid, count);
 
   // Pass 2: Morton codes, sorted with the triangle indices.
-  Buffer<uint32_t> codes(backend, count);
-  out.triangle_ids.resize_discard(count);
-  uint32_t* code = codes.data();
-  uint32_t* ids = out.triangle_ids.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
-    code[i] = morton_code(centroid[i].lower, centroid_bounds);
-    ids[i] = uint32_t(i);
-  });
-  backend.sort_pairs(code, ids, count, 30);
+  MortonOrder sorted_order = sort_by_morton(backend, box, count, scene_bounds);
+  out.triangle_ids = std::move(sorted_order.order);
+  const uint32_t* ids = out.triangle_ids.data();
 
-  // Pass 3: triangles and boxes gathered into leaf order (boxes reuse the centroid buffer).
+  // Pass 3: triangles gathered into leaf order; the hierarchy reads their boxes from there.
   out.triangles.resize_discard(count);
   TriangleVertices* sorted = out.triangles.data();
-  Aabb* sorted_box = centroids.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
-    sorted[i] = triangles[ids[i]];
-    sorted_box[i] = box[ids[i]];
-  });
-  out.bvh = build_bvh_from_sorted_codes(backend, code, sorted_box, count, scene_bounds);
+  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { sorted[i] = triangles[ids[i]]; });
+  out.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), count, scene_bounds,
+                                        [=] CAUSTICA_HD(uint32_t leaf) {
+                                          return triangle_bounds(sorted[leaf]);
+                                        });
   return out;
 }
 

@@ -1,6 +1,7 @@
 #include "renderer/photon/photon_map.h"
 
-#include "renderer/base/morton.h"
+#include "renderer/accel/bvh_build.h"
+#include "renderer/accel/morton_order.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -19,23 +20,16 @@ PhotonMap build_photon_map(Backend& backend, Buffer<Photon> photons) {
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { point[i] = Aabb{in[i].position, in[i].position}; });
   const Aabb bounds = backend.reduce_bounds(point, n);
 
-  Buffer<uint32_t> codes(backend, n);
-  Buffer<uint32_t> order(backend, n);
-  uint32_t* code = codes.data();
-  uint32_t* id = order.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    code[i] = morton_code(in[i].position, bounds);
-    id[i] = uint32_t(i);
-  });
-  backend.sort_pairs(code, id, n, 30);
+  MortonOrder sorted_order = sort_by_morton(backend, point, n, bounds);
+  const uint32_t* id = sorted_order.order.data();
 
   map.photons.resize_discard(n);
   Photon* sorted = map.photons.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    sorted[i] = in[id[i]];
-    point[i] = Aabb{sorted[i].position, sorted[i].position};
-  });
-  map.bvh = build_bvh_from_sorted_codes(backend, code, point, n, bounds);
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { sorted[i] = in[id[i]]; });
+  map.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), n, bounds,
+                                        [=] CAUSTICA_HD(uint32_t leaf) {
+                                          return Aabb{sorted[leaf].position, sorted[leaf].position};
+                                        });
   return map;
 }
 

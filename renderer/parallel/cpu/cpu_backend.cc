@@ -47,43 +47,46 @@ void for_each_chunk(const Chunking& chunks, Fn fn) {
   tbb::parallel_for(size_t{0}, chunks.count, [&](size_t c) { fn(c); });
 }
 
-// LSD radix sort, 8-bit digits, ping-ponging with the caller's scratch arrays of n elements.
-// Passes whose digit is the same for every key are skipped.
+// LSD radix sort with as few passes as digits of at most 11 bits allow (30-bit Morton codes take
+// three 10-bit passes), ping-ponging with the caller's scratch arrays of n elements. Passes whose
+// digit is the same for every key are skipped.
 template <typename Key>
 void radix_sort_pairs(Key* keys, uint32_t* values, size_t n, int end_bit, Key* keys_tmp,
                       uint32_t* values_tmp) {
-  if (n < 2) return;
+  if (n < 2 || end_bit <= 0) return;
+  const int passes = (end_bit + 10) / 11;
+  const int digit_bits = (end_bit + passes - 1) / passes;
+  const size_t buckets = size_t{1} << digit_bits;
+  const Key mask = Key(buckets - 1);
   Key* key_src = keys;
   Key* key_dst = keys_tmp;
   uint32_t* val_src = values;
   uint32_t* val_dst = values_tmp;
   Chunking chunks(n);
-  std::vector<uint32_t> counts(chunks.count * 256);
-  for (int shift = 0; shift < end_bit; shift += 8) {
+  std::vector<uint32_t> counts(chunks.count * buckets);
+  for (int shift = 0; shift < end_bit; shift += digit_bits) {
     std::fill(counts.begin(), counts.end(), 0);
     for_each_chunk(chunks, [&](size_t c) {
-      uint32_t* count = &counts[c * 256];
-      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) ++count[(key_src[i] >> shift) & 0xff];
+      uint32_t* count = &counts[c * buckets];
+      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) ++count[(key_src[i] >> shift) & mask];
     });
     // Exclusive offsets, digit-major then chunk order, which makes the scatter stable.
     uint32_t running = 0;
     bool single_digit = false;
-    for (int d = 0; d < 256; ++d) {
+    for (size_t d = 0; d < buckets; ++d) {
       uint32_t digit_total = 0;
       for (size_t c = 0; c < chunks.count; ++c) {
-        uint32_t& slot = counts[c * 256 + d];
-        uint32_t cnt = slot;
-        slot = running + digit_total;
-        digit_total += cnt;
+        uint32_t& slot = counts[c * buckets + d];
+        digit_total += std::exchange(slot, running + digit_total);
       }
-      if (digit_total == n) single_digit = true;
+      single_digit |= digit_total == n;
       running += digit_total;
     }
     if (single_digit) continue;
     for_each_chunk(chunks, [&](size_t c) {
-      uint32_t* offset = &counts[c * 256];
+      uint32_t* offset = &counts[c * buckets];
       for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) {
-        uint32_t pos = offset[(key_src[i] >> shift) & 0xff]++;
+        uint32_t pos = offset[(key_src[i] >> shift) & mask]++;
         key_dst[pos] = key_src[i];
         val_dst[pos] = val_src[i];
       }

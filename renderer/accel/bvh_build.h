@@ -4,13 +4,18 @@
 // split, l-1 or r, has the longer common prefix. Each leaf's thread climbs until it is the first
 // of two siblings to reach their parent (an atomic exchange decides), merging boxes on the way, so
 // topology and bounds come out of the same pass with O(n) total work and no binary searches.
-#include "renderer/accel/bvh.h"
+//
+// A template so that each caller computes its leaf boxes on the fly (from sorted triangles or
+// photons) instead of writing and re-reading an array of them.
+#pragma once
 
+#include "renderer/accel/bvh.h"
 #include "renderer/base/atomic.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
-namespace {
+
+namespace detail {
 
 constexpr uint32_t kUnvisited = 0xffffffffu;
 
@@ -22,10 +27,14 @@ CAUSTICA_HDI uint64_t split_key(const uint32_t* codes, uint32_t k) {
   return x != 0 ? (uint64_t(x) << 32) : uint64_t(k ^ (k + 1));
 }
 
-}  // namespace
+}  // namespace detail
 
-Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes,
-                                const Aabb* sorted_leaf_bounds, uint32_t n, Aabb bounds) {
+// Builds the binary radix tree over `n` primitives whose Morton codes are sorted ascending;
+// `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order. Equal
+// codes are split by index, so any input gives a valid tree.
+template <typename LeafBox>
+Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
+                                Aabb bounds, LeafBox leaf_box) {
   Bvh bvh;
   bvh.leaf_count = n;
   bvh.bounds = bounds;
@@ -46,22 +55,23 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes,
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t leaf) {
     uint32_t l = uint32_t(leaf), r = uint32_t(leaf);
     uint32_t current = kLeafFlag | uint32_t(leaf);
-    Aabb box = sorted_leaf_bounds[leaf];
+    Aabb box = leaf_box(uint32_t(leaf));
     while (true) {
       uint32_t parent, seen;
-      if (l == 0 || (r != last && split_key(sorted_codes, r) < split_key(sorted_codes, l - 1))) {
+      if (l == 0 || (r != last && detail::split_key(sorted_codes, r) <
+                                      detail::split_key(sorted_codes, l - 1))) {
         parent = r;  // we are the left child of the split after our range
         nodes[parent].child[0] = current;
         nodes[parent].child_bounds[0] = box;
         seen = atomic_exchange(&other[parent], l);
-        if (seen == kUnvisited) return;  // the sibling will finish this node
+        if (seen == detail::kUnvisited) return;  // the sibling will finish this node
         r = seen;
       } else {
         parent = l - 1;  // we are the right child of the split before our range
         nodes[parent].child[1] = current;
         nodes[parent].child_bounds[1] = box;
         seen = atomic_exchange(&other[parent], r);
-        if (seen == kUnvisited) return;
+        if (seen == detail::kUnvisited) return;
         l = seen;
       }
       box = merge(nodes[parent].child_bounds[0], nodes[parent].child_bounds[1]);

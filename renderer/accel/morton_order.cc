@@ -1,0 +1,21 @@
+#include "renderer/accel/morton_order.h"
+
+#include "renderer/base/morton.h"
+#include "renderer/parallel/parallel_for.h"
+
+namespace caustica {
+
+MortonOrder sort_by_morton(Backend& backend, const Aabb* boxes, uint32_t n, const Aabb& bounds) {
+  MortonOrder out{Buffer<uint32_t>(backend, n), Buffer<uint32_t>(backend, n)};
+  uint32_t* code = out.codes.data();
+  uint32_t* id = out.order.data();
+  const Aabb b = bounds;
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    code[i] = morton_code(boxes[i].center(), b);
+    id[i] = uint32_t(i);
+  });
+  backend.sort_pairs(code, id, n, 30);
+  return out;
+}
+
+}  // namespace caustica
