@@ -103,9 +103,12 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   const TriangleVertices* input = resident.view().triangles;
 
   if (wanted(o, "lbvh_build")) {
-    Measurement m = measure(o, *backend, [&] { build_triangle_bvh(*backend, input, tris); });
+    // The LBVH itself (codes, sort, hierarchy with bounds), then with the 4-wide collapse that
+    // traversal uses.
+    Measurement m = measure(o, *backend, [&] { build_triangle_lbvh(*backend, input, tris); });
     report.line("lbvh_build", name, tris / (m.median * 1e3), "Mtris/s", &m, o.runs);
-    report.line("lbvh_build_time", name, m.median, "ms", &m, o.runs);
+    Measurement s = measure(o, *backend, [&] { build_triangle_bvh(*backend, input, tris); });
+    report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
   }
   report.line("triangle_structure_bytes_per_triangle", name,
               double(resident.bvh().bytes()) / tris, "B/tri");

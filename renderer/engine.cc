@@ -185,7 +185,7 @@ SceneStats Engine::scene_stats() const {
   SceneStats s;
   if (!st.resident) return s;
   s.triangles = st.resident->triangle_count();
-  s.structure_nodes = st.resident->bvh().bvh.node_count();
+  s.structure_nodes = st.resident->bvh().node_count();
   s.structure_bytes = st.resident->bvh().bytes();
   s.photon_map_bytes = st.last_photon_map_bytes;
   s.lights = st.resident->view().light_count;

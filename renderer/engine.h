@@ -46,7 +46,7 @@ struct PassReport {
 
 struct SceneStats {
   size_t triangles = 0;
-  size_t structure_nodes = 0;
+  size_t structure_nodes = 0;  // 4-wide nodes of the triangle structure
   size_t structure_bytes = 0;
   size_t photon_map_bytes = 0;
   size_t lights = 0;

@@ -6,12 +6,27 @@
 
 namespace caustica {
 
-// Karras trees over 30-bit codes plus index tie-breaks are at most ~62 levels deep.
-constexpr int kTraversalStackSize = 64;
+// Each 4-wide node pushes at most three entries, and the collapsed tree is about half as deep as
+// the binary one (at most ~62 levels for 30-bit codes plus index tie-breaks).
+constexpr int kTraversalStackSize = 96;
 
 namespace detail {
 
-// Visits leaves along `ray` in near-first order; `on_leaf(sorted_index, t_max&)` tests one
+// Entry distances of the ray into the four child boxes of `n`; +infinity for a miss or an empty
+// slot. Written as one loop over the structure-of-arrays fields so it vectorises.
+CAUSTICA_HDI void intersect_children(const Bvh4Node& n, Vec3f origin, Vec3f inv_dir, float t_min,
+                                     float t_max, float t_out[4]) {
+  for (int c = 0; c < 4; ++c) {
+    float tx0 = (n.lower_x[c] - origin.x) * inv_dir.x, tx1 = (n.upper_x[c] - origin.x) * inv_dir.x;
+    float ty0 = (n.lower_y[c] - origin.y) * inv_dir.y, ty1 = (n.upper_y[c] - origin.y) * inv_dir.y;
+    float tz0 = (n.lower_z[c] - origin.z) * inv_dir.z, tz1 = (n.upper_z[c] - origin.z) * inv_dir.z;
+    float t_near = max_f(max_f(min_f(tx0, tx1), min_f(ty0, ty1)), max_f(min_f(tz0, tz1), t_min));
+    float t_far = min_f(min_f(max_f(tx0, tx1), max_f(ty0, ty1)), min_f(max_f(tz0, tz1), t_max));
+    t_out[c] = (t_near <= t_far * 1.00000024f && n.child[c] != kEmptyChild) ? t_near : INFINITY;
+  }
+}
+
+// Visits leaves along `ray`, nearer subtrees first; `on_leaf(sorted_index, t_max&)` tests one
 // triangle, may shrink t_max, and returns true to stop the traversal (any hit).
 template <typename OnLeaf>
 CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_max, OnLeaf on_leaf) {
@@ -24,39 +39,40 @@ CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_
   }
   uint32_t stack[kTraversalStackSize];
   int top = 0;
-  uint32_t node = bvh.root;
+  uint32_t node = 0;
   while (true) {
-    const BvhNode& n = bvh.nodes[node];
-    float t0 = intersect_slabs(n.child_bounds[0], ray.origin, inv_dir, ray.t_min, t_max);
-    float t1 = intersect_slabs(n.child_bounds[1], ray.origin, inv_dir, ray.t_min, t_max);
-    uint32_t c0 = n.child[0], c1 = n.child[1];
-    bool hit0 = t0 <= t_max, hit1 = t1 <= t_max;
-    // Leaves are tested at once; only internal children go on the path.
-    if (hit0 && is_leaf(c0)) {
-      if (on_leaf(leaf_index(c0), t_max)) return;
-      hit0 = false;
-      hit1 = hit1 && t1 <= t_max;
-    }
-    if (hit1 && is_leaf(c1)) {
-      if (on_leaf(leaf_index(c1), t_max)) return;
-      hit1 = false;
-    }
-    if (hit0 && hit1) {
-      if (t1 < t0) {
-        uint32_t c = c0;
-        c0 = c1;
-        c1 = c;
+    const Bvh4Node& n = bvh.nodes[node];
+    float t[4];
+    intersect_children(n, ray.origin, inv_dir, ray.t_min, t_max, t);
+    // Leaves first, so that their hits shrink t_max before the subtrees are ordered.
+    for (int c = 0; c < 4; ++c) {
+      if (t[c] <= t_max && is_leaf(n.child[c])) {
+        if (on_leaf(leaf_index(n.child[c]), t_max)) return;
+        t[c] = INFINITY;
       }
-      stack[top++] = c1;
-      node = c0;
-    } else if (hit0) {
-      node = c0;
-    } else if (hit1) {
-      node = c1;
-    } else {
+    }
+    // The internal children still in reach, sorted near to far (at most four: insertion sort).
+    uint32_t next[4];
+    float next_t[4];
+    int k = 0;
+    for (int c = 0; c < 4; ++c) {
+      if (!(t[c] <= t_max)) continue;
+      int j = k++;
+      while (j > 0 && next_t[j - 1] > t[c]) {
+        next[j] = next[j - 1];
+        next_t[j] = next_t[j - 1];
+        --j;
+      }
+      next[j] = n.child[c];
+      next_t[j] = t[c];
+    }
+    if (k == 0) {
       if (top == 0) return;
       node = stack[--top];
+      continue;
     }
+    for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
+    node = next[0];
   }
 }
 

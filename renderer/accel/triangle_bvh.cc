@@ -6,8 +6,9 @@
 
 namespace caustica {
 
-TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count) {
-  TriangleBvh out;
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                uint32_t count) {
+  TriangleLbvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
   if (count == 0) {
@@ -34,6 +35,15 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
                                         [=] CAUSTICA_HD(uint32_t leaf) {
                                           return triangle_bounds(sorted[leaf]);
                                         });
+  return out;
+}
+
+TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count) {
+  TriangleLbvh lbvh = build_triangle_lbvh(backend, triangles, count);
+  TriangleBvh out;
+  out.bvh = collapse_to_bvh4(backend, lbvh.bvh);
+  out.triangles = std::move(lbvh.triangles);
+  out.triangle_ids = std::move(lbvh.triangle_ids);
   return out;
 }
 

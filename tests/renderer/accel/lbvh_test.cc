@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <functional>
 #include <set>
 
 #include "renderer/accel/traversal.h"
@@ -48,9 +49,11 @@ Aabb box_of(const TriangleVertices& t) {
 struct Built {
   std::unique_ptr<Backend> backend = make_cpu_backend(size_t(2) << 30);
   Buffer<TriangleVertices> input;
+  TriangleLbvh lbvh;
   TriangleBvh bvh;
   explicit Built(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
     input.upload(tris);
+    lbvh = build_triangle_lbvh(*backend, input.data(), uint32_t(tris.size()));
     bvh = build_triangle_bvh(*backend, input.data(), uint32_t(tris.size()));
   }
 };
@@ -59,12 +62,12 @@ struct Built {
 void check_invariants(const std::vector<TriangleVertices>& tris) {
   Built b(tris);
   const size_t n = tris.size();
-  ASSERT_EQ(b.bvh.bvh.leaf_count, n);
-  ASSERT_EQ(b.bvh.bvh.node_count(), 2 * n - 1);
-  ASSERT_EQ(b.bvh.bvh.nodes.size(), n - 1);
-  auto nodes = b.bvh.bvh.nodes.download();
-  auto sorted = b.bvh.triangles.download();
-  auto ids = b.bvh.triangle_ids.download();
+  ASSERT_EQ(b.lbvh.bvh.leaf_count, n);
+  ASSERT_EQ(b.lbvh.bvh.node_count(), 2 * n - 1);
+  ASSERT_EQ(b.lbvh.bvh.nodes.size(), n - 1);
+  auto nodes = b.lbvh.bvh.nodes.download();
+  auto sorted = b.lbvh.triangles.download();
+  auto ids = b.lbvh.triangle_ids.download();
   // Leaves in sorted order hold the triangles their ids name.
   std::vector<int> id_seen(n, 0);
   for (size_t i = 0; i < n; ++i) {
@@ -79,7 +82,7 @@ void check_invariants(const std::vector<TriangleVertices>& tris) {
     uint32_t node;
     Aabb box;
   };
-  std::vector<Item> todo{{b.bvh.bvh.root, b.bvh.bvh.bounds}};
+  std::vector<Item> todo{{b.lbvh.bvh.root, b.lbvh.bvh.bounds}};
   size_t visited = 0;
   while (!todo.empty()) {
     Item it = todo.back();
@@ -106,6 +109,48 @@ void check_invariants(const std::vector<TriangleVertices>& tris) {
   EXPECT_EQ(visited, n - 1);
   for (int c : internal_seen) ASSERT_EQ(c, 1);
   for (int c : leaf_seen) ASSERT_EQ(c, 1);
+
+  // Binary radix tree: internal node k splits its leaf range between leaves k and k + 1.
+  std::vector<std::pair<uint32_t, uint32_t>> range(n - 1);
+  std::function<std::pair<uint32_t, uint32_t>(uint32_t)> span = [&](uint32_t child) {
+    if (is_leaf(child)) return std::make_pair(leaf_index(child), leaf_index(child));
+    auto l = span(nodes[child].child[0]), r = span(nodes[child].child[1]);
+    EXPECT_EQ(l.second, child);
+    EXPECT_EQ(r.first, child + 1);
+    return std::make_pair(l.first, r.second);
+  };
+  auto all = span(b.lbvh.bvh.root);
+  EXPECT_EQ(all.first, 0u);
+  EXPECT_EQ(all.second, n - 1);
+
+  // The 4-wide collapse: every leaf once, child boxes inside their parents, no empty node.
+  auto wide = b.bvh.bvh.nodes.download();
+  ASSERT_GE(wide.size(), (n + 2) / 3);
+  ASSERT_LE(wide.size(), n - 1);
+  std::vector<int> wide_leaf_seen(n, 0), wide_seen(wide.size(), 0);
+  std::vector<Item> open{{0, b.bvh.bvh.bounds}};
+  while (!open.empty()) {
+    Item it = open.back();
+    open.pop_back();
+    ASSERT_LT(it.node, wide.size());
+    ++wide_seen[it.node];
+    int children = 0;
+    for (int c = 0; c < 4; ++c) {
+      uint32_t child = wide[it.node].child[c];
+      if (child == kEmptyChild) continue;
+      ++children;
+      Aabb box = wide[it.node].child_bounds(c);
+      ASSERT_TRUE(it.box.contains(box));
+      if (is_leaf(child)) {
+        ++wide_leaf_seen[leaf_index(child)];
+      } else {
+        open.push_back({child, box});
+      }
+    }
+    ASSERT_GE(children, 2);
+  }
+  for (int c : wide_seen) ASSERT_EQ(c, 1);
+  for (int c : wide_leaf_seen) ASSERT_EQ(c, 1);
 }
 
 TEST(Lbvh, InvariantsOnRandomSoups) {
@@ -124,12 +169,13 @@ TEST(Lbvh, InvariantsOnBundledScene) { check_invariants(scene_triangles("cornell
 
 TEST(Lbvh, EmptyAndSingleTriangle) {
   Built empty({});
-  EXPECT_EQ(empty.bvh.bvh.node_count(), 0u);
+  EXPECT_EQ(empty.lbvh.bvh.node_count(), 0u);
+  EXPECT_EQ(empty.bvh.node_count(), 0u);
   Hit h = closest_hit(empty.bvh.view(), Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
   EXPECT_FALSE(h.valid());
 
   Built one({{Vec3f(-1, -1, 0), Vec3f(1, -1, 0), Vec3f(0, 1, 0)}});
-  EXPECT_EQ(one.bvh.bvh.node_count(), 1u);
+  EXPECT_EQ(one.lbvh.bvh.node_count(), 1u);
   h = closest_hit(one.bvh.view(), Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
   ASSERT_TRUE(h.valid());
   EXPECT_FLOAT_EQ(h.t, 1.0f);
