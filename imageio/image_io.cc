@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
@@ -22,6 +23,24 @@ float srgb_encode(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
 }
 
+// PFM (portable float map): "PF", size, a negative scale for little-endian, then RGB float rows
+// from the bottom up. Written here because OpenImageIO 2.4's PNM writer only writes 8/16-bit.
+absl::Status write_pfm(const std::filesystem::path& path, const LinearImage& image) {
+  std::FILE* f = std::fopen(path.string().c_str(), "wb");
+  if (f == nullptr) return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot open for writing"));
+  std::string header = absl::StrCat("PF\n", image.width, " ", image.height, "\n-1.0\n");
+  bool ok = std::fwrite(header.data(), 1, header.size(), f) == header.size();
+  std::vector<float> row(size_t(image.width) * 3);
+  for (int y = image.height - 1; ok && y >= 0; --y) {
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c) row[3 * x + c] = image.rgba[4 * (size_t(y) * image.width + x) + c];
+    ok = std::fwrite(row.data(), sizeof(float), row.size(), f) == row.size();
+  }
+  ok = std::fclose(f) == 0 && ok;
+  if (!ok) return absl::InternalError(absl::StrCat(path.string(), ": write failed"));
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 bool is_float_format(const std::filesystem::path& path) {
@@ -35,9 +54,8 @@ absl::Status write_image(const std::filesystem::path& path, const LinearImage& i
       image.rgba.size() != size_t(image.width) * image.height * 4)
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": image has no pixels"));
   const bool linear = is_float_format(path);
-  const std::string ext = extension_of(path);
-  // PFM holds RGB only; the other formats keep alpha.
-  const int channels = ext == ".pfm" ? 3 : 4;
+  if (extension_of(path) == ".pfm") return write_pfm(path, image);
+  const int channels = 4;
   const size_t n = size_t(image.width) * image.height;
   std::vector<float> pixels(n * channels);
   const float scale = std::exp2(exposure_stops);

@@ -34,6 +34,13 @@ struct Chunking {
     count = std::clamp<size_t>(n / kSerialBelow, 1, max_chunks);
     size = (n + count - 1) / count;
   }
+  static Chunking single(size_t n) {
+    Chunking c(0);
+    c.n = n;
+    c.count = 1;
+    c.size = n;
+    return c;
+  }
   size_t begin(size_t c) const { return std::min(n, c * size); }
   size_t end(size_t c) const { return std::min(n, (c + 1) * size); }
 };
@@ -47,57 +54,77 @@ void for_each_chunk(const Chunking& chunks, Fn fn) {
   tbb::parallel_for(size_t{0}, chunks.count, [&](size_t c) { fn(c); });
 }
 
-// LSD radix sort with as few passes as digits of at most 11 bits allow (30-bit Morton codes take
-// three 10-bit passes), ping-ponging with the caller's scratch arrays of n elements. Passes whose
-// digit is the same for every key are skipped.
+// One stable counting-sort pass on the digit (key >> shift) & (buckets - 1), from src to dst.
+template <typename Key>
+void scatter_by_digit(const Key* key_src, const uint32_t* val_src, Key* key_dst, uint32_t* val_dst,
+                      size_t n, int shift, size_t buckets, std::vector<uint32_t>& counts,
+                      bool parallel) {
+  const Key mask = Key(buckets - 1);
+  Chunking chunks = parallel ? Chunking(n) : Chunking::single(n);
+  counts.assign(chunks.count * buckets, 0);
+  for_each_chunk(chunks, [&](size_t c) {
+    uint32_t* count = &counts[c * buckets];
+    for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) ++count[(key_src[i] >> shift) & mask];
+  });
+  // Exclusive offsets, digit-major then chunk order, which makes the scatter stable.
+  uint32_t running = 0;
+  for (size_t d = 0; d < buckets; ++d)
+    for (size_t c = 0; c < chunks.count; ++c)
+      running += std::exchange(counts[c * buckets + d], running);
+  for_each_chunk(chunks, [&](size_t c) {
+    uint32_t* offset = &counts[c * buckets];
+    for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) {
+      uint32_t pos = offset[(key_src[i] >> shift) & mask]++;
+      key_dst[pos] = key_src[i];
+      val_dst[pos] = val_src[i];
+    }
+  });
+}
+
+// Stable LSD sort of the low `bits` bits, an odd number of passes from (src) to (dst), so the
+// result lands in dst; used on cache-sized buckets.
+template <typename Key>
+void lsd_sort_into(Key* key_src, uint32_t* val_src, Key* key_dst, uint32_t* val_dst, size_t n,
+                   int bits, std::vector<uint32_t>& counts) {
+  if (bits <= 0 || n < 2) {
+    std::memcpy(key_dst, key_src, n * sizeof(Key));
+    std::memcpy(val_dst, val_src, n * sizeof(uint32_t));
+    return;
+  }
+  int passes = (bits + 7) / 8;
+  if (passes % 2 == 0) ++passes;
+  const int digit_bits = (bits + passes - 1) / passes;
+  for (int p = 0; p < passes; ++p) {
+    scatter_by_digit(key_src, val_src, key_dst, val_dst, n, p * digit_bits, size_t{1} << digit_bits,
+                     counts, /*parallel=*/false);
+    std::swap(key_src, key_dst);
+    std::swap(val_src, val_dst);
+  }
+}
+
+// Stable radix sort of the key bits [0, end_bit). One parallel pass scatters by the top 10 bits
+// into the scratch arrays; every bucket, now small enough for the cache, is then LSD-sorted back
+// into place independently and in parallel. Only the first pass moves data across all of memory.
 template <typename Key>
 void radix_sort_pairs(Key* keys, uint32_t* values, size_t n, int end_bit, Key* keys_tmp,
                       uint32_t* values_tmp) {
   if (n < 2 || end_bit <= 0) return;
-  const int passes = (end_bit + 10) / 11;
-  const int digit_bits = (end_bit + passes - 1) / passes;
-  const size_t buckets = size_t{1} << digit_bits;
+  const int top_bits = std::min(end_bit, 10);
+  const int low_bits = end_bit - top_bits;
+  const size_t buckets = size_t{1} << top_bits;
+  std::vector<uint32_t> counts;
+  scatter_by_digit(keys, values, keys_tmp, values_tmp, n, low_bits, buckets, counts, true);
+  // Bucket starts: recount from the scattered keys (cheap, and keeps scatter_by_digit simple).
+  std::vector<uint32_t> start(buckets + 1, 0);
   const Key mask = Key(buckets - 1);
-  Key* key_src = keys;
-  Key* key_dst = keys_tmp;
-  uint32_t* val_src = values;
-  uint32_t* val_dst = values_tmp;
-  Chunking chunks(n);
-  std::vector<uint32_t> counts(chunks.count * buckets);
-  for (int shift = 0; shift < end_bit; shift += digit_bits) {
-    std::fill(counts.begin(), counts.end(), 0);
-    for_each_chunk(chunks, [&](size_t c) {
-      uint32_t* count = &counts[c * buckets];
-      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) ++count[(key_src[i] >> shift) & mask];
-    });
-    // Exclusive offsets, digit-major then chunk order, which makes the scatter stable.
-    uint32_t running = 0;
-    bool single_digit = false;
-    for (size_t d = 0; d < buckets; ++d) {
-      uint32_t digit_total = 0;
-      for (size_t c = 0; c < chunks.count; ++c) {
-        uint32_t& slot = counts[c * buckets + d];
-        digit_total += std::exchange(slot, running + digit_total);
-      }
-      single_digit |= digit_total == n;
-      running += digit_total;
-    }
-    if (single_digit) continue;
-    for_each_chunk(chunks, [&](size_t c) {
-      uint32_t* offset = &counts[c * buckets];
-      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) {
-        uint32_t pos = offset[(key_src[i] >> shift) & mask]++;
-        key_dst[pos] = key_src[i];
-        val_dst[pos] = val_src[i];
-      }
-    });
-    std::swap(key_src, key_dst);
-    std::swap(val_src, val_dst);
-  }
-  if (key_src != keys) {
-    std::memcpy(keys, key_src, n * sizeof(Key));
-    std::memcpy(values, val_src, n * sizeof(uint32_t));
-  }
+  for (size_t i = 0; i < n; ++i) ++start[((keys_tmp[i] >> low_bits) & mask) + 1];
+  for (size_t d = 0; d < buckets; ++d) start[d + 1] += start[d];
+  tbb::parallel_for(size_t{0}, buckets, [&](size_t d) {
+    thread_local std::vector<uint32_t> local_counts;
+    size_t begin = start[d], size = start[d + 1] - begin;
+    lsd_sort_into(keys_tmp + begin, values_tmp + begin, keys + begin, values + begin, size, low_bits,
+                  local_counts);
+  });
 }
 
 // Sums run in Acc (double for floats) so a scan of a million floats keeps float precision.
