@@ -1,5 +1,6 @@
 #include "renderer/render/whitted.h"
 
+#include "renderer/accel/packet_traversal.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/density.h"
@@ -27,21 +28,52 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const uint32_t k = cfg.k_nearest < kMaxNearest ? cfg.k_nearest : kMaxNearest;
   const uint32_t max_depth = cfg.max_depth < kMaxSpecularDepth ? cfg.max_depth : kMaxSpecularDepth;
   Vec3f* accum = film.accumulator();
-  const int width = camera.width;
-
-  parallel_for(backend, size_t(camera.width) * camera.height, [=] CAUSTICA_HD(size_t pixel) {
-    Sampler s(cfg.seed, uint32_t(pixel), cfg.pass);
+  const int width = camera.width, height = camera.height;
+  const uint32_t seed = cfg.seed, pass = cfg.pass;
+  // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
+  auto camera_ray = [=] CAUSTICA_HD(size_t pixel, Sampler& s) {
     float x = float(pixel % width) + s.next_float();
     float y = float(pixel / width) + s.next_float();
+    return camera.ray_through(x, y);
+  };
+
+  // Stage 1: primary hits, traced as packets of kPacketTile^2 camera rays sharing the eye.
+  Buffer<Hit> primary_hits(backend, size_t(width) * height);
+  Hit* primary = primary_hits.data();
+  const int tiles_x = (width + kPacketTile - 1) / kPacketTile;
+  const int tiles_y = (height + kPacketTile - 1) / kPacketTile;
+  parallel_for(backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
+    const int tx = int(tile % tiles_x) * kPacketTile, ty = int(tile / tiles_x) * kPacketTile;
+    RayPacket packet;
+    packet.origin = camera.origin;
+    size_t pixels[kPacketRays];
+    for (int y = ty; y < ty + kPacketTile && y < height; ++y) {
+      for (int x = tx; x < tx + kPacketTile && x < width; ++x) {
+        size_t pixel = size_t(y) * width + x;
+        Sampler s(seed, uint32_t(pixel), pass);
+        pixels[packet.count] = pixel;
+        packet.direction[packet.count++] = camera_ray(pixel, s).direction;
+      }
+    }
+    Hit hits[kPacketRays];
+    closest_hit_packet(scene.bvh, packet, hits);
+    for (int i = 0; i < packet.count; ++i) primary[pixels[i]] = hits[i];
+  });
+
+  // Stage 2: shading, one pixel per thread.
+  parallel_for(backend, size_t(width) * height, [=] CAUSTICA_HD(size_t pixel) {
+    Sampler s(seed, uint32_t(pixel), pass);
     // Depth-first over the specular tree: each dielectric hit adds at most one pending branch.
     PendingRay stack[kMaxSpecularDepth + 2];
     int top = 0;
-    stack[top++] = {camera.ray_through(x, y), Vec3f(1.0f), 0};
+    stack[top++] = {camera_ray(pixel, s), Vec3f(1.0f), 0};
+    bool camera_ray_pending = true;
     Neighbour heap[kMaxNearest];
     Vec3f radiance(0.0f);
     while (top > 0) {
       PendingRay pr = stack[--top];
-      Hit hit = closest_hit(scene.bvh, pr.ray);
+      Hit hit = camera_ray_pending ? primary[pixel] : closest_hit(scene.bvh, pr.ray);
+      camera_ray_pending = false;
       if (!hit.valid()) continue;  // black background
       SurfaceHit sh = surface_at(scene, hit);
       const DeviceMaterial& m = scene.materials[sh.material];

@@ -24,7 +24,8 @@ struct ShadingSettings {
   uint32_t pass = 0;
 };
 
-// Renders one pass (one jittered sample per pixel) and adds it to the film.
+// Renders one pass (one jittered sample per pixel) and adds it to the film: camera rays first, as
+// packets (accel/packet_traversal.h), then shading per pixel.
 void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,
                  const ShadingSettings& settings, Film& film);

@@ -1,0 +1,184 @@
+// Closest hits for a packet of rays that share an origin (a square tile of camera rays).
+// One interval-arithmetic box test per child decides for the whole packet whether any of its rays
+// can enter (Boulos et al., "Packet-based Whitted and Distribution Ray Tracing", GI 2007), and
+// each triangle is tested against all rays in one branch-free loop that compilers vectorise. The
+// shared origin makes the triangle's vertices relative to it common to the packet, so the
+// watertight test (triangle.h) per ray costs a few multiply-adds. Results are the same t and
+// barycentrics the single-ray closest_hit computes, bit for bit (same operations in the same
+// order); among exact ties the triangle found may differ.
+#pragma once
+
+#include "renderer/accel/traversal.h"
+
+namespace caustica {
+
+// A packet is a tile of kPacketTile x kPacketTile camera rays.
+constexpr int kPacketTile = 4;  // 8x8 measured 25% slower on the dragon: looser interval tests
+constexpr int kPacketRays = kPacketTile * kPacketTile;
+
+struct RayPacket {
+  Vec3f origin;
+  Vec3f direction[kPacketRays];
+  int count = 0;
+};
+
+namespace detail {
+
+// Per-packet constants; valid only when every ray shares direction signs and the watertight
+// shear axes, which holds for camera tiles except those straddling an axis plane.
+struct PacketFrame {
+  int kx, ky, kz;
+  float sx[kPacketRays], sy[kPacketRays], sz[kPacketRays];
+  Vec3f inv_min, inv_max;
+  bool coherent;
+};
+
+CAUSTICA_HDI PacketFrame packet_frame(const RayPacket& p) {
+  PacketFrame f;
+  WatertightRay first(Ray{p.origin, p.direction[0]});
+  f.kx = first.kx;
+  f.ky = first.ky;
+  f.kz = first.kz;
+  f.coherent = true;
+  Vec3f inv0 = safe_reciprocal(p.direction[0]);
+  f.inv_min = f.inv_max = inv0;
+  for (int i = p.count; i < kPacketRays; ++i) f.sx[i] = f.sy[i] = f.sz[i] = 0.0f;
+  for (int i = 0; i < p.count; ++i) {
+    WatertightRay w(Ray{p.origin, p.direction[i]});
+    Vec3f inv = safe_reciprocal(p.direction[i]);
+    f.coherent = f.coherent && w.kx == f.kx && w.ky == f.ky && w.kz == f.kz &&
+                 (inv.x > 0) == (inv0.x > 0) && (inv.y > 0) == (inv0.y > 0) &&
+                 (inv.z > 0) == (inv0.z > 0);
+    f.sx[i] = w.sx;
+    f.sy[i] = w.sy;
+    f.sz[i] = w.sz;
+    f.inv_min = min(f.inv_min, inv);
+    f.inv_max = max(f.inv_max, inv);
+  }
+  return f;
+}
+
+// Smallest entry and largest exit distance over all rays of the packet along one axis.
+CAUSTICA_HDI void axis_interval(float lo, float hi, float o, float inv_min, float inv_max,
+                                float& entry_min, float& exit_max) {
+  bool positive = inv_min > 0;
+  float entry_plane = (positive ? lo : hi) - o, exit_plane = (positive ? hi : lo) - o;
+  entry_min = min_f(entry_plane * inv_min, entry_plane * inv_max);
+  exit_max = max_f(exit_plane * inv_min, exit_plane * inv_max);
+}
+
+}  // namespace detail
+
+// Writes hits[i] for each ray i of the packet.
+CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket& packet, Hit* hits) {
+  const int n = packet.count;
+  for (int i = 0; i < n; ++i) hits[i] = Hit{};
+  if (bvh.count == 0 || n == 0) return;
+  detail::PacketFrame f = detail::packet_frame(packet);
+  if (!f.coherent || bvh.count == 1) {
+    for (int i = 0; i < n; ++i) hits[i] = closest_hit(bvh, Ray{packet.origin, packet.direction[i]});
+    return;
+  }
+  const Vec3f o = packet.origin;
+  float t_max[kPacketRays];
+  uint32_t leaf_hit[kPacketRays];
+  for (int i = 0; i < kPacketRays; ++i) {
+    t_max[i] = i < n ? FLT_MAX : -INFINITY;  // missing lanes never accept a hit
+    leaf_hit[i] = kNoHit;
+  }
+  float packet_t_max = FLT_MAX;  // the largest t_max of any ray: what boxes are culled against
+
+  uint32_t stack[kTraversalStackSize];
+  int top = 0;
+  uint32_t node = 0;
+  while (true) {
+    const Bvh4Node& nd = bvh.nodes[node];
+    float t[4];
+    for (int c = 0; c < 4; ++c) {
+      float ex, xx, ey, xy, ez, xz;
+      detail::axis_interval(nd.lower_x[c], nd.upper_x[c], o.x, f.inv_min.x, f.inv_max.x, ex, xx);
+      detail::axis_interval(nd.lower_y[c], nd.upper_y[c], o.y, f.inv_min.y, f.inv_max.y, ey, xy);
+      detail::axis_interval(nd.lower_z[c], nd.upper_z[c], o.z, f.inv_min.z, f.inv_max.z, ez, xz);
+      float t_near = max_f(max_f(ex, ey), max_f(ez, 0.0f));
+      float t_far = min_f(min_f(xx, xy), min_f(xz, packet_t_max));
+      t[c] = (t_near <= t_far * 1.00000024f && nd.child[c] != kEmptyChild) ? t_near : INFINITY;
+    }
+    for (int c = 0; c < 4; ++c) {
+      if (!(t[c] <= packet_t_max) || !is_leaf(nd.child[c])) continue;
+      const uint32_t leaf = leaf_index(nd.child[c]);
+      const TriangleVertices& tri = bvh.triangles[leaf];
+      const Vec3f a = tri.p0 - o, b = tri.p1 - o, cc = tri.p2 - o;
+      const float a_kx = a[f.kx], a_ky = a[f.ky], a_kz = a[f.kz];
+      const float b_kx = b[f.kx], b_ky = b[f.ky], b_kz = b[f.kz];
+      const float c_kx = cc[f.kx], c_ky = cc[f.ky], c_kz = cc[f.kz];
+      int edge_case = 0;
+      // The watertight test of triangle.h for all lanes at once, no branches (int masks, so that
+      // the loop vectorises).
+      for (int i = 0; i < kPacketRays; ++i) {
+        const float sx = f.sx[i], sy = f.sy[i], sz = f.sz[i];
+        float ax = a_kx - sx * a_kz, ay = a_ky - sy * a_kz;
+        float bx = b_kx - sx * b_kz, by = b_ky - sy * b_kz;
+        float cx = c_kx - sx * c_kz, cy = c_ky - sy * c_kz;
+        float u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+        int outside = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
+        float det = u + v + w;
+        float t_scaled = u * (sz * a_kz) + v * (sz * b_kz) + w * (sz * c_kz);
+        float th = t_scaled * (1.0f / det);
+        int on_edge = (u == 0.0f) | (v == 0.0f) | (w == 0.0f);  // decided below in double
+        edge_case |= on_edge;
+        int accept = ((outside | on_edge) == 0) & (det != 0.0f) & (th > 0.0f) & (th < t_max[i]);
+        t_max[i] = accept ? th : t_max[i];
+        leaf_hit[i] = accept ? leaf : leaf_hit[i];
+      }
+      if (edge_case) {
+        // A lane exactly on an edge in float: redo that triangle per ray with the double fallback.
+        for (int i = 0; i < n; ++i) {
+          WatertightRay w(Ray{o, packet.direction[i]});
+          float th, u, v;
+          if (intersect_triangle(w, tri, 0.0f, t_max[i], th, u, v)) {
+            t_max[i] = th;
+            leaf_hit[i] = leaf;
+          }
+        }
+      }
+      packet_t_max = -INFINITY;
+      for (int i = 0; i < kPacketRays; ++i) packet_t_max = max_f(packet_t_max, t_max[i]);
+      t[c] = INFINITY;
+    }
+    uint32_t next[4];
+    float next_t[4];
+    int k = 0;
+    for (int c = 0; c < 4; ++c) {
+      if (!(t[c] <= packet_t_max)) continue;
+      int j = k++;
+      while (j > 0 && next_t[j - 1] > t[c]) {
+        next[j] = next[j - 1];
+        next_t[j] = next_t[j - 1];
+        --j;
+      }
+      next[j] = nd.child[c];
+      next_t[j] = t[c];
+    }
+    if (k == 0) {
+      if (top == 0) break;
+      node = stack[--top];
+      continue;
+    }
+    for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
+    node = next[0];
+  }
+  // Barycentrics of the winning triangle, recomputed once per ray with the scalar test.
+  for (int i = 0; i < n; ++i) {
+    if (leaf_hit[i] == kNoHit) continue;
+    WatertightRay w(Ray{o, packet.direction[i]});
+    float th, u, v;
+    if (intersect_triangle(w, bvh.triangles[leaf_hit[i]], 0.0f, FLT_MAX, th, u, v)) {
+      hits[i].t = th;
+      hits[i].u = u;
+      hits[i].v = v;
+      hits[i].triangle = bvh.triangle_ids[leaf_hit[i]];
+    }
+  }
+}
+
+}  // namespace caustica
