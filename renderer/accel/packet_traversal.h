@@ -58,15 +58,6 @@ CAUSTICA_HDI PacketFrame packet_frame(const RayPacket& p) {
   return f;
 }
 
-// Smallest entry and largest exit distance over all rays of the packet along one axis.
-CAUSTICA_HDI void axis_interval(float lo, float hi, float o, float inv_min, float inv_max,
-                                float& entry_min, float& exit_max) {
-  bool positive = inv_min > 0;
-  float entry_plane = (positive ? lo : hi) - o, exit_plane = (positive ? hi : lo) - o;
-  entry_min = min_f(entry_plane * inv_min, entry_plane * inv_max);
-  exit_max = max_f(exit_plane * inv_min, exit_plane * inv_max);
-}
-
 }  // namespace detail
 
 // Writes hits[i] for each ray i of the packet.
@@ -93,15 +84,26 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
   uint32_t node = 0;
   while (true) {
     const Bvh4Node& nd = bvh.nodes[node];
+    // The planes each axis enters and leaves by are the same for the whole packet (uniform
+    // signs), so they are chosen once per node and the loop over children is straight-line SIMD.
+    const float* entry_x = f.inv_min.x > 0 ? nd.lower_x : nd.upper_x;
+    const float* exit_x = f.inv_min.x > 0 ? nd.upper_x : nd.lower_x;
+    const float* entry_y = f.inv_min.y > 0 ? nd.lower_y : nd.upper_y;
+    const float* exit_y = f.inv_min.y > 0 ? nd.upper_y : nd.lower_y;
+    const float* entry_z = f.inv_min.z > 0 ? nd.lower_z : nd.upper_z;
+    const float* exit_z = f.inv_min.z > 0 ? nd.upper_z : nd.lower_z;
     float t[4];
     for (int c = 0; c < 4; ++c) {
-      float ex, xx, ey, xy, ez, xz;
-      detail::axis_interval(nd.lower_x[c], nd.upper_x[c], o.x, f.inv_min.x, f.inv_max.x, ex, xx);
-      detail::axis_interval(nd.lower_y[c], nd.upper_y[c], o.y, f.inv_min.y, f.inv_max.y, ey, xy);
-      detail::axis_interval(nd.lower_z[c], nd.upper_z[c], o.z, f.inv_min.z, f.inv_max.z, ez, xz);
-      float t_near = max_f(max_f(ex, ey), max_f(ez, 0.0f));
-      float t_far = min_f(min_f(xx, xy), min_f(xz, packet_t_max));
-      t[c] = (t_near <= t_far * 1.00000024f && nd.child[c] != kEmptyChild) ? t_near : INFINITY;
+      float ex = entry_x[c] - o.x, ey = entry_y[c] - o.y, ez = entry_z[c] - o.z;
+      float xx = exit_x[c] - o.x, xy = exit_y[c] - o.y, xz = exit_z[c] - o.z;
+      float t_near = max_f(max_f(min_f(ex * f.inv_min.x, ex * f.inv_max.x),
+                                 min_f(ey * f.inv_min.y, ey * f.inv_max.y)),
+                           max_f(min_f(ez * f.inv_min.z, ez * f.inv_max.z), 0.0f));
+      float t_far = min_f(min_f(max_f(xx * f.inv_min.x, xx * f.inv_max.x),
+                                max_f(xy * f.inv_min.y, xy * f.inv_max.y)),
+                          min_f(max_f(xz * f.inv_min.z, xz * f.inv_max.z), packet_t_max));
+      int reachable = (t_near <= t_far * 1.00000024f) & (nd.child[c] != kEmptyChild);
+      t[c] = reachable ? t_near : INFINITY;
     }
     for (int c = 0; c < 4; ++c) {
       if (!(t[c] <= packet_t_max) || !is_leaf(nd.child[c])) continue;
@@ -167,7 +169,8 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
     for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
     node = next[0];
   }
-  // Barycentrics of the winning triangle, recomputed once per ray with the scalar test.
+  // Barycentrics of the winning triangle, recomputed once per ray with the scalar test (keeping
+  // them in the loop above costs more: the extra selects stop it from vectorising).
   for (int i = 0; i < n; ++i) {
     if (leaf_hit[i] == kNoHit) continue;
     WatertightRay w(Ray{o, packet.direction[i]});
