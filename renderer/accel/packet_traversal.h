@@ -147,27 +147,7 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
       for (int i = 0; i < kPacketRays; ++i) packet_t_max = max_f(packet_t_max, t_max[i]);
       t[c] = INFINITY;
     }
-    uint32_t next[4];
-    float next_t[4];
-    int k = 0;
-    for (int c = 0; c < 4; ++c) {
-      if (!(t[c] <= packet_t_max)) continue;
-      int j = k++;
-      while (j > 0 && next_t[j - 1] > t[c]) {
-        next[j] = next[j - 1];
-        next_t[j] = next_t[j - 1];
-        --j;
-      }
-      next[j] = nd.child[c];
-      next_t[j] = t[c];
-    }
-    if (k == 0) {
-      if (top == 0) break;
-      node = stack[--top];
-      continue;
-    }
-    for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
-    node = next[0];
+    if (!detail::descend_near_first(nd, t, packet_t_max, stack, top, node)) break;
   }
   // Barycentrics of the winning triangle, recomputed once per ray with the scalar test (keeping
   // them in the loop above costs more: the extra selects stop it from vectorising).

@@ -26,6 +26,35 @@ CAUSTICA_HDI void intersect_children(const Bvh4Node& n, Vec3f origin, Vec3f inv_
   }
 }
 
+// Chooses the next node: the internal children of `n` with t[c] <= t_limit, nearest first, the
+// rest pushed on the stack (at most four: insertion sort); with none, the top of the stack.
+// Returns false when the traversal is over.
+CAUSTICA_HDI bool descend_near_first(const Bvh4Node& n, const float t[4], float t_limit,
+                                     uint32_t* stack, int& top, uint32_t& node) {
+  uint32_t next[4];
+  float next_t[4];
+  int k = 0;
+  for (int c = 0; c < 4; ++c) {
+    if (!(t[c] <= t_limit)) continue;
+    int j = k++;
+    while (j > 0 && next_t[j - 1] > t[c]) {
+      next[j] = next[j - 1];
+      next_t[j] = next_t[j - 1];
+      --j;
+    }
+    next[j] = n.child[c];
+    next_t[j] = t[c];
+  }
+  if (k == 0) {
+    if (top == 0) return false;
+    node = stack[--top];
+    return true;
+  }
+  for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
+  node = next[0];
+  return true;
+}
+
 // Visits leaves along `ray`, nearer subtrees first; `on_leaf(sorted_index, t_max&)` tests one
 // triangle, may shrink t_max, and returns true to stop the traversal (any hit).
 template <typename OnLeaf>
@@ -51,28 +80,7 @@ CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_
         t[c] = INFINITY;
       }
     }
-    // The internal children still in reach, sorted near to far (at most four: insertion sort).
-    uint32_t next[4];
-    float next_t[4];
-    int k = 0;
-    for (int c = 0; c < 4; ++c) {
-      if (!(t[c] <= t_max)) continue;
-      int j = k++;
-      while (j > 0 && next_t[j - 1] > t[c]) {
-        next[j] = next[j - 1];
-        next_t[j] = next_t[j - 1];
-        --j;
-      }
-      next[j] = n.child[c];
-      next_t[j] = t[c];
-    }
-    if (k == 0) {
-      if (top == 0) return;
-      node = stack[--top];
-      continue;
-    }
-    for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
-    node = next[0];
+    if (!descend_near_first(n, t, t_max, stack, top, node)) return;
   }
 }
 
