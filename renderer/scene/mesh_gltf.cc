@@ -1,7 +1,7 @@
 #include "renderer/scene/mesh_gltf.h"
 
 // The Debian package ships tinygltf as a compiled library, so no TINYGLTF_IMPLEMENTATION here.
-// stb_image is not installed: we read no textures, so the image callbacks are ours.
+// No stb_image: we read no textures, so the image callbacks are ours.
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
 #include <tiny_gltf.h>
