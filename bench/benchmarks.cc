@@ -8,7 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
-#include "renderer/accel/packet_traversal.h"
+#include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
@@ -127,22 +127,14 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   if (wanted(o, "primary_rays")) {
     // Camera rays in square tiles traced as packets (what the renderer does for primary rays), and
     // the same rays one at a time.
-    const int tiles_x = (o.width + kPacketTile - 1) / kPacketTile;
-    const int tiles_y = (o.height + kPacketTile - 1) / kPacketTile;
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
-        const int tx = int(tile % tiles_x) * kPacketTile, ty = int(tile / tiles_x) * kPacketTile;
-        RayPacket packet;
-        packet.origin = camera.origin;
-        for (int y = ty; y < ty + kPacketTile && y < camera.height; ++y)
-          for (int x = tx; x < tx + kPacketTile && x < camera.width; ++x)
-            packet.direction[packet.count++] = camera.ray_through(x + 0.5f, y + 0.5f).direction;
-        Hit packet_hits[kPacketRays];
-        closest_hit_packet(bvh, packet, packet_hits);
-        int i = 0;
-        for (int y = ty; y < ty + kPacketTile && y < camera.height; ++y)
-          for (int x = tx; x < tx + kPacketTile && x < camera.width; ++x) hit[size_t(y) * camera.width + x] = packet_hits[i++];
-      });
+      trace_camera_tiles(*backend, bvh, camera.origin, camera.width, camera.height,
+                         [=] CAUSTICA_HD(size_t i) {
+                           return camera.ray_through(float(i % camera.width) + 0.5f,
+                                                     float(i / camera.width) + 0.5f)
+                               .direction;
+                         },
+                         hit);
     });
     report.line("primary_rays", name, pixels / (m.median * 1e3), "Mrays/s", &m, o.runs);
     Measurement single = measure(o, *backend, trace_primary);

@@ -1,6 +1,6 @@
 #include "renderer/render/whitted.h"
 
-#include "renderer/accel/packet_traversal.h"
+#include "renderer/accel/camera_tiles.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/density.h"
@@ -40,25 +40,12 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   // Stage 1: primary hits, traced as packets of kPacketTile^2 camera rays sharing the eye.
   Buffer<Hit> primary_hits(backend, size_t(width) * height);
   Hit* primary = primary_hits.data();
-  const int tiles_x = (width + kPacketTile - 1) / kPacketTile;
-  const int tiles_y = (height + kPacketTile - 1) / kPacketTile;
-  parallel_for(backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
-    const int tx = int(tile % tiles_x) * kPacketTile, ty = int(tile / tiles_x) * kPacketTile;
-    RayPacket packet;
-    packet.origin = camera.origin;
-    size_t pixels[kPacketRays];
-    for (int y = ty; y < ty + kPacketTile && y < height; ++y) {
-      for (int x = tx; x < tx + kPacketTile && x < width; ++x) {
-        size_t pixel = size_t(y) * width + x;
-        Sampler s(seed, uint32_t(pixel), pass);
-        pixels[packet.count] = pixel;
-        packet.direction[packet.count++] = camera_ray(pixel, s).direction;
-      }
-    }
-    Hit hits[kPacketRays];
-    closest_hit_packet(scene.bvh, packet, hits);
-    for (int i = 0; i < packet.count; ++i) primary[pixels[i]] = hits[i];
-  });
+  trace_camera_tiles(backend, scene.bvh, camera.origin, width, height,
+                     [=] CAUSTICA_HD(size_t pixel) {
+                       Sampler s(seed, uint32_t(pixel), pass);
+                       return camera_ray(pixel, s).direction;
+                     },
+                     primary);
 
   // Stage 2: shading, one pixel per thread.
   parallel_for(backend, size_t(width) * height, [=] CAUSTICA_HD(size_t pixel) {

@@ -26,20 +26,14 @@ namespace {
 
 constexpr size_t kSerialBelow = 1 << 14;
 
-// Splits [0, n) into at most max_chunks contiguous chunks of at least kSerialBelow elements.
+// Splits [0, n) into contiguous chunks of at least kSerialBelow elements, at most four per core;
+// a serial Chunking is one chunk.
 struct Chunking {
   size_t n, count, size;
-  explicit Chunking(size_t n_) : n(n_) {
-    size_t max_chunks = 4 * std::max<size_t>(1, tbb::info::default_concurrency());
+  explicit Chunking(size_t n_, bool parallel = true) : n(n_) {
+    size_t max_chunks = parallel ? 4 * std::max<size_t>(1, tbb::info::default_concurrency()) : 1;
     count = std::clamp<size_t>(n / kSerialBelow, 1, max_chunks);
     size = (n + count - 1) / count;
-  }
-  static Chunking single(size_t n) {
-    Chunking c(0);
-    c.n = n;
-    c.count = 1;
-    c.size = n;
-    return c;
   }
   size_t begin(size_t c) const { return std::min(n, c * size); }
   size_t end(size_t c) const { return std::min(n, (c + 1) * size); }
@@ -55,12 +49,13 @@ void for_each_chunk(const Chunking& chunks, Fn fn) {
 }
 
 // One stable counting-sort pass on the digit (key >> shift) & (buckets - 1), from src to dst.
+// Returns where each bucket ends in dst: the last chunk's write cursors after the scatter.
 template <typename Key>
-void scatter_by_digit(const Key* key_src, const uint32_t* val_src, Key* key_dst, uint32_t* val_dst,
-                      size_t n, int shift, size_t buckets, std::vector<uint32_t>& counts,
-                      bool parallel) {
+const uint32_t* scatter_by_digit(const Key* key_src, const uint32_t* val_src, Key* key_dst,
+                                 uint32_t* val_dst, size_t n, int shift, size_t buckets,
+                                 std::vector<uint32_t>& counts, bool parallel) {
   const Key mask = Key(buckets - 1);
-  Chunking chunks = parallel ? Chunking(n) : Chunking::single(n);
+  Chunking chunks(n, parallel);
   counts.assign(chunks.count * buckets, 0);
   for_each_chunk(chunks, [&](size_t c) {
     uint32_t* count = &counts[c * buckets];
@@ -79,6 +74,7 @@ void scatter_by_digit(const Key* key_src, const uint32_t* val_src, Key* key_dst,
       val_dst[pos] = val_src[i];
     }
   });
+  return &counts[(chunks.count - 1) * buckets];
 }
 
 // Stable LSD sort of the low `bits` bits, an odd number of passes from (src) to (dst), so the
@@ -113,15 +109,11 @@ void radix_sort_pairs(Key* keys, uint32_t* values, size_t n, int end_bit, Key* k
   const int low_bits = end_bit - top_bits;
   const size_t buckets = size_t{1} << top_bits;
   std::vector<uint32_t> counts;
-  scatter_by_digit(keys, values, keys_tmp, values_tmp, n, low_bits, buckets, counts, true);
-  // Bucket starts: recount from the scattered keys (cheap, and keeps scatter_by_digit simple).
-  std::vector<uint32_t> start(buckets + 1, 0);
-  const Key mask = Key(buckets - 1);
-  for (size_t i = 0; i < n; ++i) ++start[((keys_tmp[i] >> low_bits) & mask) + 1];
-  for (size_t d = 0; d < buckets; ++d) start[d + 1] += start[d];
+  const uint32_t* bucket_end =
+      scatter_by_digit(keys, values, keys_tmp, values_tmp, n, low_bits, buckets, counts, true);
   tbb::parallel_for(size_t{0}, buckets, [&](size_t d) {
     thread_local std::vector<uint32_t> local_counts;
-    size_t begin = start[d], size = start[d + 1] - begin;
+    size_t begin = d == 0 ? 0 : bucket_end[d - 1], size = bucket_end[d] - begin;
     lsd_sort_into(keys_tmp + begin, values_tmp + begin, keys + begin, values + begin, size, low_bits,
                   local_counts);
   });
