@@ -8,6 +8,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "bench/measure.h"
+#include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/rng.h"
@@ -23,45 +25,9 @@
 namespace caustica {
 namespace {
 
-struct Measurement {
-  double median, min, max;
-};
+}  // namespace
 
-Measurement measure(const BenchOptions& o, Backend& backend, const std::function<void()>& fn) {
-  for (int i = 0; i < o.warmup; ++i) fn();
-  std::vector<double> ms;
-  for (int i = 0; i < o.runs; ++i) {
-    backend.synchronize();
-    auto start = std::chrono::steady_clock::now();
-    fn();
-    backend.synchronize();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  return {ms[ms.size() / 2], ms.front(), ms.back()};
-}
-
-class Reporter {
- public:
-  Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
-  void line(const std::string& name, const std::string& scene, double value, const std::string& unit,
-            const Measurement* m = nullptr, int runs = 0) {
-    out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")",
-                            name, scene, device_, value, unit);
-    if (m != nullptr)
-      out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
-                              m->median, m->min, m->max, runs);
-    out_ << "}\n";
-    out_.flush();
-  }
-
- private:
-  std::ostream& out_;
-  std::string device_;
-};
-
-// The mesh (and its copies) as a scene: one diffuse material and a light above it.
-absl::StatusOr<Scene> mesh_scene(const BenchOptions& o) {
+absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& o) {
   std::vector<std::string> shapes;
   for (int i = 0; i < o.copies; ++i)
     shapes.push_back(absl::StrFormat(
@@ -74,6 +40,8 @@ absl::StatusOr<Scene> mesh_scene(const BenchOptions& o) {
     "shapes": [%s]})", o.width, o.height, absl::StrJoin(shapes, ", ")),
                      ".", "benchmark mesh scene");
 }
+
+namespace {
 
 // The camera of the ray benchmarks: at the box centre + (0, 0, 2 x diagonal), looking down -z,
 // with a field of view that fits the larger of the x and y extents plus a 5% margin.
@@ -95,7 +63,7 @@ bool wanted(const BenchOptions& o, const std::string& name) {
 }
 
 absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
-  absl::StatusOr<Scene> scene = mesh_scene(o);
+  absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();
   const std::string name = o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
   auto backend = make_cpu_backend(size_t(16) << 30);
@@ -209,7 +177,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     scene->settings.photons_per_pass = o.photons;
     auto engine = Engine::create({});
     if (!engine.ok()) return engine.status();
-    if (absl::Status s = (*engine)->load(*scene); !s.ok()) return s;
+    if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
     report.line("frame", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k), m.median, "ms", &m, o.runs);
     // Light change to finished frame: new lights, then one pass (photons, maps, render).
@@ -226,7 +194,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
 }  // namespace
 
 absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
-  absl::StatusOr<Scene> scene = mesh_scene(o);
+  absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();
   Aabb bounds;
   for (const Mesh& m : scene->meshes)
@@ -239,7 +207,10 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
 }
 
 std::vector<std::string> benchmark_names() {
-  return {"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays", "photon_pass", "frame"};
+  std::vector<std::string> names = {"lbvh_build",      "primary_rays", "shadow_rays",
+                                    "incoherent_rays", "photon_pass",  "frame"};
+  for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
+  return names;
 }
 
 absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
@@ -250,14 +221,25 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   auto probe = make_cpu_backend(0);
   DeviceInfo info = probe->info();
   Reporter report(out, absl::StrFormat("%s x%d", info.name, info.compute_units));
-  if (!o.mesh.empty()) {
+  auto any_of = [&](const std::vector<std::string>& names) {
+    return std::any_of(names.begin(), names.end(), [&](const std::string& n) { return wanted(o, n); });
+  };
+  if (o.mesh.empty() && o.photon_scene.empty() && !any_of({"stream_rgba8", "stream_rgba32f"}))
+    return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");
+  const bool renderer_wanted = any_of({"lbvh_build", "primary_rays", "shadow_rays",
+                                       "incoherent_rays", "photon_pass", "frame"});
+  if (renderer_wanted && o.device != "cpu")
+    return absl::UnimplementedError("the renderer benchmarks run on --device cpu in this build");
+  if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }
-  if (!o.photon_scene.empty()) {
+  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame"})) {
     if (absl::Status s = photon_benchmarks(o, report); !s.ok()) return s;
   }
-  if (o.mesh.empty() && o.photon_scene.empty())
-    return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");
+  if (any_of(serving_benchmark_names())) {
+    if (absl::Status s = run_serving_benchmarks(o, report); !s.ok()) return s;
+  }
+
   return absl::OkStatus();
 }
 

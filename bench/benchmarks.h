@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "renderer/scene/scene.h"
 
 namespace caustica {
 
@@ -21,10 +23,14 @@ struct BenchOptions {
   int width = 1024, height = 1024;
   uint32_t photons = 1000000;
   uint32_t k = 64;
+  std::string device = "cpu";           // serving benchmarks: the server's --device
 };
 
 // The names run_benchmarks knows, in the order it runs them.
 std::vector<std::string> benchmark_names();
+
+// The mesh (and its copies) as a scene: one diffuse material and a light above it.
+absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& options);
 
 absl::Status run_benchmarks(const BenchOptions& options, std::ostream& json_lines);
 

@@ -8,7 +8,6 @@
 
 int main(int argc, char** argv) {
   caustica::BenchOptions options;
-  std::string device = "cpu";
   CLI::App app{"Benchmarks of the Caustica renderer stages; one JSON line per figure."};
   app.add_option("--mesh", options.mesh, "triangle mesh (.ply, .ply.gz, .obj, .gltf, .glb) for the structure and ray benchmarks");
   app.add_option("--copies", options.copies, "instances of the mesh, copy i shifted by i*(0.25,0.15,0)")->check(CLI::Range(1, 64));
@@ -20,7 +19,9 @@ int main(int argc, char** argv) {
   app.add_option("--height", options.height, "image height for ray and frame benchmarks")->check(CLI::Range(1, 16384));
   app.add_option("--photons", options.photons, "photons per photon pass");
   app.add_option("--k", options.k, "photons per radiance estimate in the frame benchmark");
-  app.add_option("--device", device, "backend to measure")->check(CLI::IsMember({"cpu"}));
+  app.add_option("--device", options.device,
+                 "backend to measure; the serving benchmarks pass it to the server they start")
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera, "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");
   CLI11_PARSE(app, argc, argv);

@@ -4,12 +4,17 @@
 #include <optional>
 
 #include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/validate.h"
+
+#if defined(CAUSTICA_WITH_CUDA)
+#include "renderer/parallel/cuda/cuda_backend.h"
+#endif
 
 namespace caustica {
 namespace {
@@ -18,7 +23,8 @@ double elapsed_ms(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
 }
 
-// Runs `fn`, turning a budget overrun anywhere below into RESOURCE_EXHAUSTED.
+// Runs `fn`, turning a budget overrun anywhere below into RESOURCE_EXHAUSTED and a device failure
+// (a CUDA error) into INTERNAL.
 template <typename Fn>
 absl::Status guarded(Fn&& fn) {
   try {
@@ -27,40 +33,133 @@ absl::Status guarded(Fn&& fn) {
     return absl::ResourceExhaustedError(e.what());
   } catch (const std::bad_alloc&) {
     return absl::ResourceExhaustedError("out of memory");
+  } catch (const DeviceError& e) {
+    return absl::InternalError(e.what());
   }
+}
+
+#if defined(CAUSTICA_WITH_CUDA)
+constexpr bool kBuiltWithCuda = true;
+#else
+constexpr bool kBuiltWithCuda = false;
+bool cuda_device_available() { return false; }  // no backend, so never a device for it
+#endif
+
+absl::Status no_cuda_backend() {
+  return absl::FailedPreconditionError(
+      "this build has no CUDA backend (configure with -DCAUSTICA_CUDA=ON, e.g. the cuda preset)");
 }
 
 }  // namespace
 
+// Photon maps traced for one pass ahead of the render that gathers from them.
+struct PreparedPhotons {
+  uint32_t pass = 0;
+  PhotonMap caustic, global;
+};
+
 struct Engine::State {
-  std::unique_ptr<Backend> backend;
+  std::shared_ptr<Backend> backend;
   Scene scene;
   std::optional<ResidentScene> resident;
   std::optional<Film> film;
+  std::optional<PreparedPhotons> prepared;
   Epochs epochs;
   double last_build_ms = 0;
   size_t last_photon_map_bytes = 0;
+
+  // Traces the photons of pass `pass` and builds both maps, adding the cost to `timings`.
+  PreparedPhotons trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
+                                     uint64_t& caustic_count, uint64_t& global_count) {
+    const RenderSettings& rs = scene.settings;
+    auto t0 = std::chrono::steady_clock::now();
+    TracedPhotons traced =
+        trace_photons(*backend, *resident, {rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass});
+    backend->synchronize();
+    timings.photon_trace_ms += elapsed_ms(t0);
+    emitted += traced.emitted;
+    caustic_count = traced.caustic.size();
+    global_count = traced.global.size();
+
+    auto t1 = std::chrono::steady_clock::now();
+    PreparedPhotons maps{pass, build_photon_map(*backend, std::move(traced.caustic)),
+                         build_photon_map(*backend, std::move(traced.global))};
+    backend->synchronize();
+    timings.photon_map_build_ms += elapsed_ms(t1);
+    last_photon_map_bytes = maps.caustic.bytes() + maps.global.bytes();
+    return maps;
+  }
+
+  // The light-change pipeline: photons and maps for the film's next pass, reported.
+  void prepare_photons(RebuildReport& report) {
+    prepared.reset();  // frees the old maps before the new ones are allocated
+    prepared = trace_pass_photons(film->passes(), report.timings, report.photons_emitted,
+                                  report.caustic_photons, report.global_photons);
+    report.rebuilt.push_back("photon_maps");
+  }
 };
 
 Engine::Engine(std::unique_ptr<State> state) : state_(std::move(state)) {}
 Engine::~Engine() = default;
 
+absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name) {
+  if (name == "cpu") return DeviceKind::kCpu;
+  if (name == "auto") return cuda_device_available() ? DeviceKind::kCuda : DeviceKind::kCpu;
+  if (name == "cuda") {
+    if (!kBuiltWithCuda) return no_cuda_backend();
+    return DeviceKind::kCuda;  // whether a GPU is present is make_backend's question
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("unknown device '", std::string(name), "' (expected auto, cpu or cuda)"));
+}
+
+const char* device_kind_name(DeviceKind kind) {
+  return kind == DeviceKind::kCuda ? "cuda" : "cpu";
+}
+
+absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
+                                                      size_t memory_budget_bytes) {
+  switch (device) {
+    case DeviceKind::kCpu:
+      return std::shared_ptr<Backend>(make_cpu_backend(memory_budget_bytes));
+    case DeviceKind::kCuda:
+      break;
+  }
+#if defined(CAUSTICA_WITH_CUDA)
+  if (!cuda_device_available()) {
+    return absl::FailedPreconditionError("no CUDA device: the CUDA runtime finds no GPU or driver");
+  }
+  std::shared_ptr<Backend> backend;
+  absl::Status status = guarded([&]() -> absl::Status {
+    backend = make_cuda_backend(memory_budget_bytes);
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  return backend;
+#else
+  return no_cuda_backend();
+#endif
+}
+
 absl::StatusOr<std::unique_ptr<Engine>> Engine::create(const EngineOptions& options) {
   auto state = std::make_unique<State>();
-  switch (options.device) {
-    case DeviceKind::kCpu:
-      state->backend = make_cpu_backend(options.memory_budget_bytes);
-      break;
-    case DeviceKind::kCuda:
-      return absl::UnimplementedError("this build has no CUDA backend");
+  if (options.backend) {
+    state->backend = options.backend;
+  } else {
+    absl::StatusOr<std::shared_ptr<Backend>> backend =
+        make_backend(options.device, options.memory_budget_bytes);
+    if (!backend.ok()) return backend.status();
+    state->backend = *std::move(backend);
   }
   return std::unique_ptr<Engine>(new Engine(std::move(state)));
 }
 
-absl::Status Engine::load(const Scene& scene) {
+absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   if (absl::Status s = validate_scene(scene); !s.ok()) return s;
-  return guarded([&]() -> absl::Status {
+  RebuildReport report;
+  absl::Status status = guarded([&]() -> absl::Status {
     State& st = *state_;
+    st.prepared.reset();
     st.resident.reset();
     st.film.reset();
     auto start = std::chrono::steady_clock::now();
@@ -73,32 +172,50 @@ absl::Status Engine::load(const Scene& scene) {
     ++st.epochs.lights;
     ++st.epochs.camera;
     ++st.epochs.settings;
+    report.rebuilt = {"geometry", "lights", "film"};
+    report.timings.structure_build_ms = st.last_build_ms;
     return absl::OkStatus();
   });
+  if (!status.ok()) {
+    // Nothing half-built stays behind: a failed load leaves an engine without a scene.
+    state_->resident.reset();
+    state_->film.reset();
+    return status;
+  }
+  report.epochs = state_->epochs;
+  return report;
 }
 
-absl::Status Engine::set_lights(const std::vector<Light>& lights) {
+absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   Scene candidate = st.scene;
   candidate.lights = lights;
   if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
-  return guarded([&]() -> absl::Status {
+  RebuildReport report;
+  absl::Status status = guarded([&]() -> absl::Status {
+    st.prepared.reset();
     st.resident->set_lights(lights);
     st.scene.lights = lights;
     st.film->clear();
     ++st.epochs.lights;
+    report.rebuilt = {"lights", "film"};
+    st.prepare_photons(report);
     return absl::OkStatus();
   });
+  if (!status.ok()) return status;
+  report.epochs = st.epochs;
+  return report;
 }
 
-absl::Status Engine::set_camera(const Camera& camera) {
+absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   Scene candidate = st.scene;
   candidate.camera = camera;
   if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
-  return guarded([&]() -> absl::Status {
+  RebuildReport report;
+  absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
       st.film.reset();
       st.film.emplace(*st.backend, camera.width, camera.height);
@@ -107,20 +224,36 @@ absl::Status Engine::set_camera(const Camera& camera) {
     }
     st.scene.camera = camera;
     ++st.epochs.camera;
+    report.rebuilt = {"film"};
     return absl::OkStatus();
   });
+  if (!status.ok()) return status;
+  report.epochs = st.epochs;
+  return report;
 }
 
-absl::Status Engine::set_settings(const RenderSettings& settings) {
+absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   Scene candidate = st.scene;
   candidate.settings = settings;
   if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
-  st.scene.settings = settings;
-  st.film->clear();
-  ++st.epochs.settings;
-  return absl::OkStatus();
+  const RenderSettings& old = st.scene.settings;
+  const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
+                              settings.max_photon_bounces != old.max_photon_bounces ||
+                              settings.seed != old.seed;
+  RebuildReport report;
+  absl::Status status = guarded([&]() -> absl::Status {
+    st.scene.settings = settings;
+    st.film->clear();
+    ++st.epochs.settings;
+    report.rebuilt = {"film"};
+    if (photons_change) st.prepare_photons(report);
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  report.epochs = st.epochs;
+  return report;
 }
 
 float Engine::max_radius() const {
@@ -139,28 +272,22 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
     Backend& backend = *st.backend;
     for (uint32_t i = 0; i < passes; ++i) {
       const uint32_t pass = st.film->passes();
+      // Photons traced ahead by a light change serve the pass they were traced for.
+      std::optional<PreparedPhotons> maps;
+      if (st.prepared && st.prepared->pass == pass) {
+        maps = std::move(st.prepared);
+      } else {
+        maps = st.trace_pass_photons(pass, report.timings, report.photons_emitted,
+                                     report.caustic_photons, report.global_photons);
+      }
+      st.prepared.reset();
+
       auto t0 = std::chrono::steady_clock::now();
-      TracedPhotons traced = trace_photons(
-          backend, *st.resident, {rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass});
-      backend.synchronize();
-      report.timings.photon_trace_ms += elapsed_ms(t0);
-      report.photons_emitted += traced.emitted;
-      report.caustic_photons = traced.caustic.size();
-      report.global_photons = traced.global.size();
-
-      auto t1 = std::chrono::steady_clock::now();
-      PhotonMap caustic_map = build_photon_map(backend, std::move(traced.caustic));
-      PhotonMap global_map = build_photon_map(backend, std::move(traced.global));
-      backend.synchronize();
-      report.timings.photon_map_build_ms += elapsed_ms(t1);
-      st.last_photon_map_bytes = caustic_map.bytes() + global_map.bytes();
-
-      auto t2 = std::chrono::steady_clock::now();
       ShadingSettings shading{rs.k_nearest, max_radius(), rs.kernel, rs.max_depth,
                               rs.area_light_samples, rs.seed, pass};
-      render_pass(backend, *st.resident, caustic_map, global_map, camera, shading, *st.film);
+      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading, *st.film);
       backend.synchronize();
-      report.timings.render_ms += elapsed_ms(t2);
+      report.timings.render_ms += elapsed_ms(t0);
       ++report.passes_rendered;
       if (progress) progress(i + 1, passes);
     }
@@ -188,6 +315,8 @@ SceneStats Engine::scene_stats() const {
   s.structure_nodes = st.resident->bvh().node_count();
   s.structure_bytes = st.resident->bvh().bytes();
   s.photon_map_bytes = st.last_photon_map_bytes;
+  s.device_bytes = st.resident->bytes() + (st.film ? st.film->bytes() : 0) +
+                   (st.prepared ? st.prepared->caustic.bytes() + st.prepared->global.bytes() : 0);
   s.lights = st.resident->view().light_count;
   s.last_structure_build_ms = st.last_build_ms;
   return s;

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -16,9 +18,21 @@
 
 namespace caustica {
 
+// "cpu", "cuda", or "auto": the GPU when this build has the CUDA backend and a GPU is present,
+// else the CPU.
+absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name);
+const char* device_kind_name(DeviceKind kind);
+
+// A backend for `device` whose allocations count against `memory_budget_bytes`. A server makes
+// one and shares it between the engines of all its scenes, so one budget covers them all.
+absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
+                                                      size_t memory_budget_bytes);
+
 struct EngineOptions {
   DeviceKind device = DeviceKind::kCpu;
   size_t memory_budget_bytes = size_t(8) << 30;
+  // When set, the engine allocates from this backend and ignores the two fields above.
+  std::shared_ptr<Backend> backend;
 };
 
 // Change counters; each frame reports the epochs it reflects.
@@ -44,25 +58,41 @@ struct PassReport {
   uint64_t global_photons = 0;
 };
 
+// What a change (load, lights, camera, settings) rebuilt and what it cost.
+struct RebuildReport {
+  std::vector<std::string> rebuilt;  // "geometry", "lights", "photon_maps", "film"
+  StageTimings timings;
+  uint64_t photons_emitted = 0;
+  uint64_t caustic_photons = 0;  // stored
+  uint64_t global_photons = 0;
+  Epochs epochs;  // after the change
+};
+
 struct SceneStats {
   size_t triangles = 0;
   size_t structure_nodes = 0;  // 4-wide nodes of the triangle structure
   size_t structure_bytes = 0;
   size_t photon_map_bytes = 0;
+  size_t device_bytes = 0;  // everything this engine holds: structure, lights, photon maps, film
   size_t lights = 0;
   double last_structure_build_ms = 0;
 };
 
+// Not thread-safe: callers serialise every call on one engine, and all work on one device.
 class Engine {
  public:
   static absl::StatusOr<std::unique_ptr<Engine>> create(const EngineOptions& options);
   ~Engine();
 
   // Replaces the scene: validates it, uploads it and builds the triangle structure.
-  absl::Status load(const Scene& scene);
-  absl::Status set_lights(const std::vector<Light>& lights);
-  absl::Status set_camera(const Camera& camera);
-  absl::Status set_settings(const RenderSettings& settings);
+  absl::StatusOr<RebuildReport> load(const Scene& scene);
+  // Replaces the non-geometry lights, then traces the photons of the next pass and builds both
+  // photon maps at once (the light-change pipeline), so the next render only gathers.
+  absl::StatusOr<RebuildReport> set_lights(const std::vector<Light>& lights);
+  // Restarts accumulation; a new resolution reallocates the film.
+  absl::StatusOr<RebuildReport> set_camera(const Camera& camera);
+  // Restarts accumulation; settings that change the photons re-trace them as set_lights does.
+  absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings);
 
   using Progress = std::function<void(uint32_t done, uint32_t total)>;
   // Adds `passes` progressive passes to the film.

@@ -13,6 +13,7 @@ BudgetExceeded::BudgetExceeded(size_t requested, size_t in_use, size_t budget)
 
 void* Backend::allocate(size_t bytes) {
   if (bytes == 0) return nullptr;
+  std::lock_guard<std::mutex> lock(memory_mutex_);
   if (bytes > budget_ || in_use_ > budget_ - bytes) throw BudgetExceeded(bytes, in_use_, budget_);
   void* p = allocate_raw(bytes);
   in_use_ += bytes;
@@ -22,6 +23,7 @@ void* Backend::allocate(size_t bytes) {
 
 void Backend::deallocate(void* p, size_t bytes) {
   if (p == nullptr) return;
+  std::lock_guard<std::mutex> lock(memory_mutex_);
   deallocate_raw(p, bytes);
   in_use_ -= bytes;
 }

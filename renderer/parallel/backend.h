@@ -9,7 +9,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <new>
+#include <stdexcept>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -30,6 +32,13 @@ class BudgetExceeded : public std::bad_alloc {
   std::string message_;
 };
 
+// Thrown when the device itself fails (a CUDA call returns an error); the engine converts it into
+// INTERNAL at its border.
+class DeviceError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 struct DeviceInfo {
   std::string name;
   int compute_units = 0;     // CPU threads or CUDA SMs
@@ -46,11 +55,18 @@ class Backend {
   virtual DeviceKind kind() const = 0;
   virtual DeviceInfo info() const = 0;
 
-  // --- memory (counted against the budget) ---
+  // --- memory (counted against the budget; safe to call from any thread, since engines that
+  // share a backend may free a scene while another renders) ---
   void* allocate(size_t bytes);
   void deallocate(void* p, size_t bytes);
-  size_t bytes_in_use() const { return in_use_; }
-  size_t peak_bytes() const { return peak_; }
+  size_t bytes_in_use() const {
+    std::lock_guard<std::mutex> lock(memory_mutex_);
+    return in_use_;
+  }
+  size_t peak_bytes() const {
+    std::lock_guard<std::mutex> lock(memory_mutex_);
+    return peak_;
+  }
   size_t budget() const { return budget_; }
 
   virtual void copy_to_device(void* dst, const void* src, size_t bytes) = 0;
@@ -85,6 +101,7 @@ class Backend {
 
  private:
   size_t budget_;
+  mutable std::mutex memory_mutex_;
   size_t in_use_ = 0;
   size_t peak_ = 0;
 };

@@ -20,12 +20,15 @@ namespace caustica {
 template <typename F>
 void parallel_for(Backend& backend, size_t n, F f) {
   if (n == 0) return;
-#if defined(__CUDACC__)
   if (backend.kind() == DeviceKind::kCuda) {
+#if defined(__CUDACC__)
     launch_on_cuda(backend, n, f);
     return;
-  }
+#else
+    // The loop below would dereference device pointers on the host.
+    throw DeviceError("parallel_for on the CUDA backend from code not compiled by nvcc");
 #endif
+  }
   // Grain 256 keeps scheduling overhead small next to the per-element work (rays, photons).
   tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
     for (size_t i = r.begin(); i != r.end(); ++i) f(i);

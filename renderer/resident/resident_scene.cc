@@ -38,6 +38,18 @@ float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
   return total;
 }
 
+// weight[i] = the power of light i, or of light subset[i] when a subset is given; area_flag[i], when
+// asked for, marks area lights. (Not in rebuild_light_tables: nvcc admits no extended lambda in a
+// private member function.)
+void write_light_weights(Backend& backend, const DeviceLight* lights, const uint32_t* subset,
+                         size_t n, float scene_radius, float* weight, uint8_t* area_flag) {
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    const DeviceLight& light = lights[subset != nullptr ? subset[i] : i];
+    weight[i] = light_power(light, scene_radius);
+    if (area_flag != nullptr) area_flag[i] = light.type == DeviceLightType::kArea;
+  });
+}
+
 }  // namespace
 
 ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
@@ -115,23 +127,15 @@ void ResidentScene::rebuild_light_tables() {
 
   light_cdf_.resize_discard(n + 1);
   Buffer<uint8_t> is_area(backend, n);
-  float* weight = light_cdf_.data();
-  uint8_t* area_flag = is_area.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    weight[i] = light_power(lights[i], scene_radius);
-    area_flag[i] = lights[i].type == DeviceLightType::kArea;
-  });
+  write_light_weights(backend, lights, nullptr, n, scene_radius, light_cdf_.data(), is_area.data());
   total_power_ = build_cdf(backend, light_cdf_, n);
 
   area_light_index_.resize_discard(n);
   const size_t area_count = backend.select_flagged(nullptr, is_area.data(), n, area_light_index_.data());
   area_light_index_.resize_discard(area_count);
   area_light_cdf_.resize_discard(area_count + 1);
-  const uint32_t* area_index = area_light_index_.data();
-  float* area_weight = area_light_cdf_.data();
-  parallel_for(backend, area_count, [=] CAUSTICA_HD(size_t i) {
-    area_weight[i] = light_power(lights[area_index[i]], scene_radius);
-  });
+  write_light_weights(backend, lights, area_light_index_.data(), area_count, scene_radius,
+                      area_light_cdf_.data(), nullptr);
   area_light_power_ = build_cdf(backend, area_light_cdf_, area_count);
 }
 

@@ -28,7 +28,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
 
   absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({});
   if (!engine.ok()) return engine.status();
-  if (absl::Status s = (*engine)->load(*scene); !s.ok()) return s;
+  if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
   summary.stats = (*engine)->scene_stats();
 
   auto progress = [&](uint32_t done, uint32_t total) {

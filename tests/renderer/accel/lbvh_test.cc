@@ -8,23 +8,10 @@
 #include "renderer/accel/traversal.h"
 #include "renderer/base/sampling.h"
 #include "renderer/scene/load_scene.h"
+#include "tests/renderer/accel/triangle_soup.h"
 
 namespace caustica {
 namespace {
-
-std::vector<TriangleVertices> random_soup(size_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> pos(-10.0f, 10.0f), small(-0.6f, 0.6f);
-  std::vector<TriangleVertices> tris(n);
-  for (auto& t : tris) {
-    Vec3f c(pos(rng), pos(rng), pos(rng));
-    t = {c + Vec3f(small(rng), small(rng), small(rng)), c + Vec3f(small(rng), small(rng), small(rng)),
-         c + Vec3f(small(rng), small(rng), small(rng))};
-  }
-  // Duplicates and identical centroids stress the Morton tie-breaking.
-  for (size_t i = 0; i + 1 < n; i += 97) tris[i + 1] = tris[i];
-  return tris;
-}
 
 std::vector<TriangleVertices> scene_triangles(const std::string& name) {
   absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");

@@ -1,4 +1,5 @@
 // Whole-renderer checks against closed-form answers, determinism, and every bundled scene.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,8 +22,8 @@ Scene parse_or_die(const std::string& json) {
 std::unique_ptr<Engine> engine_with(const Scene& scene) {
   auto engine = Engine::create({});
   EXPECT_TRUE(engine.ok());
-  absl::Status s = (*engine)->load(scene);
-  EXPECT_TRUE(s.ok()) << s;
+  auto loaded = (*engine)->load(scene);
+  EXPECT_TRUE(loaded.ok()) << loaded.status();
   return std::move(*engine);
 }
 
@@ -166,13 +167,59 @@ TEST(Engine, LightChangeRestartsAccumulationAndBumpsEpoch) {
   EXPECT_EQ(engine->epochs().lights, lights_epoch + 1);
 }
 
+// The photon maps a light change traces ahead of time serve the next pass exactly as if that pass
+// had traced them itself: the image equals a fresh engine loaded with the new lights.
+TEST(Engine, LightChangeTracesPhotonsAheadWithoutChangingTheImage) {
+  absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
+  ASSERT_TRUE(scene.ok());
+  scene->camera.width = scene->camera.height = 16;
+  scene->settings.photons_per_pass = 3000;
+  std::vector<Light> lights = {Light{"key", LightType::kPoint, Vec3f(278, 400, 279),
+                                     Vec3f(0, -1, 0), Vec3f(2e5f, 1e5f, 1e5f)}};
+  auto updated = engine_with(*scene);
+  ASSERT_TRUE(updated->render(1).ok());
+  auto report = updated->set_lights(lights);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_THAT(report->rebuilt, testing::ElementsAre("lights", "film", "photon_maps"));
+  EXPECT_EQ(report->epochs.lights, updated->epochs().lights);
+  EXPECT_EQ(report->photons_emitted, 3000u);
+  EXPECT_GT(report->caustic_photons + report->global_photons, 0u);
+  EXPECT_GT(report->timings.photon_trace_ms, 0.0);
+  auto pass = updated->render(2);
+  ASSERT_TRUE(pass.ok());
+  EXPECT_EQ(pass->photons_emitted, 3000u);  // only the second pass traced its own
+
+  Scene relit = *scene;
+  relit.lights = lights;
+  auto fresh = engine_with(relit);
+  ASSERT_TRUE(fresh->render(2).ok());
+  EXPECT_EQ(updated->image_linear(), fresh->image_linear());
+}
+
+TEST(Engine, EnginesSharingABackendShareOneBudget) {
+  absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
+  ASSERT_TRUE(scene.ok());
+  auto backend = make_backend(DeviceKind::kCpu, size_t{1} << 30);
+  ASSERT_TRUE(backend.ok());
+  auto first = Engine::create({.backend = *backend});
+  auto second = Engine::create({.backend = *backend});
+  ASSERT_TRUE(first.ok() && second.ok());
+  ASSERT_TRUE((*first)->load(*scene).ok());
+  const size_t one = (*backend)->bytes_in_use();
+  EXPECT_GE(one, (*first)->scene_stats().device_bytes);
+  ASSERT_TRUE((*second)->load(*scene).ok());
+  EXPECT_EQ((*backend)->bytes_in_use(), 2 * one);
+  first->reset();
+  EXPECT_EQ((*backend)->bytes_in_use(), one);
+}
+
 TEST(Engine, MemoryBudgetOverrunIsResourceExhausted) {
   absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
   ASSERT_TRUE(scene.ok());
   auto engine = Engine::create({DeviceKind::kCpu, 4096});
   ASSERT_TRUE(engine.ok());
-  absl::Status s = (*engine)->load(*scene);
-  EXPECT_EQ(s.code(), absl::StatusCode::kResourceExhausted) << s;
+  auto loaded = (*engine)->load(*scene);
+  EXPECT_EQ(loaded.status().code(), absl::StatusCode::kResourceExhausted) << loaded.status();
 }
 
 }  // namespace

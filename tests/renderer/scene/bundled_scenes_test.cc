@@ -19,7 +19,7 @@ using ::caustica::testing::Vec3Near;
 std::vector<std::filesystem::path> bundled_scene_files() {
   std::vector<std::filesystem::path> files;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(CAUSTICA_SCENES_DIR)) {
-    if (entry.is_regular_file() && entry.path().extension() == ".json") {
+    if (entry.is_regular_file() && entry.path().filename() == "scene.json") {
       files.push_back(entry.path());
     }
   }

@@ -1,0 +1,67 @@
+// Timing and reporting shared by the benchmarks: warm-up runs, then the median (with min and
+// max) of measured runs, printed as one JSON line per figure.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <functional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_format.h"
+#include "bench/benchmarks.h"
+#include "renderer/parallel/backend.h"
+
+namespace caustica {
+
+struct Measurement {
+  double median, min, max;
+};
+
+inline Measurement summarize(std::vector<double> ms) {
+  std::sort(ms.begin(), ms.end());
+  return {ms[ms.size() / 2], ms.front(), ms.back()};
+}
+
+// Milliseconds of `fn` over o.runs runs after o.warmup unmeasured ones. `synchronize`, when
+// given, runs before the clock starts and before it stops, so queued device work is counted.
+inline Measurement measure(const BenchOptions& o, const std::function<void()>& fn,
+                           const std::function<void()>& synchronize = {}) {
+  for (int i = 0; i < o.warmup; ++i) fn();
+  std::vector<double> ms;
+  for (int i = 0; i < o.runs; ++i) {
+    if (synchronize) synchronize();
+    auto start = std::chrono::steady_clock::now();
+    fn();
+    if (synchronize) synchronize();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  return summarize(std::move(ms));
+}
+
+// Device work is timed from a synchronised start to a synchronised end.
+inline Measurement measure(const BenchOptions& o, Backend& backend, const std::function<void()>& fn) {
+  return measure(o, fn, [&] { backend.synchronize(); });
+}
+
+class Reporter {
+ public:
+  Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
+  void line(const std::string& name, const std::string& scene, double value, const std::string& unit,
+            const Measurement* m = nullptr, int runs = 0) {
+    out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")",
+                            name, scene, device_, value, unit);
+    if (m != nullptr)
+      out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
+                              m->median, m->min, m->max, runs);
+    out_ << "}\n";
+    out_.flush();
+  }
+
+ private:
+  std::ostream& out_;
+  std::string device_;
+};
+
+}  // namespace caustica

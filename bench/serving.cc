@@ -1,0 +1,227 @@
+#include "bench/serving.h"
+
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "bench/measure.h"
+#include "client/connection.h"
+#include "client/frame_stream.h"
+#include "client/rpc_status.h"
+#include "client/scene_upload.h"
+#include "proto/wire/scene_wire.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+bool selected(const BenchOptions& o, const std::string& name) {
+  return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
+}
+
+absl::StatusOr<std::string> upload(client::Connection& connection, const Scene& scene,
+                                   const std::string& name, v1::SceneInfo* info = nullptr) {
+  grpc::ClientContext context;
+  absl::StatusOr<v1::SceneInfo> uploaded =
+      client::upload_scene(connection.stub(), context, scene, name);
+  if (!uploaded.ok()) return uploaded.status();
+  if (info != nullptr) *info = *uploaded;
+  return uploaded->scene_id();
+}
+
+absl::Status delete_scene(client::Connection& connection, const std::string& id) {
+  v1::DeleteSceneRequest request;
+  request.set_scene_id(id);
+  return connection.call(&v1::RenderService::Stub::DeleteScene, request).status();
+}
+
+// Streams `frames` copies of the current film; returns milliseconds from the call to the last
+// whole frame, and checks every frame arrived whole and of the right size.
+absl::StatusOr<double> stream_repeated(client::Connection& connection, const std::string& id,
+                                       v1::PixelFormat format, uint32_t frames,
+                                       size_t expected_bytes) {
+  v1::StreamFramesRequest request;
+  request.set_scene_id(id);
+  request.set_target_passes(1);
+  request.set_repeat_frames(frames);
+  request.mutable_format()->set_pixel_format(format);
+  request.set_max_chunk_bytes(4u << 20);
+  grpc::ClientContext context;
+  const Clock::time_point start = Clock::now();
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
+      connection.stub().StreamFrames(&context, request);
+  uint32_t received = 0;
+  absl::Status status = client::receive_frames(context, *reader, [&](v1::Frame& frame) {
+    if (frame.data().size() != expected_bytes) {
+      return absl::DataLossError(absl::StrCat("frame of ", frame.data().size(), " bytes, expected ",
+                                              expected_bytes));
+    }
+    ++received;
+    return absl::OkStatus();
+  });
+  const double ms = ms_between(start, Clock::now());
+  if (!status.ok()) return status;
+  if (received != frames) {
+    return absl::DataLossError(absl::StrCat(received, " frames of ", frames, " arrived"));
+  }
+  return ms;
+}
+
+absl::Status stream_benchmarks(const BenchOptions& o, client::Connection& connection,
+                               Reporter& report) {
+  // The bundled Cornell box at the benchmark's size with almost no photons: the one pass rendered
+  // before streaming is cheap, and the stream itself only re-sends the film.
+  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-box/scene.json");
+  if (!scene.ok()) return scene.status();
+  scene->camera.width = o.width;
+  scene->camera.height = o.height;
+  scene->settings.photons_per_pass = 1000;
+  absl::StatusOr<std::string> id = upload(connection, *scene, "stream benchmark");
+  if (!id.ok()) return id.status();
+  const std::string size = absl::StrFormat("cornell-box %dx%d", o.width, o.height);
+  const uint32_t frames = 100;
+  struct Format {
+    const char* name;
+    v1::PixelFormat format;
+    size_t bytes_per_pixel;
+  };
+  for (const Format& f : {Format{"stream_rgba8", v1::RGBA8_SRGB, 4},
+                          Format{"stream_rgba32f", v1::RGBA32F_LINEAR, 16}}) {
+    if (!selected(o, f.name)) continue;
+    const size_t frame_bytes = size_t(o.width) * o.height * f.bytes_per_pixel;
+    absl::Status failure;
+    Measurement m = measure(o, [&] {
+      absl::StatusOr<double> ms = stream_repeated(connection, *id, f.format, frames, frame_bytes);
+      if (!ms.ok()) failure = ms.status();
+    });
+    if (!failure.ok()) return failure;
+    const double frames_per_s = frames / (m.median * 1e-3);
+    report.line(f.name, size + absl::StrFormat(" %d frames", frames), frames_per_s, "frames/s", &m,
+                o.runs);
+    report.line(absl::StrCat(f.name, "_bandwidth"), size, frames_per_s * frame_bytes / 1e6, "MB/s");
+  }
+  return delete_scene(connection, *id);
+}
+
+absl::Status upload_benchmark(const BenchOptions& o, client::Connection& connection,
+                              const Scene& mesh_scene, const std::string& name, Reporter& report) {
+  const double megabytes = wire::mesh_bytes(mesh_scene) / 1e6;
+  std::vector<double> transfer_ms, total_ms;
+  for (int i = 0; i < o.warmup + o.runs; ++i) {
+    v1::SceneInfo info;
+    const Clock::time_point start = Clock::now();
+    absl::StatusOr<std::string> id = upload(connection, mesh_scene, "upload benchmark", &info);
+    const double ms = ms_between(start, Clock::now());
+    if (!id.ok()) return id.status();
+    if (absl::Status s = delete_scene(connection, *id); !s.ok()) return s;
+    if (i < o.warmup) continue;
+    total_ms.push_back(ms);
+    // The server builds the triangle structure before it answers; that is not transport.
+    transfer_ms.push_back(ms - info.last_rebuild().timings().structure_build_ms());
+  }
+  Measurement transfer = summarize(transfer_ms), total = summarize(total_ms);
+  report.line("upload", name + absl::StrFormat(" %.1f MB", megabytes), megabytes / (transfer.median * 1e-3),
+              "MB/s", &transfer, o.runs);
+  report.line("upload_with_build", name, megabytes / (total.median * 1e-3), "MB/s", &total, o.runs);
+  return absl::OkStatus();
+}
+
+// UpdateLights (photons re-traced, maps rebuilt), then RenderFrame of one pass, as a client
+// animating a light sees it. Rebuild and render come from the server's own stage timings; the
+// rest of the client's wall time is transport (RPCs, tone mapping excluded, bytes on the wire).
+absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection& connection,
+                                       Reporter& report) {
+  absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
+  if (!scene.ok()) return scene.status();
+  scene->camera.width = o.width;
+  scene->camera.height = o.height;
+  scene->settings.photons_per_pass = o.photons;
+  scene->settings.k_nearest = o.k;
+  absl::StatusOr<std::string> id = upload(connection, *scene, "latency benchmark");
+  if (!id.ok()) return id.status();
+  std::vector<double> total, rebuild, render, transport;
+  for (int i = 0; i < o.warmup + o.runs; ++i) {
+    v1::UpdateLightsRequest update;
+    update.set_scene_id(*id);
+    for (const Light& light : scene->lights) {
+      Light moved = light;
+      moved.position.x += (i % 2 == 0) ? 10.0f : -10.0f;  // a real change every time
+      *update.add_lights() = wire::encode_light(moved);
+    }
+    v1::RenderFrameRequest render_request;
+    render_request.set_scene_id(*id);
+    render_request.set_target_passes(1);
+    render_request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
+
+    const Clock::time_point start = Clock::now();
+    absl::StatusOr<v1::RebuildReport> rebuilt =
+        connection.call(&v1::RenderService::Stub::UpdateLights, update);
+    if (!rebuilt.ok()) return rebuilt.status();
+    absl::StatusOr<v1::Frame> frame =
+        connection.call(&v1::RenderService::Stub::RenderFrame, render_request);
+    if (!frame.ok()) return frame.status();
+    const double ms = ms_between(start, Clock::now());
+    if (frame->epochs().lights() != rebuilt->epochs().lights()) {
+      return absl::InternalError("the frame does not show the new lights epoch");
+    }
+    if (i < o.warmup) continue;
+    const v1::StageTimings& r = rebuilt->timings();
+    const v1::StageTimings& f = frame->timings();
+    const double rebuild_ms = r.photon_trace_ms() + r.photon_map_build_ms() + r.structure_build_ms() +
+                              f.photon_trace_ms() + f.photon_map_build_ms();
+    const double render_ms = f.render_ms() + f.resolve_ms();
+    total.push_back(ms);
+    rebuild.push_back(rebuild_ms);
+    render.push_back(render_ms);
+    transport.push_back(ms - rebuild_ms - render_ms);
+  }
+  const std::string name = o.photon_scene.parent_path().filename().string() +
+                           absl::StrFormat(" %dx%d %d photons k=%d", o.width, o.height, o.photons, o.k);
+  Measurement m = summarize(total);
+  report.line("update_to_frame", name, m.median, "ms", &m, o.runs);
+  report.line("update_to_frame_rebuild", name, summarize(rebuild).median, "ms");
+  report.line("update_to_frame_render", name, summarize(render).median, "ms");
+  report.line("update_to_frame_transport", name, summarize(transport).median, "ms");
+  return delete_scene(connection, *id);
+}
+
+}  // namespace
+
+std::vector<std::string> serving_benchmark_names() {
+  return {"stream_rgba8", "stream_rgba32f", "upload", "update_to_frame"};
+}
+
+absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& report) {
+  client::ConnectOptions connect;
+  // Always a server of our own: a figure must not depend on whatever else listens on 50051.
+  absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server =
+      client::EmbeddedServer::start({.extra_args = {"--device", o.device, "--log-level", "warning"}});
+  if (!server.ok()) return server.status();
+  connect.server = (*server)->address();
+  connect.max_message_mb = 256;
+  absl::StatusOr<std::unique_ptr<client::Connection>> connection = client::Connection::open(connect);
+  if (!connection.ok()) return connection.status();
+
+  if (selected(o, "stream_rgba8") || selected(o, "stream_rgba32f")) {
+    if (absl::Status s = stream_benchmarks(o, **connection, report); !s.ok()) return s;
+  }
+  if (selected(o, "upload") && !o.mesh.empty()) {
+    absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
+    if (!scene.ok()) return scene.status();
+    if (absl::Status s = upload_benchmark(o, **connection, *scene, o.mesh.filename().string(), report);
+        !s.ok())
+      return s;
+  }
+  if (selected(o, "update_to_frame") && !o.photon_scene.empty()) {
+    if (absl::Status s = update_to_frame_benchmark(o, **connection, report); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace caustica

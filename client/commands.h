@@ -1,0 +1,108 @@
+// The commands of the `caustica` CLI as library functions: main.cc parses flags into these
+// option structs and calls them; tests call them directly. Each returns the status of the whole
+// command; results go to `out` (text, or one JSON object with --json), progress to stderr.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "client/connection.h"
+#include "client/scene_source.h"
+
+namespace caustica::client {
+
+struct GlobalOptions {
+  ConnectOptions connect;
+  bool json = false;      // one JSON object per command on stdout
+  bool progress = false;  // progress bars on stderr (main sets it when stderr is a terminal)
+};
+
+// scene upload FILE [--name N]: prints the new scene's id.
+struct SceneUploadOptions {
+  std::filesystem::path file;
+  std::string name;  // empty: derived from the file name
+};
+absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOptions& options,
+                              std::ostream& out);
+absl::Status run_scene_list(const GlobalOptions& global, std::ostream& out);
+absl::Status run_scene_info(const GlobalOptions& global, const std::string& scene_id,
+                            std::ostream& out);
+absl::Status run_scene_delete(const GlobalOptions& global, const std::string& scene_id,
+                              std::ostream& out);
+
+// light set SCENE: the complete new light list, from flags (one light) or a lights file.
+struct LightSetOptions {
+  std::string scene;
+  std::filesystem::path file;            // lights file (light_json.h)
+  bool none = false;                     // no lights: only the scene's emissive triangles remain
+  std::string point, spot, directional;  // "X,Y,Z": position, or a directional light's direction
+  std::string direction;                 // spot axis "X,Y,Z"
+  std::string intensity;                 // "R,G,B" or one value (irradiance for directional lights)
+  std::optional<float> inner_angle, outer_angle;  // spot half-angles, degrees
+  std::string name;
+  std::optional<uint64_t> expect_epoch;  // apply only if the lights epoch still equals this
+};
+// The light list `options` describe (flags, file or none), before any server is involved.
+absl::StatusOr<std::vector<v1::Light>> lights_from_options(const LightSetOptions& options);
+absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& options,
+                           std::ostream& out);
+
+// What render, stream and animate share: the scene and how its frames come out.
+struct FrameJobOptions {
+  std::string scene;  // id, or a scene file uploaded for the command
+  SceneOverrides overrides;
+  bool keep = false;  // keep a scene uploaded from a file on the server
+  float exposure_stops = 0;
+};
+
+// render SCENE -o OUT: one image after `passes` passes.
+struct RenderOptions {
+  FrameJobOptions job;
+  std::filesystem::path output;
+  std::optional<uint32_t> passes;  // default: the scene file's settings.passes, else 1
+};
+absl::Status run_render(const GlobalOptions& global, const RenderOptions& options,
+                        std::ostream& out);
+
+// stream SCENE -o DIR: DIR/frame_0000.<format>, ... as the image refines.
+struct StreamOptions {
+  FrameJobOptions job;
+  std::filesystem::path directory;
+  std::string format = "png";  // file extension of the frames
+  uint32_t passes = 8;
+  uint32_t every = 1;  // passes between frames
+};
+absl::Status run_stream(const GlobalOptions& global, const StreamOptions& options,
+                        std::ostream& out);
+
+// animate SCENE --script LIGHTS.json -o DIR [--video OUT.mp4]: one image per keyframe.
+struct AnimateOptions {
+  FrameJobOptions job;
+  std::filesystem::path directory;
+  std::string format = "png";
+  std::filesystem::path script;
+  std::filesystem::path video;  // empty: no video
+  int fps = 12;
+};
+absl::Status run_animate(const GlobalOptions& global, const AnimateOptions& options,
+                         std::ostream& out);
+
+// stats: server, device, memory, latencies and scenes.
+absl::Status run_stats(const GlobalOptions& global, const std::string& scene_id, std::ostream& out);
+
+// smoke: upload a small Cornell box, change its lights twice, render after each change and check
+// every frame. Prints one summary line; returns the exit code (0 passed, 1 failed).
+struct SmokeOptions {
+  std::filesystem::path scene;  // empty: the bundled scenes/cornell-box/scene.json
+  uint32_t size = 64;           // image width and height
+  uint32_t photons = 4000;      // per pass
+};
+int run_smoke(const GlobalOptions& global, const SmokeOptions& options, std::ostream& out);
+
+}  // namespace caustica::client

@@ -1,0 +1,53 @@
+// The embedded default: without --server, and with nothing serving on localhost:50051, the CLI
+// starts its own caustica-server on a free loopback port for the length of one command, so that
+// `caustica render scene.json -o out.png` works on a laptop with nothing set up.
+#pragma once
+
+#include <sys/types.h>
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+
+namespace caustica::client {
+
+// Where caustica-server is: $CAUSTICA_SERVER_BIN, else next to the running executable (an
+// install), else ../server/ beside it (the build tree, where client/ and server/ are siblings).
+absl::StatusOr<std::filesystem::path> find_server_binary();
+
+struct EmbeddedServerOptions {
+  std::filesystem::path binary;         // empty: find_server_binary()
+  std::vector<std::string> extra_args;  // appended to --listen and --port-file
+  std::chrono::seconds startup_timeout{60};
+};
+
+class EmbeddedServer {
+ public:
+  // Starts the server with --listen 127.0.0.1:0 --port-file, waits for the port it chose and
+  // for its health to report SERVING. Errors carry the tail of the server's log.
+  static absl::StatusOr<std::unique_ptr<EmbeddedServer>> start(
+      const EmbeddedServerOptions& options);
+
+  // Stops the server with SIGTERM (SIGKILL after a grace period) and removes its files.
+  ~EmbeddedServer();
+  EmbeddedServer(const EmbeddedServer&) = delete;
+  EmbeddedServer& operator=(const EmbeddedServer&) = delete;
+
+  const std::string& address() const { return address_; }  // "127.0.0.1:PORT"
+  pid_t pid() const { return pid_; }
+
+ private:
+  EmbeddedServer(pid_t pid, std::filesystem::path dir) : pid_(pid), dir_(std::move(dir)) {}
+  absl::Status wait_until_serving(std::chrono::steady_clock::time_point give_up);
+  std::string log_tail() const;
+
+  pid_t pid_;
+  std::filesystem::path dir_;  // temporary: port file and server log
+  std::string address_;
+};
+
+}  // namespace caustica::client

@@ -1,0 +1,159 @@
+// caustica: the command-line client of the Caustica render server. Parses flags and calls the
+// command functions of client/commands.h, which do the work (and which tests call directly).
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <iostream>
+#include <string>
+
+#include "client/commands.h"
+#include "client/progress_bar.h"
+#include "client/rpc_status.h"
+
+namespace {
+
+using namespace caustica::client;
+
+// SCENE, --keep, --exposure and the scene overrides of render, stream and animate.
+void add_frame_job(CLI::App* command, FrameJobOptions& job) {
+  command->add_option("scene", job.scene, "scene id, or a scene file to upload for this command")
+      ->required();
+  command->add_flag("--keep", job.keep, "keep a scene uploaded from a file on the server");
+  command->add_option("--exposure", job.exposure_stops, "exposure in stops (8-bit files)");
+  SceneOverrides& o = job.overrides;
+  command->add_option("--width", o.width, "image width in pixels (changes the scene)");
+  command->add_option("--height", o.height, "image height in pixels (changes the scene)");
+  command->add_option("--photons", o.photons, "photons emitted per pass (changes the scene)");
+  command->add_option("--k", o.k, "photons per radiance estimate (changes the scene)");
+}
+
+// -o DIR and --format of the commands that write numbered frames.
+void add_frame_files(CLI::App* command, std::filesystem::path& directory, std::string& format) {
+  command->add_option("-o,--output", directory, "output directory")->required();
+  command->add_option("--format", format, "frame files: png, jpg, exr or pfm");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Caustica client: upload scenes, change lights and fetch photon-mapped frames "
+      "from a caustica-server (without --server: localhost:50051, else a local server "
+      "started for the command)."};
+  app.require_subcommand(1);
+  app.option_defaults()->always_capture_default();  // --help shows the defaults
+  app.fallthrough();  // global flags may follow the subcommand
+  GlobalOptions global;
+  app.add_option("--server", global.connect.server, "server address HOST:PORT");
+  app.add_option("--timeout", global.connect.timeout_s, "deadline of every call in seconds")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--max-message-mb", global.connect.max_message_mb,
+                 "largest message accepted from the server")
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--json", global.json, "print each result as one JSON object");
+
+  // Every subcommand's callback stores what to run; it runs after parsing succeeded.
+  std::string command_name;
+  std::function<absl::Status()> action;
+  std::function<int()> exit_code_action;
+  const auto on = [&](CLI::App* command, std::string name, std::function<absl::Status()> run) {
+    command->callback([&, name, run] {
+      command_name = name;
+      action = run;
+    });
+  };
+
+  CLI::App* scene = app.add_subcommand("scene", "upload, list, inspect and delete scenes");
+  scene->require_subcommand(1);
+  SceneUploadOptions upload;
+  CLI::App* upload_cmd = scene->add_subcommand("upload", "upload a scene file; prints its id");
+  upload_cmd->add_option("file", upload.file, "scene file (JSON)")->required();
+  upload_cmd->add_option("--name", upload.name, "name shown by scene list");
+  on(upload_cmd, "scene upload", [&] { return run_scene_upload(global, upload, std::cout); });
+  on(scene->add_subcommand("list", "list the scenes on the server"), "scene list",
+     [&] { return run_scene_list(global, std::cout); });
+  std::string scene_id;
+  CLI::App* info_cmd = scene->add_subcommand("info", "show one scene");
+  info_cmd->add_option("id", scene_id, "scene id")->required();
+  on(info_cmd, "scene info", [&] { return run_scene_info(global, scene_id, std::cout); });
+  CLI::App* delete_cmd = scene->add_subcommand("delete", "delete a scene");
+  delete_cmd->add_option("id", scene_id, "scene id")->required();
+  on(delete_cmd, "scene delete", [&] { return run_scene_delete(global, scene_id, std::cout); });
+
+  CLI::App* light = app.add_subcommand("light", "change a scene's lights");
+  light->require_subcommand(1);
+  LightSetOptions lights;
+  CLI::App* set_cmd = light->add_subcommand(
+      "set", "replace the lights (emissive triangles stay) and print what was rebuilt");
+  set_cmd->add_option("scene", lights.scene, "scene id")->required();
+  set_cmd->add_option("--point", lights.point, "a point light at X,Y,Z");
+  set_cmd->add_option("--spot", lights.spot, "a spot light at X,Y,Z (with --direction)");
+  set_cmd->add_option("--directional", lights.directional,
+                      "a directional light travelling along DX,DY,DZ");
+  set_cmd->add_option("--direction", lights.direction, "spot axis DX,DY,DZ");
+  set_cmd->add_option("--intensity", lights.intensity,
+                      "R,G,B or one value: W/sr (point, spot) or W/m^2 (directional)");
+  set_cmd->add_option("--inner", lights.inner_angle, "spot: full intensity inside (degrees)");
+  set_cmd->add_option("--outer", lights.outer_angle, "spot: nothing outside (degrees)");
+  set_cmd->add_option("--name", lights.name, "light name");
+  set_cmd->add_option("--file", lights.file, "lights file: {\"lights\": [...]} as in scene files");
+  set_cmd->add_flag("--none", lights.none, "no lights besides the emissive triangles");
+  set_cmd->add_option("--expect-epoch", lights.expect_epoch,
+                      "apply only if the scene's lights epoch is still N");
+  on(set_cmd, "light set", [&] { return run_light_set(global, lights, std::cout); });
+
+  RenderOptions render;
+  CLI::App* render_cmd = app.add_subcommand("render", "render one image");
+  add_frame_job(render_cmd, render.job);
+  render_cmd
+      ->add_option("-o,--output", render.output,
+                   "image: .png/.jpg (sRGB, exposed) or .exr/.pfm (linear)")
+      ->required();
+  render_cmd->add_option("--passes", render.passes, "passes (default: the scene file's, or 1)");
+  on(render_cmd, "render", [&] { return run_render(global, render, std::cout); });
+
+  StreamOptions stream;
+  CLI::App* stream_cmd =
+      app.add_subcommand("stream", "write DIR/frame_0000.png ... as the image refines");
+  add_frame_job(stream_cmd, stream.job);
+  add_frame_files(stream_cmd, stream.directory, stream.format);
+  stream_cmd->add_option("--passes", stream.passes, "passes in the last frame");
+  stream_cmd->add_option("--every", stream.every, "passes between frames")
+      ->check(CLI::PositiveNumber);
+  on(stream_cmd, "stream", [&] { return run_stream(global, stream, std::cout); });
+
+  AnimateOptions animate;
+  CLI::App* animate_cmd =
+      app.add_subcommand("animate", "play a keyframed light script; one image per keyframe");
+  add_frame_job(animate_cmd, animate.job);
+  add_frame_files(animate_cmd, animate.directory, animate.format);
+  animate_cmd
+      ->add_option("--script", animate.script,
+                   "{\"keyframes\": [{\"lights\": [...], \"passes\": N}, ...]}")
+      ->required();
+  animate_cmd->add_option("--video", animate.video, "also join the frames into a video (ffmpeg)");
+  animate_cmd->add_option("--fps", animate.fps, "video frame rate")->check(CLI::PositiveNumber);
+  on(animate_cmd, "animate", [&] { return run_animate(global, animate, std::cout); });
+
+  std::string stats_scene;
+  CLI::App* stats_cmd = app.add_subcommand("stats", "server, device, memory, latencies, scenes");
+  stats_cmd->add_option("--scene", stats_scene, "limit the per-scene part to this scene");
+  on(stats_cmd, "stats", [&] { return run_stats(global, stats_scene, std::cout); });
+
+  SmokeOptions smoke;
+  CLI::App* smoke_cmd = app.add_subcommand(
+      "smoke", "upload a small Cornell box, change its lights, check the frames (exit 0 or 1)");
+  smoke_cmd->add_option("--scene", smoke.scene, "scene file (default: the bundled cornell-box)");
+  smoke_cmd->add_option("--size", smoke.size, "image width and height")->check(CLI::PositiveNumber);
+  smoke_cmd->add_option("--photons", smoke.photons, "photons per pass")->check(CLI::PositiveNumber);
+  smoke_cmd->callback(
+      [&] { exit_code_action = [&] { return run_smoke(global, smoke, std::cout); }; });
+
+  CLI11_PARSE(app, argc, argv);
+  global.progress = stderr_is_terminal();
+  if (exit_code_action) return exit_code_action();
+  if (const absl::Status status = action(); !status.ok()) {
+    std::cerr << error_line(command_name, status) << "\n";
+    return 1;
+  }
+  return 0;
+}

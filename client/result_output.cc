@@ -1,0 +1,131 @@
+// Text and JSON renderings of results (see result_output.h).
+#include "client/result_output.h"
+
+#include <google/protobuf/util/json_util.h>
+
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+
+namespace caustica::client {
+namespace {
+
+std::string vec3_text(const v1::Vec3& v) {
+  return absl::StrFormat("(%g, %g, %g)", v.x(), v.y(), v.z());
+}
+
+}  // namespace
+
+nlohmann::json to_json(const google::protobuf::Message& message) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  std::string text;
+  if (!google::protobuf::util::MessageToJsonString(message, &text, options).ok()) return {};
+  return nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+}
+
+nlohmann::json frame_header_json(const v1::Frame& frame) {
+  v1::Frame header = frame;
+  header.clear_data();
+  nlohmann::json json = to_json(header);
+  json.erase("data");
+  return json;
+}
+
+void print_json(std::ostream& out, const nlohmann::json& value) { out << value.dump() << "\n"; }
+
+std::string timings_text(const v1::StageTimings& t) {
+  return absl::StrFormat(
+      "structure %.1f | photon trace %.1f | photon maps %.1f | render %.1f | resolve %.1f | "
+      "queue %.1f",
+      t.structure_build_ms(), t.photon_trace_ms(), t.photon_map_build_ms(), t.render_ms(),
+      t.resolve_ms(), t.queue_ms());
+}
+
+std::string epochs_text(const v1::Epochs& e) {
+  return absl::StrFormat("geometry %d, lights %d, camera %d, settings %d", e.geometry(), e.lights(),
+                         e.camera(), e.settings());
+}
+
+std::string frame_text(const v1::Frame& f) {
+  return absl::StrFormat("%dx%d, %d passes, %d photons emitted, lights epoch %d", f.width(),
+                         f.height(), f.passes(), f.photons_emitted(), f.epochs().lights());
+}
+
+std::string mib_text(uint64_t bytes) { return absl::StrFormat("%.2f MiB", bytes / 1048576.0); }
+
+void print_rebuild_report(std::ostream& out, const v1::RebuildReport& r) {
+  out << absl::StrFormat("rebuilt      %s\n",
+                         r.rebuilt().empty() ? "nothing" : absl::StrJoin(r.rebuilt(), ", "));
+  out << absl::StrFormat("photons      %d emitted; stored %d caustic, %d global\n",
+                         r.photons_emitted(), r.caustic_photons(), r.global_photons());
+  out << absl::StrFormat("time (ms)    %s\n", timings_text(r.timings()));
+  out << absl::StrFormat("epochs       %s\n", epochs_text(r.epochs()));
+}
+
+void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
+  const v1::Camera& c = s.camera();
+  const v1::RenderSettings& rs = s.settings();
+  out << absl::StrFormat("scene        %s '%s'\n", s.scene_id(), s.name());
+  out << absl::StrFormat("geometry     %d triangles, %d vertices, %d meshes, %d materials\n",
+                         s.triangles(), s.vertices(), s.meshes(), s.materials());
+  out << absl::StrFormat("lights       %d lights, %d emissive triangles\n", s.lights(),
+                         s.area_lights());
+  out << absl::StrFormat("camera       %dx%d, fov %g, at %s looking at %s\n", c.width(), c.height(),
+                         c.vertical_fov_deg(), vec3_text(c.position()), vec3_text(c.look_at()));
+  out << absl::StrFormat(
+      "settings     %d photons per pass, k %d, max radius %g, kernel %s, max depth %d, photon "
+      "bounces %d, area light samples %d, seed %d\n",
+      rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::Kernel_Name(rs.kernel()),
+      rs.max_depth(), rs.max_photon_bounces(), rs.area_light_samples(), rs.seed());
+  out << absl::StrFormat("memory       structure %d nodes, %s; photon maps %s; device %s\n",
+                         s.structure_nodes(), mib_text(s.structure_bytes()),
+                         mib_text(s.photon_map_bytes()), mib_text(s.device_bytes()));
+  out << absl::StrFormat("upload       %s in %.1f ms\n", mib_text(s.upload_bytes()), s.upload_ms());
+  out << absl::StrFormat("film         %d passes\n", s.passes());
+  out << absl::StrFormat("epochs       %s\n", epochs_text(s.epochs()));
+  if (s.has_last_rebuild()) {
+    out << absl::StrFormat("last rebuild %s: %s ms\n",
+                           absl::StrJoin(s.last_rebuild().rebuilt(), ", "),
+                           timings_text(s.last_rebuild().timings()));
+  }
+}
+
+void print_scene_table(std::ostream& out,
+                       const google::protobuf::RepeatedPtrField<v1::SceneInfo>& scenes) {
+  if (scenes.empty()) {
+    out << "no scenes\n";
+    return;
+  }
+  out << absl::StrFormat("%-24s %-20s %10s %6s %6s %9s %12s\n", "ID", "NAME", "TRIANGLES", "LIGHTS",
+                         "PASSES", "SIZE", "DEVICE");
+  for (const v1::SceneInfo& s : scenes) {
+    out << absl::StrFormat("%-24s %-20s %10d %6d %6d %4dx%-4d %12s\n", s.scene_id(), s.name(),
+                           s.triangles(), s.lights() + s.area_lights(), s.passes(),
+                           s.camera().width(), s.camera().height(), mib_text(s.device_bytes()));
+  }
+}
+
+void print_stats(std::ostream& out, const v1::Stats& s) {
+  const v1::DeviceInfo& d = s.device();
+  out << absl::StrFormat(
+      "server       up %.1f s; %d requests, %d frames served, %d active streams\n", s.uptime_s(),
+      s.requests_served(), s.frames_served(), s.active_streams());
+  out << absl::StrFormat("device       %s: %s, %d compute units, %s\n", d.kind(), d.name(),
+                         d.compute_units(), mib_text(d.memory_bytes()));
+  out << absl::StrFormat("memory       %s used of %s budget, peak %s\n",
+                         mib_text(s.memory_used_bytes()), mib_text(s.memory_budget_bytes()),
+                         mib_text(s.memory_peak_bytes()));
+  out << absl::StrFormat("scenes       %d of at most %d\n", s.scenes(), s.max_scenes());
+  if (!s.latencies().empty()) {
+    out << absl::StrFormat("latency (ms) %-24s %7s %9s %9s %9s %9s\n", "stage", "count", "p50",
+                           "p90", "p99", "max");
+    for (const v1::LatencySummary& l : s.latencies()) {
+      out << absl::StrFormat("             %-24s %7d %9.2f %9.2f %9.2f %9.2f\n", l.stage(),
+                             l.count(), l.p50_ms(), l.p90_ms(), l.p99_ms(), l.max_ms());
+    }
+  }
+  if (!s.scene_stats().empty()) print_scene_table(out, s.scene_stats());
+}
+
+}  // namespace caustica::client

@@ -1,0 +1,26 @@
+// Scene upload: a loaded scene streamed to UploadScene as its header and then mesh chunks of at
+// most wire::kMaxChunkBytes, as the API requires for meshes larger than one message.
+#pragma once
+
+#include <grpcpp/client_context.h>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "caustica/v1/render_service.grpc.pb.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica::client {
+
+// Called after every chunk sent with the mesh bytes sent so far and the total.
+using UploadProgress = std::function<void(uint64_t bytes_sent, uint64_t bytes_total)>;
+
+// Uploads `scene` under `name` and returns the server's SceneInfo (id, counts, build timings).
+absl::StatusOr<v1::SceneInfo> upload_scene(v1::RenderService::StubInterface& stub,
+                                           grpc::ClientContext& context, const Scene& scene,
+                                           const std::string& name,
+                                           const UploadProgress& progress = nullptr);
+
+}  // namespace caustica::client

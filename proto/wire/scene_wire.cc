@@ -1,0 +1,501 @@
+#include "proto/wire/scene_wire.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/validate.h"
+
+namespace caustica::wire {
+namespace {
+
+// Element sizes of the MeshChunk arrays, indexed by MeshChunk::Array.
+constexpr size_t kElementBytes[5] = {0, 3 * sizeof(float), 3 * sizeof(float),
+                                     3 * sizeof(uint32_t), sizeof(uint32_t)};
+constexpr const char* kArrayNames[5] = {"unspecified", "positions", "normals", "indices",
+                                        "material_ids"};
+
+// Debian's Abseil has its own string_view, which StrCat takes; std's converts through this.
+absl::string_view as_absl(std::string_view s) { return {s.data(), s.size()}; }
+
+absl::Status invalid(std::string_view field, std::string_view problem) {
+  return absl::InvalidArgumentError(absl::StrCat(as_absl(field), ": ", as_absl(problem)));
+}
+
+std::string join_field(std::string_view field, std::string_view member) {
+  return absl::StrCat(as_absl(field), ".", as_absl(member));
+}
+
+bool all_finite(const Vec3f& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// Bytes one (mesh, array) must deliver according to the header.
+size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
+  switch (array) {
+    case v1::MeshChunk::POSITIONS: return counts.vertices * kElementBytes[array];
+    case v1::MeshChunk::NORMALS: return counts.has_normals ? counts.vertices * kElementBytes[array] : 0;
+    case v1::MeshChunk::INDICES: return counts.triangles * kElementBytes[array];
+    case v1::MeshChunk::MATERIAL_IDS:
+      return counts.per_triangle_materials ? counts.triangles * kElementBytes[array] : 0;
+  }
+  return 0;
+}
+
+}  // namespace
+
+uint32_t chunk_crc32(std::string_view bytes) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  // zlib takes 32-bit lengths; chunks are 1 MiB, but stay correct for any size.
+  while (!bytes.empty()) {
+    const size_t n = std::min<size_t>(bytes.size(), 1u << 30);
+    crc = crc32(crc, reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uInt>(n));
+    bytes.remove_prefix(n);
+  }
+  return static_cast<uint32_t>(crc);
+}
+
+// --- scene model -> wire ---
+
+v1::Vec3 encode_vec3(const Vec3f& v) {
+  v1::Vec3 out;
+  out.set_x(v.x);
+  out.set_y(v.y);
+  out.set_z(v.z);
+  return out;
+}
+
+v1::Material encode_material(const Material& m) {
+  v1::Material out;
+  out.set_name(m.name);
+  switch (m.type) {
+    case MaterialType::kDiffuse: out.set_type(v1::Material::DIFFUSE); break;
+    case MaterialType::kMirror: out.set_type(v1::Material::MIRROR); break;
+    case MaterialType::kDielectric: out.set_type(v1::Material::DIELECTRIC); break;
+    case MaterialType::kEmissive: out.set_type(v1::Material::EMISSIVE); break;
+  }
+  *out.mutable_color() = encode_vec3(m.color);
+  out.set_ior(m.ior);
+  *out.mutable_radiance() = encode_vec3(m.radiance);
+  return out;
+}
+
+v1::Light encode_light(const Light& light) {
+  v1::Light out;
+  out.set_name(light.name);
+  switch (light.type) {
+    case LightType::kPoint: out.set_type(v1::Light::POINT); break;
+    case LightType::kSpot: out.set_type(v1::Light::SPOT); break;
+    case LightType::kDirectional: out.set_type(v1::Light::DIRECTIONAL); break;
+  }
+  *out.mutable_position() = encode_vec3(light.position);
+  *out.mutable_direction() = encode_vec3(light.direction);
+  *out.mutable_intensity() = encode_vec3(light.intensity);
+  out.set_inner_angle_deg(light.inner_angle_deg);
+  out.set_outer_angle_deg(light.outer_angle_deg);
+  return out;
+}
+
+v1::Camera encode_camera(const Camera& camera) {
+  v1::Camera out;
+  *out.mutable_position() = encode_vec3(camera.position);
+  *out.mutable_look_at() = encode_vec3(camera.look_at);
+  *out.mutable_up() = encode_vec3(camera.up);
+  out.set_vertical_fov_deg(camera.vertical_fov_deg);
+  out.set_width(static_cast<uint32_t>(camera.width));
+  out.set_height(static_cast<uint32_t>(camera.height));
+  return out;
+}
+
+v1::RenderSettings encode_settings(const RenderSettings& s) {
+  v1::RenderSettings out;
+  out.set_photons_per_pass(s.photons_per_pass);
+  out.set_k_nearest(s.k_nearest);
+  out.set_max_radius(s.max_radius);
+  switch (s.kernel) {
+    case Kernel::kUniform: out.set_kernel(v1::UNIFORM); break;
+    case Kernel::kCone: out.set_kernel(v1::CONE); break;
+    case Kernel::kEpanechnikov: out.set_kernel(v1::EPANECHNIKOV); break;
+  }
+  out.set_max_depth(s.max_depth);
+  out.set_max_photon_bounces(s.max_photon_bounces);
+  out.set_area_light_samples(s.area_light_samples);
+  out.set_seed(s.seed);
+  return out;
+}
+
+v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name) {
+  v1::SceneHeader out;
+  out.set_name(name);
+  for (const Material& m : scene.materials) *out.add_materials() = encode_material(m);
+  for (const Light& l : scene.lights) *out.add_lights() = encode_light(l);
+  *out.mutable_camera() = encode_camera(scene.camera);
+  *out.mutable_settings() = encode_settings(scene.settings);
+  for (const Mesh& mesh : scene.meshes) {
+    v1::MeshHeader* h = out.add_meshes();
+    h->set_name(mesh.name);
+    h->set_vertex_count(mesh.positions.size());
+    h->set_triangle_count(mesh.triangle_count());
+    h->set_has_normals(!mesh.normals.empty());
+    // One material for the whole mesh saves sending an id per triangle.
+    const bool uniform =
+        mesh.material_ids.empty() ||
+        std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
+                    [&](uint32_t id) { return id == mesh.material_ids.front(); });
+    h->set_material(mesh.material_ids.empty() ? 0 : mesh.material_ids.front());
+    h->set_per_triangle_materials(!uniform);
+  }
+  return out;
+}
+
+namespace {
+
+// The arrays of one mesh in wire order, with the bytes each sends (empty when not sent).
+std::array<std::string_view, 5> mesh_arrays(const Mesh& mesh) {
+  auto bytes_of = [](const auto& v) {
+    return std::string_view(reinterpret_cast<const char*>(v.data()),
+                            v.size() * sizeof(v.front()));
+  };
+  const bool uniform =
+      mesh.material_ids.empty() ||
+      std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
+                  [&](uint32_t id) { return id == mesh.material_ids.front(); });
+  return {std::string_view(), bytes_of(mesh.positions), bytes_of(mesh.normals),
+          bytes_of(mesh.indices), uniform ? std::string_view() : bytes_of(mesh.material_ids)};
+}
+
+}  // namespace
+
+size_t mesh_bytes(const Scene& scene) {
+  size_t total = 0;
+  for (const Mesh& mesh : scene.meshes)
+    for (std::string_view a : mesh_arrays(mesh)) total += a.size();
+  return total;
+}
+
+bool for_each_mesh_chunk(const Scene& scene, size_t max_chunk_bytes,
+                         const std::function<bool(v1::SceneChunk& chunk)>& emit) {
+  max_chunk_bytes = std::clamp<size_t>(max_chunk_bytes, 16 * sizeof(float), kMaxChunkBytes);
+  v1::SceneChunk chunk;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const std::array<std::string_view, 5> arrays = mesh_arrays(scene.meshes[m]);
+    for (int a = 1; a < 5; ++a) {
+      std::string_view bytes = arrays[a];
+      // Whole elements per chunk, so the receiver can check each chunk on its own.
+      const size_t step = max_chunk_bytes / kElementBytes[a] * kElementBytes[a];
+      for (size_t offset = 0; offset < bytes.size(); offset += step) {
+        std::string_view piece = bytes.substr(offset, step);
+        v1::MeshChunk* mc = chunk.mutable_mesh();
+        mc->set_mesh(static_cast<uint32_t>(m));
+        mc->set_array(static_cast<v1::MeshChunk::Array>(a));
+        mc->set_offset(offset);
+        mc->set_data(piece.data(), piece.size());
+        mc->set_crc32(chunk_crc32(piece));
+        if (!emit(chunk)) return false;
+      }
+    }
+  }
+  return true;
+}
+
+// --- wire -> scene model ---
+
+absl::StatusOr<Vec3f> decode_vec3(const v1::Vec3& v, std::string_view field) {
+  Vec3f out(v.x(), v.y(), v.z());
+  if (!all_finite(out)) {
+    return invalid(field, absl::StrFormat("(%g, %g, %g) is not finite", v.x(), v.y(), v.z()));
+  }
+  return out;
+}
+
+absl::StatusOr<Light> decode_light(const v1::Light& in, std::string_view field) {
+  Light light;
+  light.name = in.name();
+  switch (in.type()) {
+    case v1::Light::POINT: light.type = LightType::kPoint; break;
+    case v1::Light::SPOT: light.type = LightType::kSpot; break;
+    case v1::Light::DIRECTIONAL: light.type = LightType::kDirectional; break;
+    default:
+      return invalid(join_field(field, "type"),
+                     absl::StrCat(in.type(), " is not a light type (POINT, SPOT or DIRECTIONAL)"));
+  }
+  // Only the fields the type uses must be set; absent messages read as zero vectors.
+  absl::StatusOr<Vec3f> position = decode_vec3(in.position(), join_field(field, "position"));
+  if (!position.ok()) return position.status();
+  absl::StatusOr<Vec3f> direction = decode_vec3(in.direction(), join_field(field, "direction"));
+  if (!direction.ok()) return direction.status();
+  absl::StatusOr<Vec3f> intensity = decode_vec3(in.intensity(), join_field(field, "intensity"));
+  if (!intensity.ok()) return intensity.status();
+  light.position = *position;
+  light.direction = *direction;
+  light.intensity = *intensity;
+  light.inner_angle_deg = in.inner_angle_deg();
+  light.outer_angle_deg = in.outer_angle_deg();
+  return light;
+}
+
+absl::StatusOr<std::vector<Light>> decode_lights(
+    const google::protobuf::RepeatedPtrField<v1::Light>& lights, std::string_view field) {
+  std::vector<Light> out;
+  out.reserve(lights.size());
+  for (int i = 0; i < lights.size(); ++i) {
+    absl::StatusOr<Light> light = decode_light(lights[i], absl::StrCat(as_absl(field), "[", i, "]"));
+    if (!light.ok()) return light.status();
+    out.push_back(*std::move(light));
+  }
+  return out;
+}
+
+absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view field) {
+  Camera camera;
+  absl::StatusOr<Vec3f> position = decode_vec3(in.position(), join_field(field, "position"));
+  if (!position.ok()) return position.status();
+  absl::StatusOr<Vec3f> look_at = decode_vec3(in.look_at(), join_field(field, "look_at"));
+  if (!look_at.ok()) return look_at.status();
+  absl::StatusOr<Vec3f> up = decode_vec3(in.up(), join_field(field, "up"));
+  if (!up.ok()) return up.status();
+  // Sizes beyond int would wrap; anything over the limit is refused by validation anyway.
+  for (auto [name, value] : {std::pair{"width", in.width()}, std::pair{"height", in.height()}}) {
+    if (value == 0 || value > uint32_t(kMaxImageSide)) {
+      return invalid(join_field(field, name),
+                     absl::StrCat(value, " is outside [1, ", kMaxImageSide, "]"));
+    }
+  }
+  camera.position = *position;
+  camera.look_at = *look_at;
+  camera.up = *up;
+  camera.vertical_fov_deg = in.vertical_fov_deg();
+  camera.width = static_cast<int>(in.width());
+  camera.height = static_cast<int>(in.height());
+  return camera;
+}
+
+absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
+                                              const RenderSettings& current,
+                                              std::string_view field) {
+  RenderSettings s = current;
+  if (in.has_photons_per_pass()) s.photons_per_pass = in.photons_per_pass();
+  if (in.has_k_nearest()) s.k_nearest = in.k_nearest();
+  if (in.has_max_radius()) s.max_radius = in.max_radius();
+  switch (in.kernel()) {
+    case v1::KERNEL_UNSPECIFIED: break;
+    case v1::UNIFORM: s.kernel = Kernel::kUniform; break;
+    case v1::CONE: s.kernel = Kernel::kCone; break;
+    case v1::EPANECHNIKOV: s.kernel = Kernel::kEpanechnikov; break;
+    default:
+      return invalid(join_field(field, "kernel"), absl::StrCat(in.kernel(), " is not a kernel"));
+  }
+  if (in.has_max_depth()) s.max_depth = in.max_depth();
+  if (in.has_max_photon_bounces()) s.max_photon_bounces = in.max_photon_bounces();
+  if (in.has_area_light_samples()) s.area_light_samples = in.area_light_samples();
+  if (in.has_seed()) s.seed = in.seed();
+  return s;
+}
+
+// --- SceneAssembler ---
+
+absl::Status SceneAssembler::add(const v1::SceneChunk& chunk) {
+  const size_t index = chunks_++;
+  absl::Status status;
+  switch (chunk.payload_case()) {
+    case v1::SceneChunk::kHeader:
+      status = add_header(chunk.header());
+      break;
+    case v1::SceneChunk::kMesh:
+      status = add_mesh_chunk(chunk.mesh());
+      break;
+    default:
+      status = absl::InvalidArgumentError("carries neither a header nor a mesh chunk");
+  }
+  if (status.ok()) return status;
+  return absl::Status(status.code(), absl::StrCat("chunk ", index, ": ", status.message()));
+}
+
+absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
+  if (has_header_) return invalid("header", "a second header (the header comes once, first)");
+  name_ = header.name();
+  for (int i = 0; i < header.materials_size(); ++i) {
+    const v1::Material& in = header.materials(i);
+    const std::string field = absl::StrCat("materials[", i, "]");
+    Material m;
+    m.name = in.name().empty() ? absl::StrCat("material", i) : in.name();
+    switch (in.type()) {
+      case v1::Material::DIFFUSE: m.type = MaterialType::kDiffuse; break;
+      case v1::Material::MIRROR: m.type = MaterialType::kMirror; break;
+      case v1::Material::DIELECTRIC: m.type = MaterialType::kDielectric; break;
+      case v1::Material::EMISSIVE: m.type = MaterialType::kEmissive; break;
+      default:
+        return invalid(join_field(field, "type"),
+                       absl::StrCat(in.type(), " is not a material type"));
+    }
+    absl::StatusOr<Vec3f> color = decode_vec3(in.color(), join_field(field, "color"));
+    if (!color.ok()) return color.status();
+    absl::StatusOr<Vec3f> radiance = decode_vec3(in.radiance(), join_field(field, "radiance"));
+    if (!radiance.ok()) return radiance.status();
+    m.color = *color;
+    m.radiance = *radiance;
+    m.ior = in.ior();
+    scene_.materials.push_back(std::move(m));
+  }
+  absl::StatusOr<std::vector<Light>> lights = decode_lights(header.lights(), "lights");
+  if (!lights.ok()) return lights.status();
+  scene_.lights = *std::move(lights);
+  absl::StatusOr<Camera> camera = decode_camera(header.camera(), "camera");
+  if (!camera.ok()) return camera.status();
+  scene_.camera = *camera;
+  absl::StatusOr<RenderSettings> settings =
+      apply_settings(header.settings(), RenderSettings{}, "settings");
+  if (!settings.ok()) return settings.status();
+  scene_.settings = *settings;
+
+  progress_.resize(header.meshes_size());
+  counts_.resize(header.meshes_size());
+  for (int i = 0; i < header.meshes_size(); ++i) {
+    const v1::MeshHeader& h = header.meshes(i);
+    const std::string field = absl::StrCat("meshes[", i, "] '", h.name(), "'");
+    // Limits first: nothing is allocated for a header that asks for absurd sizes.
+    if (h.vertex_count() > kMaxVerticesPerMesh) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          field, ".vertex_count: ", h.vertex_count(), " exceeds the limit of ", kMaxVerticesPerMesh));
+    }
+    if (h.triangle_count() > kMaxTrianglesPerMesh) {
+      return absl::ResourceExhaustedError(absl::StrCat(field, ".triangle_count: ", h.triangle_count(),
+                                                       " exceeds the limit of ", kMaxTrianglesPerMesh));
+    }
+    if (h.triangle_count() == 0) return invalid(join_field(field, "triangle_count"), "is 0");
+    if (!h.per_triangle_materials() && h.material() >= scene_.materials.size()) {
+      return invalid(join_field(field, "material"),
+                     absl::StrCat(h.material(), " is out of range (the scene has ",
+                                  scene_.materials.size(), " materials)"));
+    }
+    counts_[i] = {h.vertex_count(), h.triangle_count(), h.has_normals(),
+                  h.per_triangle_materials()};
+    for (int a = 1; a < 5; ++a) bytes_declared_ += expected_bytes(counts_[i], a);
+    Mesh mesh;
+    mesh.name = h.name().empty() ? absl::StrCat("mesh", i) : h.name();
+    if (!h.per_triangle_materials()) mesh.material_ids.assign(h.triangle_count(), h.material());
+    scene_.meshes.push_back(std::move(mesh));
+  }
+  has_header_ = true;
+  return absl::OkStatus();
+}
+
+absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
+  if (!has_header_) return invalid("mesh", "arrives before the scene header");
+  if (chunk.mesh() >= scene_.meshes.size()) {
+    return invalid("mesh.mesh", absl::StrCat(chunk.mesh(), " is out of range (the header declares ",
+                                             scene_.meshes.size(), " meshes)"));
+  }
+  const int a = chunk.array();
+  if (a < 1 || a > 4) return invalid("mesh.array", absl::StrCat(a, " is not an array kind"));
+  Mesh& mesh = scene_.meshes[chunk.mesh()];
+  const MeshHeaderCounts& counts = counts_[chunk.mesh()];
+  const std::string where = absl::StrCat("mesh '", mesh.name, "' ", kArrayNames[a]);
+  const std::string& data = chunk.data();
+  if (data.size() > kMaxChunkBytes) {
+    return invalid("mesh.data", absl::StrCat(where, ": ", data.size(), " bytes exceed the ",
+                                             kMaxChunkBytes, "-byte chunk limit"));
+  }
+  if (data.empty()) return invalid("mesh.data", absl::StrCat(where, ": is empty"));
+  if (data.size() % kElementBytes[a] != 0) {
+    return invalid("mesh.data", absl::StrCat(where, ": ", data.size(),
+                                             " bytes are not a whole number of ",
+                                             kElementBytes[a], "-byte elements"));
+  }
+  if (chunk_crc32(data) != chunk.crc32()) {
+    return invalid("mesh.crc32", absl::StrFormat("%s: checksum %08x does not match the data (%08x)",
+                                                 where, chunk.crc32(), chunk_crc32(data)));
+  }
+  size_t& received = progress_[chunk.mesh()].received[a];
+  if (chunk.offset() != received) {
+    return invalid("mesh.offset", absl::StrCat(where, ": offset ", chunk.offset(),
+                                               " but ", received, " bytes arrived so far"));
+  }
+  const size_t expected = expected_bytes(counts, a);
+  if (received + data.size() > expected) {
+    return invalid("mesh.data", absl::StrCat(where, ": ", received + data.size(),
+                                             " bytes exceed the ", expected,
+                                             " the header declares"));
+  }
+  const size_t first = received / kElementBytes[a];
+  const size_t count = data.size() / kElementBytes[a];
+  // Checks per element, so the error names the vertex or triangle like a scene file's would.
+  switch (a) {
+    case v1::MeshChunk::POSITIONS:
+    case v1::MeshChunk::NORMALS: {
+      std::vector<Vec3f>& out = a == v1::MeshChunk::POSITIONS ? mesh.positions : mesh.normals;
+      if (out.empty()) out.reserve(counts.vertices);
+      const size_t base = out.size();
+      out.resize(base + count);
+      std::memcpy(out.data() + base, data.data(), data.size());
+      for (size_t i = 0; i < count; ++i) {
+        if (!all_finite(out[base + i])) {
+          const Vec3f v = out[base + i];
+          out.resize(base);
+          return invalid("mesh.data", absl::StrFormat("%s: vertex %d is (%g, %g, %g), not finite",
+                                                      where, first + i, v.x, v.y, v.z));
+        }
+      }
+      break;
+    }
+    case v1::MeshChunk::INDICES: {
+      if (mesh.indices.empty()) mesh.indices.reserve(3 * counts.triangles);
+      const size_t base = mesh.indices.size();
+      mesh.indices.resize(base + 3 * count);
+      std::memcpy(mesh.indices.data() + base, data.data(), data.size());
+      for (size_t i = 0; i < 3 * count; ++i) {
+        if (mesh.indices[base + i] >= counts.vertices) {
+          const uint32_t bad = mesh.indices[base + i];
+          mesh.indices.resize(base);
+          return invalid("mesh.data",
+                         absl::StrCat(where, ": triangle ", first + i / 3, " refers to vertex ",
+                                      bad, " of ", counts.vertices));
+        }
+      }
+      break;
+    }
+    case v1::MeshChunk::MATERIAL_IDS: {
+      if (mesh.material_ids.empty()) mesh.material_ids.reserve(counts.triangles);
+      const size_t base = mesh.material_ids.size();
+      mesh.material_ids.resize(base + count);
+      std::memcpy(mesh.material_ids.data() + base, data.data(), data.size());
+      for (size_t i = 0; i < count; ++i) {
+        if (mesh.material_ids[base + i] >= scene_.materials.size()) {
+          const uint32_t bad = mesh.material_ids[base + i];
+          mesh.material_ids.resize(base);
+          return invalid("mesh.data", absl::StrCat(where, ": triangle ", first + i, " uses material ",
+                                                   bad, " of ", scene_.materials.size()));
+        }
+      }
+      break;
+    }
+  }
+  received += data.size();
+  bytes_received_ += data.size();
+  return absl::OkStatus();
+}
+
+absl::StatusOr<Scene> SceneAssembler::finish() {
+  if (!has_header_) return invalid("header", "the upload ended before the scene header");
+  for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+    for (int a = 1; a < 5; ++a) {
+      const size_t expected = expected_bytes(counts_[m], a);
+      const size_t got = progress_[m].received[a];
+      if (got != expected) {
+        return invalid(absl::StrCat("meshes[", m, "] '", scene_.meshes[m].name, "'"),
+                       absl::StrCat(kArrayNames[a], " has ", got, " bytes but the header declares ",
+                                    expected, " (", kElementBytes[a], " per element)"));
+      }
+    }
+  }
+  if (absl::Status s = validate_scene(scene_); !s.ok()) return s;
+  return std::move(scene_);
+}
+
+}  // namespace caustica::wire

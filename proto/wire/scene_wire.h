@@ -1,0 +1,95 @@
+// The scene model (renderer/scene/scene.h) in its wire form (proto/caustica/v1/scene.proto) and
+// back. The client encodes a loaded scene into a header and mesh chunks; the server reassembles
+// the chunks, checking each as it arrives, and validates the result like a scene file. Shared so
+// both sides agree byte for byte on chunk layout and checksums.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "caustica/v1/scene.pb.h"
+#include "renderer/scene/scene.h"
+
+namespace caustica::wire {
+
+// Largest `data` of one MeshChunk.
+inline constexpr size_t kMaxChunkBytes = size_t{1} << 20;
+
+// CRC-32 (IEEE) of `bytes`, as MeshChunk.crc32 carries it.
+uint32_t chunk_crc32(std::string_view bytes);
+
+// --- scene model -> wire ---
+v1::Vec3 encode_vec3(const Vec3f& v);
+v1::Material encode_material(const Material& m);
+v1::Light encode_light(const Light& light);
+v1::Camera encode_camera(const Camera& camera);
+v1::RenderSettings encode_settings(const RenderSettings& settings);  // every field set
+v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name);
+// Bytes the mesh chunks of `scene` carry in total.
+size_t mesh_bytes(const Scene& scene);
+// Calls `emit` with every mesh chunk of `scene`, mesh by mesh and array by array, each at most
+// `max_chunk_bytes` of data. Stops early, returning false, when `emit` returns false.
+bool for_each_mesh_chunk(const Scene& scene, size_t max_chunk_bytes,
+                         const std::function<bool(v1::SceneChunk& chunk)>& emit);
+
+// --- wire -> scene model ---
+// `field` is the path reported in errors, e.g. "lights[2]" or "keyframes[4].lights[0]".
+absl::StatusOr<Vec3f> decode_vec3(const v1::Vec3& v, std::string_view field);
+absl::StatusOr<Light> decode_light(const v1::Light& light, std::string_view field);
+absl::StatusOr<std::vector<Light>> decode_lights(
+    const google::protobuf::RepeatedPtrField<v1::Light>& lights, std::string_view field);
+absl::StatusOr<Camera> decode_camera(const v1::Camera& camera, std::string_view field);
+// Applies the fields set in `settings` on top of `current`.
+absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& settings,
+                                              const RenderSettings& current,
+                                              std::string_view field);
+
+// Rebuilds a Scene from an upload stream. Every add() checks the chunk on its own (order,
+// offsets, sizes, checksum, indices in range, finite numbers) so a bad stream is refused at the
+// first bad chunk with INVALID_ARGUMENT naming it; finish() checks that every declared array
+// arrived whole and runs validate_scene. Sizes are checked against scene_limits.h before any
+// array is allocated (RESOURCE_EXHAUSTED beyond them).
+// What a MeshHeader declares, as the assembler checks chunks against it.
+struct MeshHeaderCounts {
+  uint64_t vertices = 0;
+  uint64_t triangles = 0;
+  bool has_normals = false;
+  bool per_triangle_materials = false;
+};
+
+class SceneAssembler {
+ public:
+  absl::Status add(const v1::SceneChunk& chunk);
+  absl::StatusOr<Scene> finish();
+
+  bool has_header() const { return has_header_; }
+  const std::string& name() const { return name_; }
+  size_t chunks_received() const { return chunks_; }
+  size_t bytes_received() const { return bytes_received_; }
+  // Mesh bytes the header announced (what the scene will hold on the host before upload).
+  size_t bytes_declared() const { return bytes_declared_; }
+
+ private:
+  absl::Status add_header(const v1::SceneHeader& header);
+  absl::Status add_mesh_chunk(const v1::MeshChunk& chunk);
+
+  struct MeshProgress {
+    size_t received[5] = {0, 0, 0, 0, 0};  // bytes, by MeshChunk::Array
+  };
+  bool has_header_ = false;
+  std::string name_;
+  Scene scene_;
+  std::vector<MeshHeaderCounts> counts_;
+  std::vector<MeshProgress> progress_;
+  size_t chunks_ = 0;
+  size_t bytes_received_ = 0;
+  size_t bytes_declared_ = 0;
+};
+
+}  // namespace caustica::wire

@@ -1,0 +1,93 @@
+#include "server/engine_wire.h"
+
+#include <algorithm>
+
+#include "proto/wire/scene_wire.h"
+
+namespace caustica::server {
+
+v1::Epochs encode_epochs(const Epochs& epochs) {
+  v1::Epochs out;
+  out.set_geometry(epochs.geometry);
+  out.set_lights(epochs.lights);
+  out.set_camera(epochs.camera);
+  out.set_settings(epochs.settings);
+  return out;
+}
+
+void add_timings(const StageTimings& timings, v1::StageTimings* out) {
+  out->set_structure_build_ms(out->structure_build_ms() + timings.structure_build_ms);
+  out->set_photon_trace_ms(out->photon_trace_ms() + timings.photon_trace_ms);
+  out->set_photon_map_build_ms(out->photon_map_build_ms() + timings.photon_map_build_ms);
+  out->set_render_ms(out->render_ms() + timings.render_ms);
+}
+
+v1::RebuildReport encode_rebuild(const RebuildReport& report) {
+  v1::RebuildReport out;
+  for (const std::string& what : report.rebuilt) out.add_rebuilt(what);
+  add_timings(report.timings, out.mutable_timings());
+  out.set_photons_emitted(report.photons_emitted);
+  out.set_caustic_photons(report.caustic_photons);
+  out.set_global_photons(report.global_photons);
+  *out.mutable_epochs() = encode_epochs(report.epochs);
+  return out;
+}
+
+void add_timings(const v1::StageTimings& t, v1::StageTimings* out) {
+  out->set_structure_build_ms(out->structure_build_ms() + t.structure_build_ms());
+  out->set_photon_trace_ms(out->photon_trace_ms() + t.photon_trace_ms());
+  out->set_photon_map_build_ms(out->photon_map_build_ms() + t.photon_map_build_ms());
+  out->set_render_ms(out->render_ms() + t.render_ms());
+  out->set_resolve_ms(out->resolve_ms() + t.resolve_ms());
+  out->set_queue_ms(out->queue_ms() + t.queue_ms());
+}
+
+void merge_rebuild(const RebuildReport& next, RebuildReport* report) {
+  for (const std::string& what : next.rebuilt) {
+    if (std::find(report->rebuilt.begin(), report->rebuilt.end(), what) == report->rebuilt.end())
+      report->rebuilt.push_back(what);
+  }
+  report->timings.structure_build_ms += next.timings.structure_build_ms;
+  report->timings.photon_trace_ms += next.timings.photon_trace_ms;
+  report->timings.photon_map_build_ms += next.timings.photon_map_build_ms;
+  report->timings.render_ms += next.timings.render_ms;
+  // The later change traced the photons in use now.
+  if (next.photons_emitted > 0) {
+    report->photons_emitted = next.photons_emitted;
+    report->caustic_photons = next.caustic_photons;
+    report->global_photons = next.global_photons;
+  }
+  report->epochs = next.epochs;
+}
+
+void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
+  uint64_t vertices = 0;
+  uint64_t emissive_triangles = 0;
+  for (const Mesh& mesh : scene.meshes) {
+    vertices += mesh.positions.size();
+    for (uint32_t material : mesh.material_ids) {
+      if (scene.materials[material].type == MaterialType::kEmissive) ++emissive_triangles;
+    }
+  }
+  info->set_vertices(vertices);
+  info->set_meshes(static_cast<uint32_t>(scene.meshes.size()));
+  info->set_materials(static_cast<uint32_t>(scene.materials.size()));
+  info->set_area_lights(static_cast<uint32_t>(emissive_triangles));
+}
+
+void describe_state(const Engine& engine, uint32_t film_passes, v1::SceneInfo* info) {
+  const Scene& scene = engine.scene();
+  const SceneStats stats = engine.scene_stats();
+  info->set_triangles(stats.triangles);
+  info->set_lights(static_cast<uint32_t>(scene.lights.size()));
+  *info->mutable_camera() = wire::encode_camera(scene.camera);
+  *info->mutable_settings() = wire::encode_settings(scene.settings);
+  *info->mutable_epochs() = encode_epochs(engine.epochs());
+  info->set_structure_nodes(stats.structure_nodes);
+  info->set_structure_bytes(stats.structure_bytes);
+  info->set_photon_map_bytes(stats.photon_map_bytes);
+  info->set_device_bytes(stats.device_bytes);
+  info->set_passes(film_passes);
+}
+
+}  // namespace caustica::server

@@ -1,0 +1,55 @@
+// Frames on the wire: the pixel formats and encodings of caustica.v1.FrameFormat (8-bit sRGB,
+// IEEE half and float linear RGBA; raw, PNG through libpng, EXR through OpenEXR, all in memory)
+// and the splitting of one encoded frame into consecutive Frame messages (see `message Frame`).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "caustica/v1/render_service.pb.h"
+#include "renderer/render/film.h"
+
+namespace caustica::server {
+
+// A FrameFormat with the defaults filled in and the combination checked.
+struct FrameSpec {
+  v1::PixelFormat pixel_format = v1::RGBA8_SRGB;
+  v1::Encoding encoding = v1::RAW;
+  float exposure_stops = 0;
+
+  // Whether the film is resolved to 8-bit sRGB (else to linear float).
+  bool wants_srgb8() const { return pixel_format == v1::RGBA8_SRGB; }
+};
+
+// INVALID_ARGUMENT naming `<field>.pixel_format`, `<field>.encoding` or `<field>.exposure_stops`
+// for unknown values and for combinations that do not exist (PNG of linear data, EXR of 8-bit).
+absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format, std::string_view field);
+
+// IEEE 754 binary16 of `value`, rounded to nearest, ties to even; overflow gives infinity and NaN
+// stays NaN.
+uint16_t float_to_half(float value);
+
+// Bytes of one pixel in `format` (before any encoding).
+size_t bytes_per_pixel(v1::PixelFormat format);
+
+// Encodes a resolved film. `srgb8` is used when spec.wants_srgb8(), else `linear` (RGBA float,
+// top row first); both hold width * height pixels.
+absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
+                                         const std::vector<Rgba8>& srgb8,
+                                         const std::vector<float>& linear);
+
+absl::StatusOr<std::string> encode_png(int width, int height, const std::vector<Rgba8>& pixels);
+absl::StatusOr<std::string> encode_exr(int width, int height, const std::vector<float>& rgba,
+                                       bool half);
+
+// The messages that carry `data` under the header fields of `header`: pieces of at most
+// `max_chunk_bytes` (>= 1) of data, each with data_size, data_offset and last_chunk set. An empty
+// frame is one message.
+std::vector<v1::Frame> split_frame(const v1::Frame& header, const std::string& data,
+                                   size_t max_chunk_bytes);
+
+}  // namespace caustica::server

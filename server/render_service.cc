@@ -1,0 +1,555 @@
+#include "server/render_service.h"
+
+#include <algorithm>
+#include <limits>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "proto/wire/scene_wire.h"
+#include "renderer/scene/scene_limits.h"
+#include "server/engine_wire.h"
+#include "server/log.h"
+
+namespace caustica::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+grpc::Status to_grpc(const absl::Status& status) {
+  if (status.ok()) return grpc::Status::OK;
+  // absl and gRPC share the canonical code numbers.
+  return grpc::Status(static_cast<grpc::StatusCode>(status.code()), std::string(status.message()));
+}
+
+// produce_frame's max_passes when only the target bounds the passes.
+constexpr uint32_t kAllPasses = std::numeric_limits<uint32_t>::max();
+
+constexpr size_t kDefaultChunkBytes = size_t{4} << 20;
+// Room for a Frame's header fields next to its data within one message.
+constexpr size_t kFrameHeaderRoom = size_t{64} << 10;
+
+std::string mib(size_t bytes) { return absl::StrFormat("%.1f MiB", bytes / 1048576.0); }
+
+// Counts a running call or stream, however it ends.
+class ScopedCount {
+ public:
+  explicit ScopedCount(std::atomic<uint32_t>& count) : count_(count) { ++count_; }
+  ~ScopedCount() { --count_; }
+
+ private:
+  std::atomic<uint32_t>& count_;
+};
+
+}  // namespace
+
+RenderService::RenderService(std::shared_ptr<Backend> backend, const ServiceOptions& options)
+    : backend_(std::move(backend)),
+      options_(options),
+      device_info_(backend_->info()),
+      registry_(options.max_scenes) {}
+
+void RenderService::begin_shutdown() {
+  shutting_down_ = true;
+  queue_.shut_down();
+}
+
+grpc::Status RenderService::serve(grpc::ServerContext* context, const char* method,
+                                  const std::string& scene_id,
+                                  const std::function<absl::Status()>& work) {
+  ScopedCount running(calls_in_flight_);
+  const auto start = Clock::now();
+  absl::Status status =
+      shutting_down_ ? absl::UnavailableError("the server is shutting down") : work();
+  const double ms = ms_since(start);
+  latencies_.record(absl::StrCat("rpc/", method), ms);
+  ++requests_served_;
+  const LogLevel level = status.ok() || absl::IsCancelled(status) || absl::IsNotFound(status)
+                             ? LogLevel::kInfo
+                             : LogLevel::kWarning;
+  log_line(level, absl::StrFormat("%s scene=%s peer=%s %.2f ms %s", method,
+                                  scene_id.empty() ? "-" : scene_id, context->peer(), ms,
+                                  status.ok() ? "OK" : status.ToString()));
+  return to_grpc(status);
+}
+
+absl::Status RenderService::stop_status(grpc::ServerContext* context) const {
+  if (shutting_down_) return absl::UnavailableError("the server is shutting down");
+  if (context->IsCancelled()) {
+    if (context->deadline() <= std::chrono::system_clock::now()) {
+      return absl::DeadlineExceededError("the call's deadline passed");
+    }
+    return absl::CancelledError("the client cancelled the call");
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<DeviceQueue::Lease> RenderService::acquire(grpc::ServerContext* context,
+                                                          const SceneEntry& entry,
+                                                          double* queue_ms) {
+  absl::StatusOr<DeviceQueue::Lease> lease =
+      queue_.acquire([this, context] { return stop_status(context); });
+  if (!lease.ok()) return lease.status();
+  latencies_.record("stage/queue", lease->waited_ms());
+  if (queue_ms != nullptr) *queue_ms += lease->waited_ms();
+  if (!entry.engine) {
+    return absl::NotFoundError(absl::StrCat("scene_id: scene '", entry.id(), "' was deleted"));
+  }
+  return lease;
+}
+
+void RenderService::record_stages(const StageTimings& t) {
+  // Stages a call did not run stay out of the percentiles.
+  const std::pair<const char*, double> stages[] = {
+      {"stage/structure_build", t.structure_build_ms},
+      {"stage/photon_trace", t.photon_trace_ms},
+      {"stage/photon_map_build", t.photon_map_build_ms},
+      {"stage/render", t.render_ms},
+  };
+  for (const auto& [name, ms] : stages) {
+    if (ms > 0) latencies_.record(name, ms);
+  }
+}
+
+absl::StatusOr<v1::RebuildReport> RenderService::rebuild(
+    grpc::ServerContext* context, SceneEntry& entry,
+    const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change) {
+  double queue_ms = 0;
+  absl::StatusOr<DeviceQueue::Lease> lease = acquire(context, entry, &queue_ms);
+  if (!lease.ok()) return lease.status();
+  absl::StatusOr<RebuildReport> report = change(*entry.engine);
+  if (!report.ok()) return report.status();
+  record_stages(report->timings);
+  v1::RebuildReport out = encode_rebuild(*report);
+  out.mutable_timings()->set_queue_ms(queue_ms);
+  entry.film_passes = 0;  // every change restarts accumulation
+  entry.refresh(&out);
+  return out;
+}
+
+absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
+    grpc::ServerContext* context, SceneEntry& entry, uint32_t target, uint32_t max_passes,
+    const FrameSpec& spec) {
+  EncodedFrame frame;
+  v1::StageTimings* timings = frame.header.mutable_timings();
+  double queue_ms = 0;
+  uint64_t photons = 0;
+  uint32_t rendered = 0;
+  std::vector<Rgba8> srgb8;
+  std::vector<float> linear;
+  int width = 0, height = 0;
+  double resolve_ms = 0;
+  while (true) {
+    if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+    absl::StatusOr<DeviceQueue::Lease> lease = acquire(context, entry, &queue_ms);
+    if (!lease.ok()) return lease.status();
+    Engine& engine = *entry.engine;
+    const uint32_t goal = target > 0 ? target : std::max(engine.scene().settings.passes, 1u);
+    auto wants_pass = [&] { return entry.film_passes < goal && rendered < max_passes; };
+    if (wants_pass()) {
+      absl::StatusOr<PassReport> pass = engine.render(1);
+      if (!pass.ok()) return pass.status();
+      ++rendered;
+      entry.film_passes = pass->total_passes;
+      photons += pass->photons_emitted;
+      add_timings(pass->timings, timings);
+      record_stages(pass->timings);
+      entry.refresh();
+      // Back in line for the next pass, so other clients' passes interleave with ours.
+      if (wants_pass()) continue;
+    }
+    // Resolve under the same lease: the film must not change while it is read.
+    const auto resolve_start = Clock::now();
+    if (spec.wants_srgb8()) {
+      srgb8 = engine.image_srgb8(spec.exposure_stops);
+    } else {
+      linear = engine.image_linear();
+    }
+    width = engine.scene().camera.width;
+    height = engine.scene().camera.height;
+    frame.header.set_passes(entry.film_passes);
+    *frame.header.mutable_epochs() = encode_epochs(engine.epochs());
+    resolve_ms = ms_since(resolve_start);
+    break;
+  }
+  const auto encode_start = Clock::now();
+  absl::StatusOr<std::string> data = encode_frame(spec, width, height, srgb8, linear);
+  if (!data.ok()) return data.status();
+  frame.data = *std::move(data);
+  timings->set_resolve_ms(resolve_ms + ms_since(encode_start));
+  timings->set_queue_ms(queue_ms);
+  latencies_.record("stage/resolve", timings->resolve_ms());
+  frame.header.set_scene_id(entry.id());
+  frame.header.set_width(static_cast<uint32_t>(width));
+  frame.header.set_height(static_cast<uint32_t>(height));
+  frame.header.set_pixel_format(spec.pixel_format);
+  frame.header.set_encoding(spec.encoding);
+  frame.header.set_photons_emitted(photons);
+  return frame;
+}
+
+absl::Status RenderService::send_frame(grpc::ServerWriter<v1::Frame>* writer,
+                                       std::vector<v1::Frame>& pieces, uint64_t frame_number) {
+  for (v1::Frame& piece : pieces) {
+    piece.set_frame_number(frame_number);
+    if (!writer->Write(piece)) return absl::CancelledError("the client stopped reading frames");
+  }
+  ++frames_served_;
+  return absl::OkStatus();
+}
+
+size_t RenderService::chunk_bytes(uint32_t requested) const {
+  const size_t limit =
+      std::max(options_.max_message_bytes, 2 * kFrameHeaderRoom) - kFrameHeaderRoom;
+  return std::min(requested == 0 ? kDefaultChunkBytes : size_t{requested}, limit);
+}
+
+// --- scenes ---
+
+grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
+                                        grpc::ServerReader<v1::SceneChunk>* reader,
+                                        v1::SceneInfo* response) {
+  std::string scene_id;
+  return serve(context, "UploadScene", scene_id, [&]() -> absl::Status {
+    absl::StatusOr<SceneRegistry::Slot> slot = registry_.reserve();
+    if (!slot.ok()) return slot.status();
+    const auto start = Clock::now();
+    wire::SceneAssembler assembler;
+    bool budget_checked = false;
+    v1::SceneChunk chunk;
+    while (reader->Read(&chunk)) {
+      if (absl::Status added = assembler.add(chunk); !added.ok()) return added;
+      if (!budget_checked && assembler.has_header()) {
+        // Refuse before the mesh data arrives: the scene's arrays alone must fit in what is left
+        // of the budget (the built structure needs more on top).
+        budget_checked = true;
+        const size_t budget = backend_->budget();
+        const size_t in_use = backend_->bytes_in_use();
+        const size_t free_bytes = budget > in_use ? budget - in_use : 0;
+        if (assembler.bytes_declared() > free_bytes) {
+          return absl::ResourceExhaustedError(absl::StrCat(
+              "scene '", assembler.name(), "' declares ", mib(assembler.bytes_declared()),
+              " of mesh data, but only ", mib(free_bytes), " of the device's ", mib(budget),
+              " budget are free (--memory-budget)"));
+        }
+      }
+      if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+    }
+    // Read() also ends when the client goes away; a broken stream keeps nothing.
+    if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+    absl::StatusOr<Scene> scene = assembler.finish();
+    if (!scene.ok()) return scene.status();
+
+    absl::StatusOr<DeviceQueue::Lease> lease =
+        queue_.acquire([this, context] { return stop_status(context); });
+    if (!lease.ok()) return lease.status();
+    absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
+    if (!engine.ok()) return engine.status();
+    absl::StatusOr<RebuildReport> built = (*engine)->load(*scene);
+    // A scene the client can no longer learn the id of would be unreachable; drop it.
+    absl::Status stop = stop_status(context);
+    if (!built.ok() || !stop.ok()) {
+      engine->reset();  // frees its device memory while this call holds the device
+      return built.ok() ? stop : built.status();
+    }
+    v1::SceneInfo info;
+    info.set_name(assembler.name());
+    info.set_upload_bytes(assembler.bytes_received());
+    info.set_upload_ms(ms_since(start));
+    describe_geometry(*scene, &info);
+    v1::RebuildReport report = encode_rebuild(*built);
+    report.mutable_timings()->set_queue_ms(lease->waited_ms());
+    record_stages(built->timings);
+    scene_id = registry_.new_id();
+    auto entry = std::make_shared<SceneEntry>(scene_id, *std::move(engine), std::move(info));
+    entry->refresh(&report);
+    lease->release();
+    *response = entry->info();
+    registry_.add(*std::move(slot), std::move(entry));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status RenderService::ListScenes(grpc::ServerContext* context,
+                                       const v1::ListScenesRequest* request,
+                                       v1::ListScenesResponse* response) {
+  return serve(context, "ListScenes", "", [&]() -> absl::Status {
+    for (const auto& entry : registry_.list()) *response->add_scenes() = entry->info();
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status RenderService::GetScene(grpc::ServerContext* context,
+                                     const v1::GetSceneRequest* request, v1::SceneInfo* response) {
+  return serve(context, "GetScene", request->scene_id(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(request->scene_id());
+    if (!entry.ok()) return entry.status();
+    *response = (*entry)->info();
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status RenderService::DeleteScene(grpc::ServerContext* context,
+                                        const v1::DeleteSceneRequest* request,
+                                        v1::DeleteSceneResponse* response) {
+  return serve(context, "DeleteScene", request->scene_id(), [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.remove(request->scene_id());
+    if (!entry.ok()) return entry.status();
+    // Not cancellable: the scene is already gone from the registry and its memory must be freed
+    // under the device lease. Only shutdown ends the wait (the process frees everything then).
+    absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
+    if (!lease.ok()) return lease.status();
+    const size_t before = backend_->bytes_in_use();
+    (*entry)->engine.reset();
+    const size_t after = backend_->bytes_in_use();
+    response->set_bytes_freed(before > after ? before - after : 0);
+    return absl::OkStatus();
+  });
+}
+
+// --- updates ---
+
+grpc::Status RenderService::serve_update(
+    grpc::ServerContext* context, const char* method, const std::string& scene_id,
+    v1::RebuildReport* response,
+    const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change) {
+  return serve(context, method, scene_id, [&]() -> absl::Status {
+    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id);
+    if (!entry.ok()) return entry.status();
+    absl::StatusOr<v1::RebuildReport> report = rebuild(context, **entry, change);
+    if (!report.ok()) return report.status();
+    *response = *std::move(report);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
+                                         const v1::UpdateLightsRequest* request,
+                                         v1::RebuildReport* response) {
+  return serve_update(
+      context, "UpdateLights", request->scene_id(), response,
+      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+        absl::StatusOr<std::vector<Light>> lights =
+            wire::decode_lights(request->lights(), "lights");
+        if (!lights.ok()) return lights.status();
+        // Checked under the lease so no other update can slip in between check and change.
+        if (request->has_expected_lights_epoch() &&
+            engine.epochs().lights != request->expected_lights_epoch()) {
+          return absl::FailedPreconditionError(absl::StrFormat(
+              "expected_lights_epoch: the scene's lights epoch is %d, not %d (another call "
+              "changed the lights)",
+              engine.epochs().lights, request->expected_lights_epoch()));
+        }
+        return engine.set_lights(*lights);
+      });
+}
+
+grpc::Status RenderService::UpdateCamera(grpc::ServerContext* context,
+                                         const v1::UpdateCameraRequest* request,
+                                         v1::RebuildReport* response) {
+  return serve_update(context, "UpdateCamera", request->scene_id(), response,
+                      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+                        if (!request->has_camera()) {
+                          return absl::InvalidArgumentError("camera: is missing");
+                        }
+                        absl::StatusOr<Camera> camera =
+                            wire::decode_camera(request->camera(), "camera");
+                        if (!camera.ok()) return camera.status();
+                        return engine.set_camera(*camera);
+                      });
+}
+
+grpc::Status RenderService::UpdateSettings(grpc::ServerContext* context,
+                                           const v1::UpdateSettingsRequest* request,
+                                           v1::RebuildReport* response) {
+  return serve_update(context, "UpdateSettings", request->scene_id(), response,
+                      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+                        // Everything is checked before anything changes, so a refused request
+                        // changes nothing.
+                        for (auto [field, value] : {std::pair{"width", request->width()},
+                                                    std::pair{"height", request->height()}}) {
+                          if (value > static_cast<uint32_t>(kMaxImageSide)) {
+                            return absl::InvalidArgumentError(absl::StrFormat(
+                                "%s: %d is outside [1, %d] (0 keeps the current size)", field,
+                                value, kMaxImageSide));
+                          }
+                        }
+                        const RenderSettings previous = engine.scene().settings;
+                        absl::StatusOr<RenderSettings> settings =
+                            wire::apply_settings(request->settings(), previous, "settings");
+                        if (!settings.ok()) return settings.status();
+                        absl::StatusOr<RebuildReport> changed = engine.set_settings(*settings);
+                        if (!changed.ok() || (request->width() == 0 && request->height() == 0))
+                          return changed;
+                        Camera camera = engine.scene().camera;
+                        if (request->width() > 0) camera.width = static_cast<int>(request->width());
+                        if (request->height() > 0)
+                          camera.height = static_cast<int>(request->height());
+                        absl::StatusOr<RebuildReport> resized = engine.set_camera(camera);
+                        if (!resized.ok()) {
+                          // Only the film allocation can fail here; put the settings back so a
+                          // refused request leaves the scene as it was.
+                          (void)engine.set_settings(previous);
+                          return resized.status();
+                        }
+                        merge_rebuild(*resized, &*changed);
+                        return changed;
+                      });
+}
+
+// --- frames ---
+
+absl::StatusOr<RenderService::FrameCall> RenderService::start_frames(
+    const std::string& scene_id, const v1::FrameFormat& format) {
+  absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id);
+  if (!entry.ok()) return entry.status();
+  absl::StatusOr<FrameSpec> spec = parse_frame_format(format, "format");
+  if (!spec.ok()) return spec.status();
+  return FrameCall{*std::move(entry), *spec};
+}
+
+grpc::Status RenderService::RenderFrame(grpc::ServerContext* context,
+                                        const v1::RenderFrameRequest* request,
+                                        v1::Frame* response) {
+  return serve(context, "RenderFrame", request->scene_id(), [&]() -> absl::Status {
+    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
+    if (!call.ok()) return call.status();
+    SceneEntry& entry = *call->entry;
+    const FrameSpec& spec = call->spec;
+    absl::StatusOr<EncodedFrame> frame =
+        produce_frame(context, entry, request->target_passes(), kAllPasses, spec);
+    if (!frame.ok()) return frame.status();
+    if (frame->data.size() + kFrameHeaderRoom > options_.max_message_bytes) {
+      return absl::ResourceExhaustedError(absl::StrFormat(
+          "the frame is %s, over the server's message limit of %s (--max-message-mb); use "
+          "StreamFrames, which splits frames",
+          mib(frame->data.size()), mib(options_.max_message_bytes)));
+    }
+    *response = std::move(frame->header);
+    response->set_data_size(frame->data.size());
+    response->set_last_chunk(true);
+    response->set_data(std::move(frame->data));
+    ++frames_served_;
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
+                                         const v1::StreamFramesRequest* request,
+                                         grpc::ServerWriter<v1::Frame>* writer) {
+  ScopedCount streaming(active_streams_);
+  return serve(context, "StreamFrames", request->scene_id(), [&]() -> absl::Status {
+    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
+    if (!call.ok()) return call.status();
+    SceneEntry& entry = *call->entry;
+    const FrameSpec& spec = call->spec;
+    const uint32_t target = std::max(request->target_passes(), 1u);
+    const size_t chunk = chunk_bytes(request->max_chunk_bytes());
+    if (request->repeat_frames() > 0) {
+      // Delivery alone: one resolve, then the same bytes again and again.
+      absl::StatusOr<EncodedFrame> frame = produce_frame(context, entry, target, kAllPasses, spec);
+      if (!frame.ok()) return frame.status();
+      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      for (uint32_t i = 0; i < request->repeat_frames(); ++i) {
+        if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+        if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+      }
+      return absl::OkStatus();
+    }
+    const uint32_t passes_per_frame = std::max(request->passes_per_frame(), 1u);
+    // A change by another call empties the film, so this runs until a frame shows `target`
+    // passes of one unchanged scene state.
+    for (uint64_t frame_number = 0;; ++frame_number) {
+      absl::StatusOr<EncodedFrame> frame =
+          produce_frame(context, entry, target, passes_per_frame, spec);
+      if (!frame.ok()) return frame.status();
+      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      if (absl::Status sent = send_frame(writer, pieces, frame_number); !sent.ok()) return sent;
+      if (frame->header.passes() >= target) return absl::OkStatus();
+    }
+  });
+}
+
+grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
+                                          const v1::PlayAnimationRequest* request,
+                                          grpc::ServerWriter<v1::Frame>* writer) {
+  ScopedCount streaming(active_streams_);
+  return serve(context, "PlayAnimation", request->scene_id(), [&]() -> absl::Status {
+    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
+    if (!call.ok()) return call.status();
+    SceneEntry& entry = *call->entry;
+    const FrameSpec& spec = call->spec;
+    // Every keyframe is decoded before the first one plays: a bad script changes nothing.
+    std::vector<std::vector<Light>> keyframes;
+    for (int i = 0; i < request->keyframes_size(); ++i) {
+      absl::StatusOr<std::vector<Light>> lights = wire::decode_lights(
+          request->keyframes(i).lights(), absl::StrCat("keyframes[", i, "].lights"));
+      if (!lights.ok()) return lights.status();
+      keyframes.push_back(*std::move(lights));
+    }
+    const size_t chunk = chunk_bytes(request->max_chunk_bytes());
+    for (size_t i = 0; i < keyframes.size(); ++i) {
+      absl::StatusOr<v1::RebuildReport> report =
+          rebuild(context, entry, [&](Engine& engine) { return engine.set_lights(keyframes[i]); });
+      if (!report.ok()) return report.status();
+      const uint32_t passes = std::max(request->keyframes(static_cast<int>(i)).passes(), 1u);
+      absl::StatusOr<EncodedFrame> frame = produce_frame(context, entry, passes, kAllPasses, spec);
+      if (!frame.ok()) return frame.status();
+      // The frame's cost includes its keyframe's light rebuild.
+      add_timings(report->timings(), frame->header.mutable_timings());
+      frame->header.set_photons_emitted(frame->header.photons_emitted() +
+                                        report->photons_emitted());
+      frame->header.set_keyframe(static_cast<uint32_t>(i));
+      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+    }
+    return absl::OkStatus();
+  });
+}
+
+// --- stats ---
+
+grpc::Status RenderService::GetStats(grpc::ServerContext* context,
+                                     const v1::GetStatsRequest* request, v1::Stats* response) {
+  return serve(context, "GetStats", request->scene_id(), [&]() -> absl::Status {
+    std::vector<std::shared_ptr<SceneEntry>> scenes;
+    if (request->scene_id().empty()) {
+      scenes = registry_.list();
+    } else {
+      absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(request->scene_id());
+      if (!entry.ok()) return entry.status();
+      scenes.push_back(*std::move(entry));
+    }
+    response->set_uptime_s(ms_since(started_) / 1000.0);
+    v1::DeviceInfo* device = response->mutable_device();
+    device->set_kind(device_kind_name(backend_->kind()));
+    device->set_name(device_info_.name);
+    device->set_compute_units(static_cast<uint32_t>(device_info_.compute_units));
+    device->set_memory_bytes(device_info_.memory_bytes);
+    response->set_memory_used_bytes(backend_->bytes_in_use());
+    response->set_memory_budget_bytes(backend_->budget());
+    response->set_memory_peak_bytes(backend_->peak_bytes());
+    response->set_scenes(static_cast<uint32_t>(registry_.size()));
+    response->set_max_scenes(static_cast<uint32_t>(registry_.max_scenes()));
+    response->set_frames_served(frames_served_);
+    response->set_requests_served(requests_served_);
+    response->set_active_streams(active_streams_);
+    for (const LatencySummary& s : latencies_.summaries()) {
+      v1::LatencySummary* out = response->add_latencies();
+      out->set_stage(s.name);
+      out->set_count(s.count);
+      out->set_p50_ms(s.p50_ms);
+      out->set_p90_ms(s.p90_ms);
+      out->set_p99_ms(s.p99_ms);
+      out->set_max_ms(s.max_ms);
+    }
+    for (const auto& entry : scenes) *response->add_scene_stats() = entry->info();
+    return absl::OkStatus();
+  });
+}
+
+}  // namespace caustica::server

@@ -1,0 +1,126 @@
+// caustica.v1.RenderService over the sync gRPC API. Every call runs through one wrapper that logs
+// a line with its latency and status, records the latency for GetStats and turns the absl::Status
+// of the work into a grpc::Status with the same code and message. Engine work goes through the
+// DeviceQueue one pass (or one rebuild) at a time, so concurrent clients share the device fairly
+// and cancellation, deadlines and shutdown take effect between passes.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "caustica/v1/render_service.grpc.pb.h"
+#include "renderer/engine.h"
+#include "server/device_queue.h"
+#include "server/frame_encoding.h"
+#include "server/latency_stats.h"
+#include "server/scene_registry.h"
+
+namespace caustica::server {
+
+struct ServiceOptions {
+  size_t max_scenes = 16;
+  size_t max_message_bytes = size_t{64} << 20;
+};
+
+class RenderService final : public v1::RenderService::Service {
+ public:
+  RenderService(std::shared_ptr<Backend> backend, const ServiceOptions& options);
+
+  // New calls and running streams end with UNAVAILABLE; waiters for the device give up.
+  void begin_shutdown();
+  // Handlers running now.
+  uint32_t calls_in_flight() const { return calls_in_flight_; }
+
+  grpc::Status UploadScene(grpc::ServerContext* context, grpc::ServerReader<v1::SceneChunk>* reader,
+                           v1::SceneInfo* response) override;
+  grpc::Status ListScenes(grpc::ServerContext* context, const v1::ListScenesRequest* request,
+                          v1::ListScenesResponse* response) override;
+  grpc::Status GetScene(grpc::ServerContext* context, const v1::GetSceneRequest* request,
+                        v1::SceneInfo* response) override;
+  grpc::Status DeleteScene(grpc::ServerContext* context, const v1::DeleteSceneRequest* request,
+                           v1::DeleteSceneResponse* response) override;
+  grpc::Status UpdateLights(grpc::ServerContext* context, const v1::UpdateLightsRequest* request,
+                            v1::RebuildReport* response) override;
+  grpc::Status UpdateCamera(grpc::ServerContext* context, const v1::UpdateCameraRequest* request,
+                            v1::RebuildReport* response) override;
+  grpc::Status UpdateSettings(grpc::ServerContext* context,
+                              const v1::UpdateSettingsRequest* request,
+                              v1::RebuildReport* response) override;
+  grpc::Status RenderFrame(grpc::ServerContext* context, const v1::RenderFrameRequest* request,
+                           v1::Frame* response) override;
+  grpc::Status StreamFrames(grpc::ServerContext* context, const v1::StreamFramesRequest* request,
+                            grpc::ServerWriter<v1::Frame>* writer) override;
+  grpc::Status PlayAnimation(grpc::ServerContext* context, const v1::PlayAnimationRequest* request,
+                             grpc::ServerWriter<v1::Frame>* writer) override;
+  grpc::Status GetStats(grpc::ServerContext* context, const v1::GetStatsRequest* request,
+                        v1::Stats* response) override;
+
+ private:
+  // A frame resolved from the film: header fields and the encoded bytes.
+  struct EncodedFrame {
+    v1::Frame header;
+    std::string data;
+  };
+
+  // A frame call's scene and checked format.
+  struct FrameCall {
+    std::shared_ptr<SceneEntry> entry;
+    FrameSpec spec;
+  };
+
+  // Logs, records and converts; `scene_id` is read after `work` ran (uploads learn it late).
+  grpc::Status serve(grpc::ServerContext* context, const char* method, const std::string& scene_id,
+                     const std::function<absl::Status()>& work);
+  // serve() for the update calls: finds the scene, runs `change` through rebuild() and answers
+  // with its report.
+  grpc::Status serve_update(grpc::ServerContext* context, const char* method,
+                            const std::string& scene_id, v1::RebuildReport* response,
+                            const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change);
+  // NOT_FOUND / INVALID_ARGUMENT before any frame work starts.
+  absl::StatusOr<FrameCall> start_frames(const std::string& scene_id,
+                                         const v1::FrameFormat& format);
+  // CANCELLED, DEADLINE_EXCEEDED or UNAVAILABLE when the call should stop now.
+  absl::Status stop_status(grpc::ServerContext* context) const;
+  // Waits for the device; NOT_FOUND when the scene was deleted meanwhile. Adds the wait to
+  // `queue_ms` when given.
+  absl::StatusOr<DeviceQueue::Lease> acquire(grpc::ServerContext* context, const SceneEntry& entry,
+                                             double* queue_ms);
+  // Runs one engine change under the lease, records its stages, refreshes the scene's snapshot
+  // and returns the report (with the queue time).
+  absl::StatusOr<v1::RebuildReport> rebuild(
+      grpc::ServerContext* context, SceneEntry& entry,
+      const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change);
+  // Renders up to `max_passes` passes, one lease each, stopping once the film holds `target`
+  // passes (0: the scene's settings.passes), then resolves and encodes the film.
+  absl::StatusOr<EncodedFrame> produce_frame(grpc::ServerContext* context, SceneEntry& entry,
+                                             uint32_t target, uint32_t max_passes,
+                                             const FrameSpec& spec);
+  // Writes the pieces of one frame; CANCELLED when the client stopped reading.
+  absl::Status send_frame(grpc::ServerWriter<v1::Frame>* writer, std::vector<v1::Frame>& pieces,
+                          uint64_t frame_number);
+  // The chunk size for a request's max_chunk_bytes (0 = 4 MiB, clamped to the message limit).
+  size_t chunk_bytes(uint32_t requested) const;
+  void record_stages(const StageTimings& timings);
+
+  const std::shared_ptr<Backend> backend_;
+  const ServiceOptions options_;
+  const DeviceInfo device_info_;
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  DeviceQueue queue_;
+  SceneRegistry registry_;
+  LatencyStats latencies_;
+  std::atomic<bool> shutting_down_{false};
+  std::atomic<uint64_t> frames_served_{0};
+  std::atomic<uint64_t> requests_served_{0};
+  std::atomic<uint32_t> active_streams_{0};
+  std::atomic<uint32_t> calls_in_flight_{0};
+};
+
+}  // namespace caustica::server

@@ -1,0 +1,173 @@
+#include "server/server_main.h"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/health_check_service_interface.h>
+#include <pthread.h>
+#include <signal.h>
+
+#include <cctype>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "server/log.h"
+
+namespace caustica::server {
+namespace {
+
+// Written beside the target and renamed, so a reader never sees a half-written port.
+absl::Status write_port_file(const std::string& path, int port) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::trunc);
+    out << port << "\n";
+    if (!out) return absl::InternalError(absl::StrCat("--port-file: cannot write ", temporary));
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  if (error) {
+    return absl::InternalError(
+        absl::StrCat("--port-file: cannot write ", path, ": ", error.message()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<size_t> parse_byte_size(std::string_view text) {
+  const std::string lower = absl::AsciiStrToLower(absl::StripAsciiWhitespace(std::string(text)));
+  std::string_view rest = lower;
+  double value = 0;
+  const auto [end, error] = std::from_chars(rest.data(), rest.data() + rest.size(), value);
+  auto refuse = [&] {
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", std::string(text),
+                     "' is not a size (expected bytes or a number with K, M, G or T, e.g. 512M)"));
+  };
+  if (error != std::errc() || !std::isfinite(value) || value < 0) return refuse();
+  std::string_view unit = rest.substr(static_cast<size_t>(end - rest.data()));
+  if (unit.ends_with("ib")) {
+    unit.remove_suffix(2);
+  } else if (unit.ends_with("b")) {
+    unit.remove_suffix(1);
+  }
+  int shift = 0;
+  if (unit == "k") {
+    shift = 10;
+  } else if (unit == "m") {
+    shift = 20;
+  } else if (unit == "g") {
+    shift = 30;
+  } else if (unit == "t") {
+    shift = 40;
+  } else if (!unit.empty()) {
+    return refuse();
+  }
+  const double bytes = std::ldexp(value, shift);
+  if (bytes >= 0x1p63) return refuse();
+  return static_cast<size_t>(bytes);
+}
+
+absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
+  absl::StatusOr<LogLevel> level = parse_log_level(options.log_level);
+  if (!level.ok())
+    return absl::InvalidArgumentError(absl::StrCat("--log-level: ", level.status().message()));
+  set_log_level(*level);
+  absl::StatusOr<DeviceKind> device = parse_device_kind(options.device);
+  if (!device.ok())
+    return absl::Status(device.status().code(),
+                        absl::StrCat("--device: ", device.status().message()));
+  if (options.max_scenes == 0)
+    return absl::InvalidArgumentError("--max-scenes: must be at least 1");
+  if (options.max_message_mb == 0 || options.max_message_mb > 2047) {
+    return absl::InvalidArgumentError("--max-message-mb: must be in [1, 2047]");
+  }
+  absl::StatusOr<std::shared_ptr<Backend>> backend =
+      make_backend(*device, options.memory_budget_bytes);
+  if (!backend.ok()) return backend.status();
+
+  std::unique_ptr<Server> server(new Server());
+  server->options_ = options;
+  const size_t max_message_bytes = options.max_message_mb << 20;
+  server->service_ = std::make_unique<RenderService>(
+      *backend, ServiceOptions{options.max_scenes, max_message_bytes});
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.RegisterService(server->service_.get());
+  builder.SetMaxReceiveMessageSize(static_cast<int>(max_message_bytes));
+  builder.SetMaxSendMessageSize(static_cast<int>(max_message_bytes));
+  server->server_ = builder.BuildAndStart();
+  if (!server->server_ || server->port_ == 0) {
+    return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen));
+  }
+  if (!options.port_file.empty()) {
+    if (absl::Status written = write_port_file(options.port_file, server->port_); !written.ok()) {
+      server->shutdown();
+      return written;
+    }
+  }
+  const DeviceInfo info = (*backend)->info();
+  log_line(LogLevel::kInfo,
+           absl::StrFormat("caustica-server listening on port %d (%s); device %s: %s, %d compute "
+                           "units; memory budget %d bytes; at most %d scenes",
+                           server->port_, options.listen, device_kind_name(*device), info.name,
+                           info.compute_units, (*backend)->budget(), options.max_scenes));
+  return server;
+}
+
+void Server::shutdown() {
+  if (stopped_) return;
+  stopped_ = true;
+  service_->begin_shutdown();
+  if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) {
+    health->Shutdown();  // health checks answer NOT_SERVING from now on
+  }
+  // gRPC's own shutdown also waits for clients to close their connections, which idle clients
+  // never do before the deadline; so wait for our calls here and then give gRPC only a moment to
+  // flush their last messages before it closes every connection.
+  const auto grace_end =
+      std::chrono::steady_clock::now() +
+      std::chrono::milliseconds(static_cast<int64_t>(options_.shutdown_grace_s * 1000));
+  while (service_->calls_in_flight() > 0 && std::chrono::steady_clock::now() < grace_end) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  server_->Shutdown(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
+  server_->Wait();
+}
+
+Server::~Server() { shutdown(); }
+
+int run_server(const ServerOptions& options) {
+  // Blocked before any thread starts, so every gRPC and TBB thread inherits the mask and the
+  // signals wait for sigwait below instead of running a handler in some arbitrary thread.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  absl::StatusOr<std::unique_ptr<Server>> server = Server::start(options);
+  if (!server.ok()) {
+    log_line(LogLevel::kError, absl::StrCat("caustica-server: ", server.status().message()));
+    return 1;
+  }
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  log_line(LogLevel::kInfo,
+           absl::StrCat("caustica-server: ", strsignal(signal_number), ", shutting down"));
+  (*server)->shutdown();
+  log_line(LogLevel::kInfo, "caustica-server: stopped");
+  return 0;
+}
+
+}  // namespace caustica::server

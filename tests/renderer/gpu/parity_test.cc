@@ -1,0 +1,298 @@
+// The CUDA backend against the CPU backend: every primitive, parallel_for and the structures built
+// from them, on the same random inputs. Integer results, sorts, selections, bounds and the
+// triangle structure must be identical; float sums and scans, which both backends accumulate in
+// double but in different orders, agree within the tolerances stated below. Compiled by nvcc, so
+// parallel_for launches kernels; every GPU case skips where the CUDA runtime finds no device.
+#include <gtest/gtest.h>
+
+#include <cfloat>
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "renderer/accel/camera_tiles.h"
+#include "renderer/accel/triangle_bvh.h"
+#include "renderer/base/morton.h"
+#include "renderer/engine.h"
+#include "renderer/parallel/buffer.h"
+#include "renderer/parallel/cuda/cuda_backend.h"
+#include "renderer/parallel/parallel_for.h"
+#include "tests/renderer/accel/triangle_soup.h"
+
+namespace caustica {
+namespace {
+
+constexpr size_t kBudget = size_t(1) << 30;
+
+// A float prefix sum differs between the backends only by where double rounding to float lands:
+// at most a few float ulps of the largest prefix, the total.
+constexpr double kScanRelativeTolerance = 4.0 * FLT_EPSILON;
+// Sums of floats in double: the order changes the result by about n double ulps.
+constexpr double kSumRelativeTolerance = 1e-9;
+
+template <typename T>
+Buffer<T> upload(Backend& backend, const std::vector<T>& host) {
+  Buffer<T> b(backend, host.size());
+  b.upload(host);
+  return b;
+}
+
+// The two backends under comparison.
+struct BothBackends {
+  std::unique_ptr<Backend> cpu = make_cpu_backend(kBudget);
+  std::unique_ptr<Backend> gpu = make_cuda_backend(kBudget);
+};
+
+class GpuParityTest : public ::testing::TestWithParam<size_t> {
+ protected:
+  void SetUp() override {
+    if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+    backends_ = std::make_unique<BothBackends>();
+  }
+  Backend& cpu() { return *backends_->cpu; }
+  Backend& gpu() { return *backends_->gpu; }
+
+  std::vector<uint32_t> random_u32(size_t n, uint32_t mask = 0xffffffffu) {
+    std::vector<uint32_t> v(n);
+    for (auto& x : v) x = rng_() & mask;
+    return v;
+  }
+  std::vector<float> random_floats(size_t n, float lo, float hi) {
+    std::uniform_real_distribution<float> u(lo, hi);
+    std::vector<float> v(n);
+    for (auto& x : v) x = u(rng_);
+    return v;
+  }
+  std::vector<uint8_t> random_flags(size_t n) {
+    std::vector<uint8_t> v(n);
+    for (auto& f : v) f = (rng_() % 3 == 0) ? uint8_t(1 + rng_() % 255) : 0;  // any nonzero selects
+    return v;
+  }
+
+  std::unique_ptr<BothBackends> backends_;
+  std::mt19937 rng_{20240611};
+};
+
+// Sizes around CUB's tile sizes and the CPU backend's serial/chunked threshold.
+INSTANTIATE_TEST_SUITE_P(Sizes, GpuParityTest,
+                         ::testing::Values(0, 1, 2, 255, 4097, 16384, 100003, 1 << 20));
+
+template <typename Key>
+void expect_same_sort(Backend& cpu, Backend& gpu, const std::vector<Key>& keys, int end_bit) {
+  std::vector<uint32_t> values(keys.size());
+  for (size_t i = 0; i < values.size(); ++i) values[i] = uint32_t(i);
+  Buffer<Key> ck = upload(cpu, keys), gk = upload(gpu, keys);
+  Buffer<uint32_t> cv = upload(cpu, values), gv = upload(gpu, values);
+  cpu.sort_pairs(ck.data(), cv.data(), keys.size(), end_bit);
+  gpu.sort_pairs(gk.data(), gv.data(), keys.size(), end_bit);
+  EXPECT_EQ(ck.download(), gk.download()) << "end_bit " << end_bit;
+  EXPECT_EQ(cv.download(), gv.download()) << "end_bit " << end_bit;
+}
+
+TEST_P(GpuParityTest, SortPairs32) {
+  std::vector<uint32_t> keys = random_u32(GetParam());
+  for (size_t i = 0; i < keys.size(); i += 5) keys[i] &= 0xff;  // duplicates: stability
+  // Bits above end_bit are set too: both backends must ignore them the same way.
+  for (int end_bit : {32, 30, 10, 0}) expect_same_sort(cpu(), gpu(), keys, end_bit);
+}
+
+TEST_P(GpuParityTest, SortPairs64) {
+  std::vector<uint64_t> keys(GetParam());
+  for (size_t i = 0; i < keys.size(); ++i)
+    keys[i] = (uint64_t(rng_()) << 32 | rng_()) >> (i % 3 == 0 ? 40 : 0);
+  for (int end_bit : {64, 40}) expect_same_sort(cpu(), gpu(), keys, end_bit);
+}
+
+TEST_P(GpuParityTest, ExclusiveScanU32InAndOutOfPlace) {
+  const size_t n = GetParam();
+  const std::vector<uint32_t> in = random_u32(n, 0xffff);
+  Buffer<uint32_t> c = upload(cpu(), in), g = upload(gpu(), in);
+  Buffer<uint32_t> g_out(gpu(), n);
+  const uint32_t g_total_out = gpu().exclusive_scan(g.data(), g_out.data(), n);
+  EXPECT_EQ(g.download(), in) << "the input of an out-of-place scan is left alone";
+  const uint32_t c_total = cpu().exclusive_scan(c.data(), c.data(), n);
+  const uint32_t g_total = gpu().exclusive_scan(g.data(), g.data(), n);
+  EXPECT_EQ(c_total, g_total);
+  EXPECT_EQ(c_total, g_total_out);
+  EXPECT_EQ(c.download(), g.download());
+  EXPECT_EQ(c.download(), g_out.download());
+}
+
+TEST_P(GpuParityTest, ExclusiveScanFloatWithinTolerance) {
+  const size_t n = GetParam();
+  const std::vector<float> in = random_floats(n, 0.0f, 1.0f);
+  Buffer<float> c = upload(cpu(), in), g = upload(gpu(), in);
+  const float c_total = cpu().exclusive_scan(c.data(), c.data(), n);
+  const float g_total = gpu().exclusive_scan(g.data(), g.data(), n);
+  const double tolerance = kScanRelativeTolerance * std::max(1.0, double(c_total));
+  EXPECT_NEAR(c_total, g_total, tolerance);
+  const std::vector<float> cs = c.download(), gs = g.download();
+  for (size_t i = 0; i < n; ++i) ASSERT_NEAR(cs[i], gs[i], tolerance) << i;
+}
+
+TEST_P(GpuParityTest, Reductions) {
+  const size_t n = GetParam();
+  const std::vector<uint32_t> ints = random_u32(n);  // sums overflow 32 bits: u64 results
+  const std::vector<float> floats = random_floats(n, -1000.0f, 1000.0f);
+  Buffer<uint32_t> ci = upload(cpu(), ints), gi = upload(gpu(), ints);
+  Buffer<float> cf = upload(cpu(), floats), gf = upload(gpu(), floats);
+  EXPECT_EQ(cpu().reduce_sum(ci.data(), n), gpu().reduce_sum(gi.data(), n));
+  EXPECT_EQ(cpu().reduce_max(cf.data(), n), gpu().reduce_max(gf.data(), n));
+  const double c_sum = cpu().reduce_sum(cf.data(), n), g_sum = gpu().reduce_sum(gf.data(), n);
+  double magnitude = 1.0;
+  for (float f : floats) magnitude += std::fabs(f);
+  EXPECT_NEAR(c_sum, g_sum, kSumRelativeTolerance * magnitude);
+
+  std::vector<Aabb> boxes(n);
+  for (Aabb& b : boxes) {
+    Vec3f p(floats[rng_() % n], floats[rng_() % n], floats[rng_() % n]);
+    b = Aabb{p, p + Vec3f(float(rng_() % 7))};
+  }
+  Buffer<Aabb> cb = upload(cpu(), boxes), gb = upload(gpu(), boxes);
+  const Aabb c_bounds = cpu().reduce_bounds(cb.data(), n),
+             g_bounds = gpu().reduce_bounds(gb.data(), n);
+  EXPECT_TRUE(c_bounds.lower == g_bounds.lower && c_bounds.upper == g_bounds.upper);
+}
+
+TEST_P(GpuParityTest, SelectFlaggedValuesAndIndices) {
+  const size_t n = GetParam();
+  const std::vector<uint32_t> in = random_u32(n);
+  const std::vector<uint8_t> flags = random_flags(n);
+  Buffer<uint32_t> c_in = upload(cpu(), in), g_in = upload(gpu(), in);
+  Buffer<uint8_t> c_flags = upload(cpu(), flags), g_flags = upload(gpu(), flags);
+  for (bool indices : {false, true}) {
+    Buffer<uint32_t> c_out(cpu(), n), g_out(gpu(), n);
+    const size_t c_count =
+        cpu().select_flagged(indices ? nullptr : c_in.data(), c_flags.data(), n, c_out.data());
+    const size_t g_count =
+        gpu().select_flagged(indices ? nullptr : g_in.data(), g_flags.data(), n, g_out.data());
+    ASSERT_EQ(c_count, g_count) << (indices ? "indices" : "values");
+    std::vector<uint32_t> c = c_out.download(), g = g_out.download();
+    c.resize(c_count);
+    g.resize(g_count);
+    EXPECT_EQ(c, g) << (indices ? "indices" : "values");
+  }
+}
+
+TEST_P(GpuParityTest, RunLengthEncode) {
+  const size_t n = GetParam();
+  std::vector<uint32_t> keys(n);
+  uint32_t key = 0;
+  for (auto& k : keys) k = (key += (rng_() % 4 == 0) ? 1 + rng_() % 3 : 0);  // runs of ~4
+  Buffer<uint32_t> c_in = upload(cpu(), keys), g_in = upload(gpu(), keys);
+  Buffer<uint32_t> c_unique(cpu(), n), c_counts(cpu(), n), g_unique(gpu(), n), g_counts(gpu(), n);
+  const size_t c_runs = cpu().run_length_encode(c_in.data(), n, c_unique.data(), c_counts.data());
+  const size_t g_runs = gpu().run_length_encode(g_in.data(), n, g_unique.data(), g_counts.data());
+  ASSERT_EQ(c_runs, g_runs);
+  auto prefix = [&](const Buffer<uint32_t>& b) {
+    std::vector<uint32_t> v = b.download();
+    v.resize(c_runs);
+    return v;
+  };
+  EXPECT_EQ(prefix(c_unique), prefix(g_unique));
+  EXPECT_EQ(prefix(c_counts), prefix(g_counts));
+}
+
+// Kernels are launched from free functions: nvcc's extended lambdas may not live in the private
+// TestBody of a gtest class.
+std::vector<uint32_t> morton_codes(Backend& backend, const std::vector<Aabb>& host, Aabb bounds) {
+  Buffer<Aabb> boxes = upload(backend, host);
+  Buffer<uint32_t> codes(backend, host.size());
+  const Aabb* box = boxes.data();
+  uint32_t* code = codes.data();
+  parallel_for(backend, host.size(),
+               [=] CAUSTICA_HD(size_t i) { code[i] = morton_code(box[i].center(), bounds); });
+  return codes.download();
+}
+
+TEST_P(GpuParityTest, ParallelForMortonCodes) {
+  const size_t n = GetParam();
+  const std::vector<float> xs = random_floats(3 * n, -5.0f, 5.0f);
+  std::vector<Aabb> boxes(n);
+  Aabb bounds;
+  for (size_t i = 0; i < n; ++i) {
+    Vec3f p(xs[3 * i], xs[3 * i + 1], xs[3 * i + 2]);
+    boxes[i] = Aabb{p, p + Vec3f(0.01f)};
+    bounds.extend(boxes[i]);
+  }
+  EXPECT_EQ(morton_codes(cpu(), boxes, bounds), morton_codes(gpu(), boxes, bounds));
+}
+
+template <typename T>
+bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+// Closest hits of rays from a camera at `eye` through a width x width image of the soup, traced
+// as packets the way the renderer's primary stage does.
+std::vector<Hit> camera_hits(Backend& backend, const TriangleBvh& bvh, Vec3f eye, int width) {
+  Buffer<Hit> hits(backend, size_t(width) * width);
+  trace_camera_tiles(
+      backend, bvh.view(), eye, width, width,
+      [=] CAUSTICA_HD(size_t pixel) {
+        const float x = (float(pixel % width) + 0.5f) / float(width) - 0.5f;
+        const float y = (float(pixel / width) + 0.5f) / float(width) - 0.5f;
+        return normalize(Vec3f(x, y, 1.0f));
+      },
+      hits.data());
+  return hits.download();
+}
+
+// Both builds take the same decisions (integer codes, min/max bounds) and the traversal the same
+// float operations with no contraction, so the structures and the hits agree bit for bit.
+TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  const std::vector<TriangleVertices> soup = random_soup(50000, 7);
+  Buffer<TriangleVertices> c_soup = upload(*both.cpu, soup), g_soup = upload(*both.gpu, soup);
+  TriangleLbvh c_lbvh = build_triangle_lbvh(*both.cpu, c_soup.data(), uint32_t(soup.size()));
+  TriangleLbvh g_lbvh = build_triangle_lbvh(*both.gpu, g_soup.data(), uint32_t(soup.size()));
+  EXPECT_EQ(c_lbvh.bvh.root, g_lbvh.bvh.root);
+  EXPECT_TRUE(same_bytes(c_lbvh.bvh.nodes.download(), g_lbvh.bvh.nodes.download()));
+  EXPECT_EQ(c_lbvh.triangle_ids.download(), g_lbvh.triangle_ids.download());
+
+  TriangleBvh c_bvh = build_triangle_bvh(*both.cpu, c_soup.data(), uint32_t(soup.size()));
+  TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), uint32_t(soup.size()));
+  EXPECT_TRUE(same_bytes(c_bvh.bvh.nodes.download(), g_bvh.bvh.nodes.download()));
+  const Vec3f eye(0.0f, 0.0f, -30.0f);
+  EXPECT_TRUE(
+      same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256), camera_hits(*both.gpu, g_bvh, eye, 256)));
+}
+
+TEST(GpuParity, BudgetCoversTemporaryStorageAndIsReturned) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  std::unique_ptr<Backend> gpu = make_cuda_backend(size_t(64) << 20);
+  {
+    Buffer<uint32_t> keys(*gpu, 1 << 20), values(*gpu, 1 << 20);
+    keys.fill_zero();
+    values.fill_zero();
+    gpu->sort_pairs(keys.data(), values.data(), keys.size());
+    EXPECT_GT(gpu->peak_bytes(), keys.bytes() + values.bytes()) << "scratch and CUB storage count";
+    EXPECT_THROW({ Buffer<uint8_t> too_big(*gpu, size_t(64) << 20); }, BudgetExceeded);
+  }
+  EXPECT_EQ(gpu->bytes_in_use(), 0u);
+}
+
+// Runs everywhere: what the engine reports with and without a device.
+TEST(GpuParity, EngineOffersCudaOnlyWithADevice) {
+  absl::StatusOr<DeviceKind> parsed = parse_device_kind("cuda");
+  ASSERT_TRUE(parsed.ok()) << parsed.status();
+  absl::StatusOr<std::shared_ptr<Backend>> backend = make_backend(DeviceKind::kCuda, kBudget);
+  absl::StatusOr<DeviceKind> automatic = parse_device_kind("auto");
+  ASSERT_TRUE(automatic.ok());
+  if (!cuda_device_available()) {
+    EXPECT_EQ(backend.status().code(), absl::StatusCode::kFailedPrecondition) << backend.status();
+    EXPECT_EQ(*automatic, DeviceKind::kCpu);
+    return;
+  }
+  ASSERT_TRUE(backend.ok()) << backend.status();
+  EXPECT_EQ((*backend)->kind(), DeviceKind::kCuda);
+  EXPECT_FALSE((*backend)->info().name.empty());
+  EXPECT_GT((*backend)->info().compute_units, 0);
+  EXPECT_EQ(*automatic, DeviceKind::kCuda);
+}
+
+}  // namespace
+}  // namespace caustica

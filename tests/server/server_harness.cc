@@ -1,0 +1,335 @@
+#include "tests/server/server_harness.h"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "proto/wire/scene_wire.h"
+#include "renderer/scene/load_scene.h"
+#include "server/health.grpc.pb.h"
+
+namespace caustica::testing {
+namespace {
+
+using std::chrono::steady_clock;
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+std::filesystem::path make_temp_dir(const std::string& prefix) {
+  const std::string pattern =
+      (std::filesystem::temp_directory_path() / (prefix + "-XXXXXX")).string();
+  std::vector<char> name(pattern.begin(), pattern.end());
+  name.push_back('\0');
+  if (mkdtemp(name.data()) == nullptr) ADD_FAILURE() << "mkdtemp failed: " << std::strerror(errno);
+  return std::filesystem::path(name.data());
+}
+
+std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::string>& extra_args) {
+  std::unique_ptr<ServerProcess> server(new ServerProcess());
+  server->dir_ = make_temp_dir("caustica-server-test");
+  const std::filesystem::path port_file = server->dir_ / "port";
+  const std::string log_file = (server->dir_ / "server.log").string();
+  std::vector<std::string> args = {CAUSTICA_SERVER_BIN, "--listen", "127.0.0.1:0", "--port-file",
+                                   port_file.string()};
+  args.insert(args.end(), extra_args.begin(), extra_args.end());
+  std::vector<char*> argv;
+  for (std::string& arg : args) argv.push_back(arg.data());
+  argv.push_back(nullptr);
+
+  server->pid_ = fork();
+  if (server->pid_ == 0) {
+    // The child: only async-signal-safe calls until exec.
+    const int log_fd = open(log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (log_fd >= 0) {
+      dup2(log_fd, STDOUT_FILENO);
+      dup2(log_fd, STDERR_FILENO);
+    }
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  if (server->pid_ < 0) {
+    ADD_FAILURE() << "fork failed: " << std::strerror(errno);
+    return nullptr;
+  }
+  const auto give_up = steady_clock::now() + std::chrono::seconds(30);
+  while (server->port_ == 0) {
+    if (std::filesystem::exists(port_file)) {
+      server->port_ = std::atoi(read_file(port_file).c_str());
+      break;
+    }
+    if (!server->running() || steady_clock::now() > give_up) {
+      ADD_FAILURE() << "caustica-server did not start; its log:\n" << server->log();
+      return nullptr;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  grpc::ChannelArguments channel_args;
+  channel_args.SetMaxReceiveMessageSize(256 << 20);
+  server->channel_ = grpc::CreateCustomChannel(server->address(),
+                                               grpc::InsecureChannelCredentials(), channel_args);
+  return server;
+}
+
+ServerProcess::~ServerProcess() {
+  // Every test ends with a clean shutdown: exit code 0 (a sanitizer finding would change it).
+  if (pid_ > 0 && running()) EXPECT_EQ(terminate(), 0) << log();
+  // Kept for inspection when the test failed.
+  if (!::testing::Test::HasFailure()) {
+    std::error_code ignored;
+    std::filesystem::remove_all(dir_, ignored);
+  } else {
+    std::fprintf(stderr, "server files kept in %s\n", dir_.c_str());
+  }
+}
+
+std::unique_ptr<v1::RenderService::Stub> ServerProcess::stub() const {
+  return v1::RenderService::NewStub(channel_);
+}
+
+bool ServerProcess::running() {
+  if (pid_ <= 0) return false;
+  int status = 0;
+  const pid_t done = waitpid(pid_, &status, WNOHANG);
+  if (done == pid_) {
+    exit_status_ = status;
+    pid_ = -1;
+    return false;
+  }
+  return true;
+}
+
+int ServerProcess::terminate(double timeout_s) {
+  if (running()) kill(pid_, SIGTERM);
+  const auto give_up = steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (running()) {
+    if (steady_clock::now() > give_up) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return WIFEXITED(exit_status_) ? WEXITSTATUS(exit_status_) : -1;
+}
+
+std::string ServerProcess::log() const { return read_file(dir_ / "server.log"); }
+
+Scene cornell_box(int width, int height, uint32_t photons, uint32_t k, uint32_t seed) {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-box" / "scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  if (!scene.ok()) return Scene{};
+  scene->camera.width = width;
+  scene->camera.height = height;
+  scene->settings.photons_per_pass = photons;
+  scene->settings.k_nearest = k;
+  scene->settings.seed = seed;
+  return *std::move(scene);
+}
+
+std::vector<v1::SceneChunk> scene_chunks(const Scene& scene, const std::string& name,
+                                         size_t max_chunk_bytes) {
+  std::vector<v1::SceneChunk> chunks(1);
+  *chunks[0].mutable_header() = wire::encode_scene_header(scene, name);
+  wire::for_each_mesh_chunk(scene, max_chunk_bytes, [&](v1::SceneChunk& chunk) {
+    chunks.push_back(chunk);
+    return true;
+  });
+  return chunks;
+}
+
+void set_deadline(grpc::ClientContext& context, double seconds) {
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000)));
+}
+
+grpc::Status upload(v1::RenderService::Stub& stub, const std::vector<v1::SceneChunk>& chunks,
+                    v1::SceneInfo* info) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  std::unique_ptr<grpc::ClientWriter<v1::SceneChunk>> writer = stub.UploadScene(&context, info);
+  for (const v1::SceneChunk& chunk : chunks) {
+    if (!writer->Write(chunk)) break;  // the server already answered; Finish() says why
+  }
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+std::string upload_scene(v1::RenderService::Stub& stub, const Scene& scene,
+                         const std::string& name) {
+  v1::SceneInfo info;
+  const grpc::Status status = upload(stub, scene_chunks(scene, name), &info);
+  EXPECT_TRUE(status.ok()) << status.error_code() << ": " << status.error_message();
+  return info.scene_id();
+}
+
+v1::FrameFormat frame_format(v1::PixelFormat pixel_format, v1::Encoding encoding) {
+  v1::FrameFormat format;
+  format.set_pixel_format(pixel_format);
+  format.set_encoding(encoding);
+  return format;
+}
+
+grpc::Status render_frame(v1::RenderService::Stub& stub, const std::string& scene_id,
+                          uint32_t target_passes, const v1::FrameFormat& format, v1::Frame* frame) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::RenderFrameRequest request;
+  request.set_scene_id(scene_id);
+  request.set_target_passes(target_passes);
+  *request.mutable_format() = format;
+  return stub.RenderFrame(&context, request, frame);
+}
+
+std::vector<float> frame_floats(const std::string& data) {
+  std::vector<float> pixels(data.size() / sizeof(float));
+  std::memcpy(pixels.data(), data.data(), pixels.size() * sizeof(float));
+  return pixels;
+}
+
+double mean_rgb(const std::vector<float>& rgba) {
+  double sum = 0;
+  for (size_t i = 0; i < rgba.size(); ++i) {
+    if (i % 4 != 3) sum += rgba[i];
+  }
+  return rgba.empty() ? 0 : sum / (rgba.size() / 4 * 3);
+}
+
+v1::Light point_light(float intensity) {
+  v1::Light light;
+  light.set_name("bulb");
+  light.set_type(v1::Light::POINT);
+  light.mutable_position()->set_x(278);
+  light.mutable_position()->set_y(400);
+  light.mutable_position()->set_z(279);
+  light.mutable_intensity()->set_x(intensity);
+  light.mutable_intensity()->set_y(intensity);
+  light.mutable_intensity()->set_z(intensity);
+  return light;
+}
+
+std::vector<StreamedFrame> read_frames(grpc::ClientReader<v1::Frame>& reader) {
+  std::vector<StreamedFrame> frames;
+  v1::Frame piece;
+  bool open = false;  // a frame has pieces still to come
+  while (reader.Read(&piece)) {
+    if (!open) {
+      StreamedFrame& frame = frames.emplace_back();
+      frame.header = piece;
+      frame.header.clear_data();
+      open = true;
+    }
+    StreamedFrame& frame = frames.back();
+    EXPECT_EQ(piece.frame_number(), frame.header.frame_number());
+    EXPECT_EQ(piece.data_offset(), frame.data.size());
+    EXPECT_EQ(piece.data_size(), frame.header.data_size());
+    frame.data += piece.data();
+    ++frame.pieces;
+    if (piece.last_chunk()) {
+      EXPECT_EQ(frame.data.size(), frame.header.data_size());
+      open = false;
+    }
+  }
+  EXPECT_FALSE(open) << "the stream ended inside a frame";
+  return frames;
+}
+
+namespace {
+
+template <typename Request, typename Start>
+grpc::Status read_whole_stream(const Request& request, const Start& start,
+                               std::vector<StreamedFrame>* frames) {
+  grpc::ClientContext context;
+  set_deadline(context, 90);
+  std::unique_ptr<grpc::ClientReader<v1::Frame>> reader = start(&context, request);
+  *frames = read_frames(*reader);
+  return reader->Finish();
+}
+
+}  // namespace
+
+grpc::Status stream_frames(v1::RenderService::Stub& stub, const v1::StreamFramesRequest& request,
+                           std::vector<StreamedFrame>* frames) {
+  return read_whole_stream(
+      request, [&](grpc::ClientContext* c, const auto& r) { return stub.StreamFrames(c, r); },
+      frames);
+}
+
+grpc::Status play_animation(v1::RenderService::Stub& stub, const v1::PlayAnimationRequest& request,
+                            std::vector<StreamedFrame>* frames) {
+  return read_whole_stream(
+      request, [&](grpc::ClientContext* c, const auto& r) { return stub.PlayAnimation(c, r); },
+      frames);
+}
+
+v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_id) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::GetSceneRequest request;
+  request.set_scene_id(scene_id);
+  v1::SceneInfo info;
+  const grpc::Status status = stub.GetScene(&context, request, &info);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return info;
+}
+
+bool health_serving(const std::shared_ptr<grpc::Channel>& channel) {
+  auto health = grpc::health::v1::Health::NewStub(channel);
+  grpc::ClientContext context;
+  set_deadline(context, 10);
+  grpc::health::v1::HealthCheckResponse response;
+  const grpc::Status status = health->Check(&context, {}, &response);
+  return status.ok() && response.status() == grpc::health::v1::HealthCheckResponse::SERVING;
+}
+
+void expect_server_healthy(ServerProcess& server) {
+  ASSERT_TRUE(server.running()) << server.log();
+  EXPECT_TRUE(health_serving(server.channel()));
+  auto stub = server.stub();
+  const std::string id = upload_scene(*stub, cornell_box(16, 16, 2000, 16, 1), "health");
+  v1::Frame frame;
+  const grpc::Status status = render_frame(*stub, id, 1, frame_format(v1::RGBA8_SRGB), &frame);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(frame.data().size(), 16u * 16u * 4u);
+  EXPECT_EQ(frame.passes(), 1u);
+}
+
+PfmImage read_pfm(const std::filesystem::path& path) {
+  PfmImage image;
+  std::ifstream in(path, std::ios::binary);
+  std::string magic;
+  double scale = 0;
+  in >> magic >> image.width >> image.height >> scale;
+  in.get();  // the single whitespace byte before the data
+  EXPECT_EQ(magic, "PF");
+  EXPECT_LT(scale, 0) << "expected little-endian PFM";
+  const size_t row_floats = size_t(image.width) * 3;
+  image.rgb.resize(row_floats * image.height);
+  // PFM rows run bottom to top.
+  for (int y = image.height - 1; y >= 0; --y) {
+    in.read(reinterpret_cast<char*>(image.rgb.data() + y * row_floats), row_floats * sizeof(float));
+  }
+  EXPECT_TRUE(in.good()) << path;
+  return image;
+}
+
+}  // namespace caustica::testing

@@ -1,0 +1,216 @@
+// The scene's wire form: a loaded scene survives encode -> chunks -> assemble unchanged, and every
+// kind of bad upload is refused at the chunk that breaks it, with the field named.
+#include "proto/wire/scene_wire.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "renderer/scene/load_scene.h"
+
+namespace caustica::wire {
+namespace {
+
+using testing::HasSubstr;
+
+Scene bundled(const char* name) {
+  absl::StatusOr<Scene> scene =
+      load_scene((std::filesystem::path(CAUSTICA_SCENES_DIR) / name / "scene.json").string());
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  return scene.ok() ? *scene : Scene{};
+}
+
+std::vector<v1::SceneChunk> encode(const Scene& scene, size_t chunk_bytes) {
+  std::vector<v1::SceneChunk> chunks(1);
+  *chunks[0].mutable_header() = encode_scene_header(scene, "test");
+  for_each_mesh_chunk(scene, chunk_bytes, [&](v1::SceneChunk& c) {
+    chunks.push_back(c);
+    return true;
+  });
+  return chunks;
+}
+
+// Feeds `chunks`; returns the first failure of add() or the result of finish().
+absl::StatusOr<Scene> assemble(const std::vector<v1::SceneChunk>& chunks) {
+  SceneAssembler assembler;
+  for (const v1::SceneChunk& c : chunks) {
+    if (absl::Status s = assembler.add(c); !s.ok()) return s;
+  }
+  return assembler.finish();
+}
+
+TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
+  Scene scene = bundled("cornell-caustics");
+  // Some normals and a mixed-material mesh exercise the optional arrays.
+  scene.meshes[0].normals.assign(scene.meshes[0].positions.size(), Vec3f(0, 1, 0));
+  scene.meshes[1].material_ids[0] = 1;
+  std::vector<v1::SceneChunk> chunks = encode(scene, 4096);
+  size_t data_bytes = 0;
+  for (size_t i = 1; i < chunks.size(); ++i) {
+    EXPECT_LE(chunks[i].mesh().data().size(), 4096u);
+    data_bytes += chunks[i].mesh().data().size();
+  }
+  EXPECT_EQ(data_bytes, mesh_bytes(scene));
+  EXPECT_GT(chunks.size(), 10u);  // the spheres need several chunks at this size
+
+  SceneAssembler assembler;
+  for (const v1::SceneChunk& c : chunks) ASSERT_TRUE(assembler.add(c).ok());
+  EXPECT_EQ(assembler.bytes_declared(), mesh_bytes(scene));
+  EXPECT_EQ(assembler.bytes_received(), mesh_bytes(scene));
+  absl::StatusOr<Scene> back = assembler.finish();
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->meshes.size(), scene.meshes.size());
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& a = scene.meshes[m];
+    const Mesh& b = back->meshes[m];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.indices, b.indices);
+    EXPECT_EQ(a.material_ids, b.material_ids);
+    ASSERT_EQ(a.positions.size(), b.positions.size());
+    EXPECT_EQ(0, std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * 12));
+    ASSERT_EQ(a.normals.size(), b.normals.size());
+  }
+  ASSERT_EQ(back->materials.size(), scene.materials.size());
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    EXPECT_EQ(back->materials[i].name, scene.materials[i].name);
+    EXPECT_EQ(back->materials[i].type, scene.materials[i].type);
+    EXPECT_EQ(back->materials[i].color.x, scene.materials[i].color.x);
+    EXPECT_EQ(back->materials[i].radiance.y, scene.materials[i].radiance.y);
+    EXPECT_EQ(back->materials[i].ior, scene.materials[i].ior);
+  }
+  EXPECT_EQ(back->camera.width, scene.camera.width);
+  EXPECT_EQ(back->camera.vertical_fov_deg, scene.camera.vertical_fov_deg);
+  EXPECT_EQ(back->settings.photons_per_pass, scene.settings.photons_per_pass);
+  EXPECT_EQ(back->settings.kernel, scene.settings.kernel);
+}
+
+TEST(SceneWire, ChunkChecksumIsZlibCrc32) {
+  EXPECT_EQ(chunk_crc32("123456789"), 0xCBF43926u);  // the standard CRC-32 check value
+  EXPECT_EQ(chunk_crc32(""), 0u);
+}
+
+TEST(SceneWire, LightsAndSettingsRoundTrip) {
+  Light spot{"spot", LightType::kSpot, Vec3f(1, 2, 3), Vec3f(0, -1, 0), Vec3f(4, 5, 6), 10, 20};
+  absl::StatusOr<Light> back = decode_light(encode_light(spot), "lights[0]");
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->type, LightType::kSpot);
+  EXPECT_EQ(back->position.z, 3.0f);
+  EXPECT_EQ(back->outer_angle_deg, 20.0f);
+
+  RenderSettings current;
+  v1::RenderSettings update;
+  update.set_k_nearest(16);
+  absl::StatusOr<RenderSettings> applied = apply_settings(update, current, "settings");
+  ASSERT_TRUE(applied.ok());
+  EXPECT_EQ(applied->k_nearest, 16u);
+  EXPECT_EQ(applied->photons_per_pass, current.photons_per_pass);  // unset fields stay
+}
+
+struct BadUpload {
+  const char* what;
+  std::function<void(std::vector<v1::SceneChunk>&)> corrupt;
+  absl::StatusCode code;
+  const char* message;
+};
+
+class SceneWireRefuses : public testing::TestWithParam<BadUpload> {};
+
+TEST_P(SceneWireRefuses, NamingTheProblem) {
+  std::vector<v1::SceneChunk> chunks = encode(bundled("cornell-box"), 1 << 20);
+  GetParam().corrupt(chunks);
+  absl::StatusOr<Scene> result = assemble(chunks);
+  EXPECT_EQ(result.status().code(), GetParam().code) << result.status();
+  EXPECT_THAT(std::string(result.status().message()), HasSubstr(GetParam().message));
+}
+
+v1::MeshChunk& first_chunk_of(std::vector<v1::SceneChunk>& chunks, v1::MeshChunk::Array array) {
+  for (v1::SceneChunk& c : chunks)
+    if (c.has_mesh() && c.mesh().array() == array) return *c.mutable_mesh();
+  throw std::runtime_error("no such chunk");
+}
+
+void rewrite(v1::MeshChunk& chunk, size_t byte, const void* value, size_t size) {
+  std::string data = chunk.data();
+  std::memcpy(data.data() + byte, value, size);
+  chunk.set_data(data);
+  chunk.set_crc32(chunk_crc32(data));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    BadChunks, SceneWireRefuses,
+    testing::Values(
+        BadUpload{"bad checksum",
+                  [](auto& c) { first_chunk_of(c, v1::MeshChunk::POSITIONS).set_crc32(1); },
+                  absl::StatusCode::kInvalidArgument, "mesh.crc32"},
+        BadUpload{"offset gap",
+                  [](auto& c) { first_chunk_of(c, v1::MeshChunk::INDICES).set_offset(12); },
+                  absl::StatusCode::kInvalidArgument, "offset 12 but 0 bytes arrived"},
+        BadUpload{"chunk before header", [](auto& c) { std::swap(c[0], c[1]); },
+                  absl::StatusCode::kInvalidArgument, "chunk 0: mesh: arrives before the scene header"},
+        BadUpload{"partial element",
+                  [](auto& c) {
+                    v1::MeshChunk& m = first_chunk_of(c, v1::MeshChunk::POSITIONS);
+                    m.set_data(m.data().substr(0, 10));
+                    m.set_crc32(chunk_crc32(m.data()));
+                  },
+                  absl::StatusCode::kInvalidArgument, "not a whole number of 12-byte elements"},
+        BadUpload{"oversized chunk",
+                  [](auto& c) {
+                    v1::MeshChunk& m = first_chunk_of(c, v1::MeshChunk::POSITIONS);
+                    m.set_data(std::string(kMaxChunkBytes + 12, '\0'));
+                    m.set_crc32(chunk_crc32(m.data()));
+                  },
+                  absl::StatusCode::kInvalidArgument, "chunk limit"},
+        BadUpload{"counts disagree",
+                  [](auto& c) {
+                    v1::MeshHeader* h = c[0].mutable_header()->mutable_meshes(0);
+                    h->set_triangle_count(h->triangle_count() + 1);
+                  },
+                  absl::StatusCode::kInvalidArgument, "indices has 24 bytes but the header declares 36"},
+        BadUpload{"index out of range",
+                  [](auto& c) {
+                    uint32_t bad = 99;
+                    rewrite(first_chunk_of(c, v1::MeshChunk::INDICES), 4, &bad, 4);
+                  },
+                  absl::StatusCode::kInvalidArgument, "triangle 0 refers to vertex 99 of 4"},
+        BadUpload{"NaN vertex",
+                  [](auto& c) {
+                    float nan = std::nanf("");
+                    rewrite(first_chunk_of(c, v1::MeshChunk::POSITIONS), 16, &nan, 4);
+                  },
+                  absl::StatusCode::kInvalidArgument, "vertex 1 is (0, nan, 0), not finite"},
+        BadUpload{"resolution 0",
+                  [](auto& c) { c[0].mutable_header()->mutable_camera()->set_width(0); },
+                  absl::StatusCode::kInvalidArgument, "camera.width: 0 is outside [1, 16384]"},
+        BadUpload{"resolution 100000",
+                  [](auto& c) { c[0].mutable_header()->mutable_camera()->set_height(100000); },
+                  absl::StatusCode::kInvalidArgument, "camera.height: 100000 is outside"},
+        BadUpload{"absurd size",
+                  [](auto& c) {
+                    c[0].mutable_header()->mutable_meshes(0)->set_vertex_count(uint64_t{1} << 40);
+                  },
+                  absl::StatusCode::kResourceExhausted, "vertex_count: 1099511627776 exceeds"},
+        BadUpload{"unknown material type",
+                  [](auto& c) {
+                    c[0].mutable_header()->mutable_materials(0)->set_type(v1::Material::TYPE_UNSPECIFIED);
+                  },
+                  absl::StatusCode::kInvalidArgument, "materials[0].type"},
+        BadUpload{"material out of range",
+                  [](auto& c) { c[0].mutable_header()->mutable_meshes(0)->set_material(42); },
+                  absl::StatusCode::kInvalidArgument, "material: 42 is out of range"},
+        BadUpload{"no header at all", [](auto& c) { c.clear(); },
+                  absl::StatusCode::kInvalidArgument, "ended before the scene header"},
+        BadUpload{"second header", [](auto& c) { c.push_back(c[0]); },
+                  absl::StatusCode::kInvalidArgument, "a second header"}),
+    [](const testing::TestParamInfo<BadUpload>& info) {
+      std::string name = info.param.what;
+      for (char& ch : name)
+        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+      return name;
+    });
+
+}  // namespace
+}  // namespace caustica::wire
