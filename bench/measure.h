@@ -48,6 +48,8 @@ inline Measurement measure(const BenchOptions& o, Backend& backend, const std::f
 class Reporter {
  public:
   Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
+  // The same output, labelled with another device (the server's, for the serving figures).
+  Reporter for_device(std::string device) const { return Reporter(out_, std::move(device)); }
   void line(const std::string& name, const std::string& scene, double value, const std::string& unit,
             const Measurement* m = nullptr, int runs = 0) {
     out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")",

@@ -197,7 +197,7 @@ std::vector<std::string> serving_benchmark_names() {
   return {"stream_rgba8", "stream_rgba32f", "upload", "update_to_frame"};
 }
 
-absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& report) {
+absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_report) {
   client::ConnectOptions connect;
   // Always a server of our own: a figure must not depend on whatever else listens on 50051.
   absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server =
@@ -207,6 +207,14 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& report) {
   connect.max_message_mb = 256;
   absl::StatusOr<std::unique_ptr<client::Connection>> connection = client::Connection::open(connect);
   if (!connection.ok()) return connection.status();
+
+  // Figures are labelled with the device the server renders on, not the benchmark's own CPU.
+  absl::StatusOr<v1::Stats> stats =
+      (*connection)->call(&v1::RenderService::Stub::GetStats, v1::GetStatsRequest());
+  if (!stats.ok()) return stats.status();
+  Reporter report = server_report.for_device(absl::StrFormat(
+      "server %s: %s x%d", stats->device().kind(), stats->device().name(),
+      stats->device().compute_units()));
 
   if (selected(o, "stream_rgba8") || selected(o, "stream_rgba32f")) {
     if (absl::Status s = stream_benchmarks(o, **connection, report); !s.ok()) return s;

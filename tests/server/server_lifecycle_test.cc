@@ -2,9 +2,11 @@
 // mid-upload, and SIGTERM while a stream runs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
+#include <grpcpp/generic/generic_stub.h>
 #include "tests/server/server_harness.h"
 
 namespace caustica::testing {
@@ -57,6 +59,46 @@ std::unique_ptr<grpc::ClientReader<v1::Frame>> start_endless_stream(v1::RenderSe
   std::unique_ptr<grpc::ClientReader<v1::Frame>> reader = stub.StreamFrames(&context, request);
   EXPECT_TRUE(reader->Read(first));
   return reader;
+}
+
+// Server reflection answers a service listing the way grpcurl asks for one. Debian ships the
+// reflection service without its client headers, so the request is encoded by hand:
+// ServerReflectionRequest{list_services: ""} is field 7, an empty string.
+TEST_F(ServerTest, ReflectionListsTheRenderService) {
+  grpc::GenericStub stub(server_->channel());
+  grpc::CompletionQueue queue;
+  grpc::ClientContext context;
+  auto call = stub.PrepareCall(
+      &context, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &queue);
+  auto step = [&](int tag) {
+    void* got = nullptr;
+    bool ok = false;
+    EXPECT_TRUE(queue.Next(&got, &ok));
+    EXPECT_EQ(got, reinterpret_cast<void*>(intptr_t{tag}));
+    return ok;
+  };
+  call->StartCall(reinterpret_cast<void*>(intptr_t{1}));
+  ASSERT_TRUE(step(1));
+  const std::string request("\x3a\x00", 2);
+  grpc::Slice slice(request);
+  grpc::ByteBuffer out(&slice, 1);
+  call->Write(out, reinterpret_cast<void*>(intptr_t{2}));
+  ASSERT_TRUE(step(2));
+  grpc::ByteBuffer in;
+  call->Read(&in, reinterpret_cast<void*>(intptr_t{3}));
+  ASSERT_TRUE(step(3));
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(in.Dump(&slices).ok());
+  std::string response;
+  for (const grpc::Slice& s : slices) response.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  EXPECT_NE(response.find("caustica.v1.RenderService"), std::string::npos);
+  EXPECT_NE(response.find("grpc.health.v1.Health"), std::string::npos);
+  call->WritesDone(reinterpret_cast<void*>(intptr_t{4}));
+  step(4);
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(intptr_t{5}));
+  step(5);
+  EXPECT_TRUE(status.ok()) << status.error_message();
 }
 
 TEST_F(ServerTest, CancelledStreamLeavesTheServerHealthy) {
