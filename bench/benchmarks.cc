@@ -58,6 +58,12 @@ Camera framing_camera(const Aabb& b, int width, int height) {
   return cam;
 }
 
+absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& o) {
+  absl::StatusOr<DeviceKind> kind = parse_device_kind(o.device);
+  if (!kind.ok()) return kind.status();
+  return make_backend(*kind, size_t(16) << 30);
+}
+
 bool wanted(const BenchOptions& o, const std::string& name) {
   return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
 }
@@ -66,7 +72,9 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();
   const std::string name = o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
-  auto backend = make_cpu_backend(size_t(16) << 30);
+  absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
+  if (!made.ok()) return made.status();
+  Backend* backend = made->get();
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
   const uint32_t tris = uint32_t(resident.triangle_count());
   const TriangleVertices* input = resident.view().triangles;
@@ -154,7 +162,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
   absl::StatusOr<Scene> scene = load_scene(o.photon_scene);
   if (!scene.ok()) return scene.status();
   const std::string name = o.photon_scene.parent_path().filename().string();
-  auto backend = make_cpu_backend(size_t(16) << 30);
+  absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
+  if (!made.ok()) return made.status();
+  Backend* backend = made->get();
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
 
   if (wanted(o, "photon_pass")) {
@@ -175,7 +185,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     scene->camera.height = o.height;
     scene->settings.k_nearest = o.k;
     scene->settings.photons_per_pass = o.photons;
-    auto engine = Engine::create({});
+    auto engine = Engine::create({.backend = *made});
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
@@ -218,18 +228,16 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   for (const std::string& n : o.only)
     if (std::find(known.begin(), known.end(), n) == known.end())
       return absl::InvalidArgumentError(absl::StrCat("--only: unknown benchmark '", n, "'"));
-  auto probe = make_cpu_backend(0);
-  DeviceInfo info = probe->info();
+  absl::StatusOr<std::shared_ptr<Backend>> probe = make_bench_backend(o);
+  if (!probe.ok()) return probe.status();
+  const DeviceInfo info = (*probe)->info();
+  probe->reset();
   Reporter report(out, absl::StrFormat("%s x%d", info.name, info.compute_units));
   auto any_of = [&](const std::vector<std::string>& names) {
     return std::any_of(names.begin(), names.end(), [&](const std::string& n) { return wanted(o, n); });
   };
   if (o.mesh.empty() && o.photon_scene.empty() && !any_of({"stream_rgba8", "stream_rgba32f"}))
     return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");
-  const bool renderer_wanted = any_of({"lbvh_build", "primary_rays", "shadow_rays",
-                                       "incoherent_rays", "photon_pass", "frame"});
-  if (renderer_wanted && o.device != "cpu")
-    return absl::UnimplementedError("the renderer benchmarks run on --device cpu in this build");
   if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }

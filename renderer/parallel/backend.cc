@@ -1,6 +1,7 @@
 #include "renderer/parallel/backend.h"
 
 #include <algorithm>
+#include <chrono>
 
 #include "absl/strings/str_format.h"
 
@@ -26,6 +27,14 @@ void Backend::deallocate(void* p, size_t bytes) {
   std::lock_guard<std::mutex> lock(memory_mutex_);
   deallocate_raw(p, bytes);
   in_use_ -= bytes;
+}
+
+double Backend::time_ms(const std::function<void()>& fn) {
+  synchronize();
+  const auto start = std::chrono::steady_clock::now();
+  fn();
+  synchronize();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace caustica

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <new>
@@ -74,6 +75,9 @@ class Backend {
   virtual void copy_on_device(void* dst, const void* src, size_t bytes) = 0;
   virtual void fill_bytes(void* dst, uint8_t value, size_t bytes) = 0;
   virtual void synchronize() = 0;
+  // Milliseconds the device spends on the work `fn` queues, for benchmarks: host clock around
+  // synchronisations here, CUDA events on the backend's stream in the CUDA backend.
+  virtual double time_ms(const std::function<void()>& fn);
 
   // --- primitives ---
   // Stable ascending key-value radix sort on the key bits [0, end_bit), in place.

@@ -156,6 +156,21 @@ class CudaBackend final : public Backend {
     CAUSTICA_CUDA_CHECK(cudaMemsetAsync(dst, value, bytes, stream_));
   }
   void synchronize() override { CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
+  // Events on the stream time the device work alone, not the host's launch overhead around it.
+  double time_ms(const std::function<void()>& fn) override {
+    cudaEvent_t start, stop;
+    CAUSTICA_CUDA_CHECK(cudaEventCreate(&start));
+    CAUSTICA_CUDA_CHECK(cudaEventCreate(&stop));
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(start, stream_));
+    fn();
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(stop, stream_));
+    CAUSTICA_CUDA_CHECK(cudaEventSynchronize(stop));
+    float ms = 0;
+    CAUSTICA_CUDA_CHECK(cudaEventElapsedTime(&ms, start, stop));
+    CAUSTICA_CUDA_CHECK(cudaEventDestroy(start));
+    CAUSTICA_CUDA_CHECK(cudaEventDestroy(stop));
+    return ms;
+  }
 
   void sort_pairs(uint32_t* keys, uint32_t* values, size_t n, int end_bit) override {
     radix_sort(keys, values, n, end_bit);
