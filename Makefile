@@ -19,8 +19,15 @@ test: build
 test-asan:
 	$(MAKE) test PRESET=asan
 
-demo: build
-	scripts/demo $(BUILD_DIR)
+# The demo renders on the GPU where there is one (nvcc and a working NVIDIA driver): the CUDA
+# build, whose server takes the GPU with --device auto. Elsewhere the CPU build.
+HAVE_GPU := $(shell test -x /usr/local/cuda/bin/nvcc && nvidia-smi -L >/dev/null 2>&1 && echo yes)
+DEMO_PRESET ?= $(if $(HAVE_GPU),cuda-release,$(PRESET))
+
+demo: setup
+	cmake --preset $(DEMO_PRESET) >/dev/null
+	cmake --build --preset $(DEMO_PRESET) -j $(JOBS) --target caustica caustica-server
+	scripts/demo build/$(DEMO_PRESET)
 
 bench: build
 	scripts/setup-deps --bench
