@@ -1,8 +1,10 @@
-// Closest hits for every pixel of an image whose rays share one origin, traced as square packets
-// (packet_traversal.h): the launch both the renderer's primary stage and the benchmark use.
+// Closest hits for every pixel of an image whose rays share one origin: the launch both the
+// renderer's primary stage and the benchmark use. On the CPU, square packets (packet_traversal.h)
+// share each node test across 16 rays; on a GPU the warp already is the packet.
 #pragma once
 
 #include "renderer/accel/packet_traversal.h"
+#include "renderer/accel/traversal.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -12,6 +14,24 @@ namespace caustica {
 template <typename Direction>
 void trace_camera_tiles(Backend& backend, const TriangleBvhView& bvh, Vec3f origin, int width,
                         int height, Direction direction, Hit* hits) {
+  if (backend.kind() == DeviceKind::kCuda) {
+    // One ray per thread, each warp covering an 8x4 block of pixels so that its rays stay
+    // coherent; a thread-private packet of 16 rays would only cost registers (813 against 2594
+    // Mrays/s on an H100, dragon 1024x1024).
+    constexpr int kBlockWidth = 8, kBlockHeight = 4, kBlockPixels = kBlockWidth * kBlockHeight;
+    const int blocks_x = (width + kBlockWidth - 1) / kBlockWidth;
+    const int blocks_y = (height + kBlockHeight - 1) / kBlockHeight;
+    parallel_for(backend, size_t(blocks_x) * blocks_y * kBlockPixels, [=] CAUSTICA_HD(size_t i) {
+      const size_t block = i / kBlockPixels;
+      const int within = int(i % kBlockPixels);
+      const int x = int(block % blocks_x) * kBlockWidth + within % kBlockWidth;
+      const int y = int(block / blocks_x) * kBlockHeight + within / kBlockWidth;
+      if (x >= width || y >= height) return;
+      const size_t pixel = size_t(y) * width + x;
+      hits[pixel] = closest_hit(bvh, Ray{origin, direction(pixel)});
+    });
+    return;
+  }
   const int tiles_x = (width + kPacketTile - 1) / kPacketTile;
   const int tiles_y = (height + kPacketTile - 1) / kPacketTile;
   parallel_for(backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
