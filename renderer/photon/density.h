@@ -70,7 +70,10 @@ CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k
     offer(0);
     return size;
   }
+  // Deferred subtrees keep their box distance: by the time one is popped the k-th distance has
+  // usually shrunk below it, and the subtree is dropped without loading its node.
   uint32_t stack[kKnnStackSize];
+  float stack_distance[kKnnStackSize];
   int top = 0;
   uint32_t node = map.root;
   while (true) {
@@ -86,17 +89,23 @@ CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k
         uint32_t c = c0;
         c0 = c1;
         c1 = c;
+        float d = d0;
+        d0 = d1;
+        d1 = d;
       }
-      stack[top++] = c1;
+      stack[top] = c1;
+      stack_distance[top++] = d1;
       node = c0;
     } else if (go0) {
       node = c0;
     } else if (go1) {
       node = c1;
     } else {
-      // Pop, skipping subtrees the shrunken radius has excluded is left to the next box test.
-      if (top == 0) return size;
-      node = stack[--top];
+      do {
+        if (top == 0) return size;
+        --top;
+      } while (stack_distance[top] >= limit);
+      node = stack[top];
     }
   }
 }
