@@ -189,9 +189,9 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
 absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  Scene candidate = st.scene;
-  candidate.lights = lights;
-  if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
+  if (absl::Status s = validate_lights_update(lights, st.resident->view().area_light_count);
+      !s.ok())
+    return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     st.prepared.reset();
@@ -211,9 +211,7 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
 absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  Scene candidate = st.scene;
-  candidate.camera = camera;
-  if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
+  if (absl::Status s = validate_camera_update(camera); !s.ok()) return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
@@ -235,9 +233,7 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
 absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  Scene candidate = st.scene;
-  candidate.settings = settings;
-  if (absl::Status s = validate_scene(candidate); !s.ok()) return s;
+  if (absl::Status s = validate_settings_update(settings); !s.ok()) return s;
   const RenderSettings& old = st.scene.settings;
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||

@@ -8,6 +8,7 @@
 #include "absl/strings/str_format.h"
 #include "proto/wire/scene_wire.h"
 #include "renderer/scene/scene_limits.h"
+#include "renderer/scene/validate.h"
 #include "server/engine_wire.h"
 #include "server/log.h"
 
@@ -382,17 +383,19 @@ grpc::Status RenderService::UpdateSettings(grpc::ServerContext* context,
                         absl::StatusOr<RenderSettings> settings =
                             wire::apply_settings(request->settings(), previous, "settings");
                         if (!settings.ok()) return settings.status();
-                        absl::StatusOr<RebuildReport> changed = engine.set_settings(*settings);
-                        if (!changed.ok() || (request->width() == 0 && request->height() == 0))
-                          return changed;
                         Camera camera = engine.scene().camera;
                         if (request->width() > 0) camera.width = static_cast<int>(request->width());
                         if (request->height() > 0)
                           camera.height = static_cast<int>(request->height());
+                        if (absl::Status s = validate_settings_update(*settings); !s.ok()) return s;
+                        if (absl::Status s = validate_camera_update(camera); !s.ok()) return s;
+                        absl::StatusOr<RebuildReport> changed = engine.set_settings(*settings);
+                        if (!changed.ok() || (request->width() == 0 && request->height() == 0))
+                          return changed;
                         absl::StatusOr<RebuildReport> resized = engine.set_camera(camera);
                         if (!resized.ok()) {
-                          // Only the film allocation can fail here; put the settings back so a
-                          // refused request leaves the scene as it was.
+                          // Everything was validated above, so only the film allocation can fail
+                          // here; put the settings back so the scene keeps what it had.
                           (void)engine.set_settings(previous);
                           return resized.status();
                         }

@@ -209,6 +209,21 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
 
 }  // namespace
 
+absl::Status validate_camera_update(const Camera& camera) { return validate_camera(camera); }
+
+absl::Status validate_settings_update(const RenderSettings& settings) {
+  return validate_settings(settings);
+}
+
+absl::Status validate_lights_update(const std::vector<Light>& lights, size_t emitting_triangles) {
+  for (size_t i = 0; i < lights.size(); ++i) SCENE_RETURN_IF_ERROR(validate_light(lights[i], i));
+  if (lights.empty() && emitting_triangles == 0) {
+    return absl::InvalidArgumentError(
+        "lights: the scene would have no light (it has no emissive triangles)");
+  }
+  return absl::OkStatus();
+}
+
 absl::Status validate_scene(const Scene& scene) {
   SCENE_RETURN_IF_ERROR(validate_camera(scene.camera));
   SCENE_RETURN_IF_ERROR(validate_settings(scene.settings));

@@ -4,6 +4,9 @@
 // one triangle and one light.
 #pragma once
 
+#include <cstddef>
+#include <vector>
+
 #include "absl/status/status.h"
 #include "renderer/scene/scene.h"
 
@@ -13,5 +16,12 @@ namespace caustica {
 // (camera.fov, settings.photons, lights[2].intensity), materials by name, meshes by name with the
 // vertex or triangle index.
 absl::Status validate_scene(const Scene& scene);
+
+// The parts of validate_scene an update of an already valid scene needs, so that changing the
+// lights or the camera does not copy the meshes to check them again.
+absl::Status validate_camera_update(const Camera& camera);
+absl::Status validate_settings_update(const RenderSettings& settings);
+// `emitting_triangles`: the scene's area-light triangles, which count as light too.
+absl::Status validate_lights_update(const std::vector<Light>& lights, size_t emitting_triangles);
 
 }  // namespace caustica

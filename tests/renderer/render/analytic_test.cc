@@ -196,6 +196,36 @@ TEST(Engine, LightChangeTracesPhotonsAheadWithoutChangingTheImage) {
   EXPECT_EQ(updated->image_linear(), fresh->image_linear());
 }
 
+// Updates are checked without the meshes: each refusal names its field and changes nothing.
+TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
+  Scene scene = parse_or_die(R"({
+    "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 30, "width": 8, "height": 8},
+    "settings": {"photons": 1000},
+    "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "lights": [{"type": "point", "position": [0, 0, 1], "intensity": [1, 1, 1]}],
+    "shapes": [{"type": "quad", "material": "grey",
+                "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
+  })");
+  auto engine = engine_with(scene);
+  const Epochs before = engine->epochs();
+  // No point light and no emissive triangle would leave the scene dark.
+  auto dark = engine->set_lights({});
+  EXPECT_EQ(dark.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(dark.status().message()), testing::HasSubstr("no light"));
+  Camera camera = scene.camera;
+  camera.width = 0;
+  auto no_pixels = engine->set_camera(camera);
+  EXPECT_THAT(std::string(no_pixels.status().message()), testing::HasSubstr("camera.width"));
+  RenderSettings settings = scene.settings;
+  settings.k_nearest = 0;
+  auto no_k = engine->set_settings(settings);
+  EXPECT_THAT(std::string(no_k.status().message()), testing::HasSubstr("settings.k"));
+  EXPECT_EQ(engine->epochs().lights, before.lights);
+  EXPECT_EQ(engine->epochs().camera, before.camera);
+  EXPECT_EQ(engine->epochs().settings, before.settings);
+  EXPECT_EQ(engine->scene().lights.size(), 1u);
+}
+
 TEST(Engine, EnginesSharingABackendShareOneBudget) {
   absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
   ASSERT_TRUE(scene.ok());
