@@ -64,10 +64,6 @@ absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& 
   return make_backend(*kind, size_t(16) << 30);
 }
 
-bool wanted(const BenchOptions& o, const std::string& name) {
-  return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
-}
-
 absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();

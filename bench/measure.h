@@ -19,22 +19,24 @@ struct Measurement {
   double median, min, max;
 };
 
+// Whether --only selects the benchmark `name` (everything when --only is empty).
+inline bool wanted(const BenchOptions& o, const std::string& name) {
+  return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
+}
+
 inline Measurement summarize(std::vector<double> ms) {
   std::sort(ms.begin(), ms.end());
   return {ms[ms.size() / 2], ms.front(), ms.back()};
 }
 
-// Milliseconds of `fn` over o.runs runs after o.warmup unmeasured ones. `synchronize`, when
-// given, runs before the clock starts and before it stops, so queued device work is counted.
-inline Measurement measure(const BenchOptions& o, const std::function<void()>& fn,
-                           const std::function<void()>& synchronize = {}) {
+// Milliseconds of host-side work `fn` (a round trip to a server) over o.runs runs after
+// o.warmup unmeasured ones.
+inline Measurement measure(const BenchOptions& o, const std::function<void()>& fn) {
   for (int i = 0; i < o.warmup; ++i) fn();
   std::vector<double> ms;
   for (int i = 0; i < o.runs; ++i) {
-    if (synchronize) synchronize();
     auto start = std::chrono::steady_clock::now();
     fn();
-    if (synchronize) synchronize();
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
   }
   return summarize(std::move(ms));

@@ -21,10 +21,6 @@ double ms_between(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-bool selected(const BenchOptions& o, const std::string& name) {
-  return o.only.empty() || std::find(o.only.begin(), o.only.end(), name) != o.only.end();
-}
-
 absl::StatusOr<std::string> upload(client::Connection& connection, const Scene& scene,
                                    const std::string& name, v1::SceneInfo* info = nullptr) {
   grpc::ClientContext context;
@@ -93,7 +89,7 @@ absl::Status stream_benchmarks(const BenchOptions& o, client::Connection& connec
   };
   for (const Format& f : {Format{"stream_rgba8", v1::RGBA8_SRGB, 4},
                           Format{"stream_rgba32f", v1::RGBA32F_LINEAR, 16}}) {
-    if (!selected(o, f.name)) continue;
+    if (!wanted(o, f.name)) continue;
     const size_t frame_bytes = size_t(o.width) * o.height * f.bytes_per_pixel;
     absl::Status failure;
     Measurement m = measure(o, [&] {
@@ -216,17 +212,17 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_repo
       "server %s: %s x%d", stats->device().kind(), stats->device().name(),
       stats->device().compute_units()));
 
-  if (selected(o, "stream_rgba8") || selected(o, "stream_rgba32f")) {
+  if (wanted(o, "stream_rgba8") || wanted(o, "stream_rgba32f")) {
     if (absl::Status s = stream_benchmarks(o, **connection, report); !s.ok()) return s;
   }
-  if (selected(o, "upload") && !o.mesh.empty()) {
+  if (wanted(o, "upload") && !o.mesh.empty()) {
     absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
     if (!scene.ok()) return scene.status();
     if (absl::Status s = upload_benchmark(o, **connection, *scene, o.mesh.filename().string(), report);
         !s.ok())
       return s;
   }
-  if (selected(o, "update_to_frame") && !o.photon_scene.empty()) {
+  if (wanted(o, "update_to_frame") && !o.photon_scene.empty()) {
     if (absl::Status s = update_to_frame_benchmark(o, **connection, report); !s.ok()) return s;
   }
   return absl::OkStatus();

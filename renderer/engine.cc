@@ -189,7 +189,7 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
 absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_lights_update(lights, st.resident->view().area_light_count);
+  if (absl::Status s = validate_lights(lights, st.resident->view().area_light_count);
       !s.ok())
     return s;
   RebuildReport report;
@@ -211,7 +211,7 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
 absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_camera_update(camera); !s.ok()) return s;
+  if (absl::Status s = validate_camera(camera); !s.ok()) return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
@@ -233,7 +233,7 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
 absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_settings_update(settings); !s.ok()) return s;
+  if (absl::Status s = validate_settings(settings); !s.ok()) return s;
   const RenderSettings& old = st.scene.settings;
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||

@@ -387,8 +387,8 @@ grpc::Status RenderService::UpdateSettings(grpc::ServerContext* context,
                         if (request->width() > 0) camera.width = static_cast<int>(request->width());
                         if (request->height() > 0)
                           camera.height = static_cast<int>(request->height());
-                        if (absl::Status s = validate_settings_update(*settings); !s.ok()) return s;
-                        if (absl::Status s = validate_camera_update(camera); !s.ok()) return s;
+                        if (absl::Status s = validate_settings(*settings); !s.ok()) return s;
+                        if (absl::Status s = validate_camera(camera); !s.ok()) return s;
                         absl::StatusOr<RebuildReport> changed = engine.set_settings(*settings);
                         if (!changed.ok() || (request->width() == 0 && request->height() == 0))
                           return changed;

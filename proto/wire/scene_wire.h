@@ -53,8 +53,9 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& settings
 // Rebuilds a Scene from an upload stream. Every add() checks the chunk on its own (order,
 // offsets, sizes, checksum, indices in range, finite numbers) so a bad stream is refused at the
 // first bad chunk with INVALID_ARGUMENT naming it; finish() checks that every declared array
-// arrived whole and runs validate_scene. Sizes are checked against scene_limits.h before any
-// array is allocated (RESOURCE_EXHAUSTED beyond them).
+// arrived whole. The scene-wide rules (validate_scene) are left to whoever uses the scene:
+// Engine::load checks them, so an upload is not validated twice. Sizes are checked against
+// scene_limits.h before any array is allocated (RESOURCE_EXHAUSTED beyond them).
 // What a MeshHeader declares, as the assembler checks chunks against it.
 struct MeshHeaderCounts {
   uint64_t vertices = 0;

@@ -38,6 +38,8 @@ absl::Status check_in_range(absl::string_view field, int64_t value, int64_t lo, 
   return absl::OkStatus();
 }
 
+}  // namespace
+
 absl::Status validate_camera(const Camera& camera) {
   if (!is_finite(camera.position)) return invalid_field("camera.position", "is not finite");
   if (!is_finite(camera.look_at)) return invalid_field("camera.look_at", "is not finite");
@@ -78,6 +80,8 @@ absl::Status validate_settings(const RenderSettings& s) {
       check_in_range("settings.area_light_samples", s.area_light_samples, 1, kMaxAreaLightSamples));
   return check_in_range("settings.passes", s.passes, 1, kMaxPasses);
 }
+
+namespace {
 
 absl::Status validate_material(const Material& m) {
   const std::string field = absl::StrCat("materials.", m.name);
@@ -209,13 +213,7 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
 
 }  // namespace
 
-absl::Status validate_camera_update(const Camera& camera) { return validate_camera(camera); }
-
-absl::Status validate_settings_update(const RenderSettings& settings) {
-  return validate_settings(settings);
-}
-
-absl::Status validate_lights_update(const std::vector<Light>& lights, size_t emitting_triangles) {
+absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles) {
   for (size_t i = 0; i < lights.size(); ++i) SCENE_RETURN_IF_ERROR(validate_light(lights[i], i));
   if (lights.empty() && emitting_triangles == 0) {
     return absl::InvalidArgumentError(

@@ -19,9 +19,9 @@ absl::Status validate_scene(const Scene& scene);
 
 // The parts of validate_scene an update of an already valid scene needs, so that changing the
 // lights or the camera does not copy the meshes to check them again.
-absl::Status validate_camera_update(const Camera& camera);
-absl::Status validate_settings_update(const RenderSettings& settings);
+absl::Status validate_camera(const Camera& camera);
+absl::Status validate_settings(const RenderSettings& settings);
 // `emitting_triangles`: the scene's area-light triangles, which count as light too.
-absl::Status validate_lights_update(const std::vector<Light>& lights, size_t emitting_triangles);
+absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles);
 
 }  // namespace caustica

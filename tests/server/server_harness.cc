@@ -1,10 +1,7 @@
 #include "tests/server/server_harness.h"
 
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -17,7 +14,8 @@
 #include "absl/strings/str_cat.h"
 #include "proto/wire/scene_wire.h"
 #include "renderer/scene/load_scene.h"
-#include "server/health.grpc.pb.h"
+#include "client/health_check.h"
+#include "client/subprocess.h"
 
 namespace caustica::testing {
 namespace {
@@ -46,29 +44,15 @@ std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::strin
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->dir_ = make_temp_dir("caustica-server-test");
   const std::filesystem::path port_file = server->dir_ / "port";
-  const std::string log_file = (server->dir_ / "server.log").string();
   std::vector<std::string> args = {CAUSTICA_SERVER_BIN, "--listen", "127.0.0.1:0", "--port-file",
                                    port_file.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
-  std::vector<char*> argv;
-  for (std::string& arg : args) argv.push_back(arg.data());
-  argv.push_back(nullptr);
-
-  server->pid_ = fork();
-  if (server->pid_ == 0) {
-    // The child: only async-signal-safe calls until exec.
-    const int log_fd = open(log_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (log_fd >= 0) {
-      dup2(log_fd, STDOUT_FILENO);
-      dup2(log_fd, STDERR_FILENO);
-    }
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  if (server->pid_ < 0) {
-    ADD_FAILURE() << "fork failed: " << std::strerror(errno);
+  absl::StatusOr<pid_t> pid = client::spawn_process(args, server->dir_ / "server.log");
+  if (!pid.ok()) {
+    ADD_FAILURE() << "could not start caustica-server: " << pid.status();
     return nullptr;
   }
+  server->pid_ = *pid;
   const auto give_up = steady_clock::now() + std::chrono::seconds(30);
   while (server->port_ == 0) {
     if (std::filesystem::exists(port_file)) {
@@ -106,10 +90,8 @@ std::unique_ptr<v1::RenderService::Stub> ServerProcess::stub() const {
 
 bool ServerProcess::running() {
   if (pid_ <= 0) return false;
-  int status = 0;
-  const pid_t done = waitpid(pid_, &status, WNOHANG);
-  if (done == pid_) {
-    exit_status_ = status;
+  if (std::optional<int> status = client::poll_exit(pid_)) {
+    exit_code_ = *status;
     pid_ = -1;
     return false;
   }
@@ -121,14 +103,13 @@ int ServerProcess::terminate(double timeout_s) {
   const auto give_up = steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (running()) {
     if (steady_clock::now() > give_up) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
+      client::terminate_process(pid_, std::chrono::milliseconds(0));
       pid_ = -1;
       return -1;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  return WIFEXITED(exit_status_) ? WEXITSTATUS(exit_status_) : -1;
+  return exit_code_;
 }
 
 std::string ServerProcess::log() const { return read_file(dir_ / "server.log"); }
@@ -293,12 +274,9 @@ v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_
 }
 
 bool health_serving(const std::shared_ptr<grpc::Channel>& channel) {
-  auto health = grpc::health::v1::Health::NewStub(channel);
-  grpc::ClientContext context;
-  set_deadline(context, 10);
-  grpc::health::v1::HealthCheckResponse response;
-  const grpc::Status status = health->Check(&context, {}, &response);
-  return status.ok() && response.status() == grpc::health::v1::HealthCheckResponse::SERVING;
+  absl::StatusOr<client::ServingStatus> status = client::check_health(
+      channel, std::chrono::system_clock::now() + std::chrono::seconds(10), false);
+  return status.ok() && *status == client::ServingStatus::kServing;
 }
 
 void expect_server_healthy(ServerProcess& server) {

@@ -32,8 +32,8 @@ class ServerProcess {
   std::unique_ptr<v1::RenderService::Stub> stub() const;
   const std::filesystem::path& dir() const { return dir_; }
 
-  // Sends SIGTERM and waits (at most `timeout_s`); the exit code, or -1 when it did not exit
-  // normally in time (it is then killed).
+  // Sends SIGTERM and waits (at most `timeout_s`); the exit code (128 + signal when a signal
+  // ended it), or -1 when it did not exit in time (it is then killed).
   int terminate(double timeout_s = 20);
   bool running();
   // What the server wrote to stderr so far.
@@ -42,7 +42,7 @@ class ServerProcess {
  private:
   ServerProcess() = default;
   pid_t pid_ = -1;
-  int exit_status_ = 0;  // waitpid status once it exited
+  int exit_code_ = 0;  // once it exited: its exit status, 128 + signal when a signal ended it
   int port_ = 0;
   std::filesystem::path dir_;
   std::shared_ptr<grpc::Channel> channel_;
