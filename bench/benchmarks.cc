@@ -19,13 +19,11 @@
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
+#include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/load_scene.h"
 
 namespace caustica {
-namespace {
-
-}  // namespace
 
 absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& o) {
   std::vector<std::string> shapes;
@@ -115,26 +113,37 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
     trace_primary();
   }
   if (wanted(o, "shadow_rays")) {
-    // From every primary hit towards a point light above the box: any-hit rays.
+    // From every primary hit towards a point light above the box: any-hit rays. The rays are made
+    // first, in the order the renderer would launch them (image blocks of 8x4, misses left out),
+    // so that only their tracing is timed.
     const Vec3f light = bvh.bounds.center() + Vec3f(0, length(bvh.bounds.extent()), 0);
-    Buffer<uint8_t> blocked(*backend, pixels);
-    uint8_t* out = blocked.data();
-    const uint64_t shadow_rays = [&] {
-      auto h = hits.download();
-      return uint64_t(std::count_if(h.begin(), h.end(), [](const Hit& x) { return x.valid(); }));
+    const std::vector<Ray> shadow_list = [&] {
+      std::vector<Hit> h = hits.download();
+      std::vector<Ray> rays;
+      for (int by = 0; by < camera.height; by += 4)
+        for (int bx = 0; bx < camera.width; bx += 8)
+          for (int y = by; y < std::min(by + 4, camera.height); ++y)
+            for (int x = bx; x < std::min(bx + 8, camera.width); ++x) {
+              const Hit& hit_here = h[size_t(y) * camera.width + x];
+              if (!hit_here.valid()) continue;
+              Ray primary = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
+              Vec3f p = primary.origin + primary.direction * hit_here.t;
+              Vec3f d = light - p;
+              float dist = length(d);
+              rays.push_back(Ray{p, d / dist, 1e-4f * dist, dist});
+            }
+      return rays;
     }();
+    Buffer<Ray> shadow_rays(*backend, shadow_list.size());
+    shadow_rays.upload(shadow_list);
+    Buffer<uint8_t> blocked(*backend, shadow_list.size());
+    const Ray* ray = shadow_rays.data();
+    uint8_t* out = blocked.data();
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, pixels, [=] CAUSTICA_HD(size_t i) {
-        if (!hit[i].valid()) return;
-        Ray primary = camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f);
-        Vec3f p = primary.origin + primary.direction * hit[i].t;
-        Vec3f d = light - p;
-        float dist = length(d);
-        Ray shadow{p, d / dist, 1e-4f * dist, dist};
-        out[i] = any_hit(bvh, shadow);
-      });
+      parallel_for(*backend, shadow_list.size(),
+                   [=] CAUSTICA_HD(size_t i) { out[i] = any_hit(bvh, ray[i]); });
     });
-    report.line("shadow_rays", name, shadow_rays / (m.median * 1e3), "Mrays/s", &m, o.runs);
+    report.line("shadow_rays", name, shadow_list.size() / (m.median * 1e3), "Mrays/s", &m, o.runs);
   }
   if (wanted(o, "incoherent_rays")) {
     // Origins uniform in the box, directions uniform on the sphere: no coherence at all.
@@ -164,16 +173,28 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
 
   if (wanted(o, "photon_pass")) {
+    // The whole light-change pipeline up to the maps, then its two halves on their own.
     uint32_t pass = 0;
     size_t stored = 0, map_bytes = 0;
+    const PhotonTraceSettings trace{o.photons, 8, 1, 0};
     Measurement m = measure(o, *backend, [&] {
       TracedPhotons traced = trace_photons(*backend, resident, {o.photons, 8, 1, pass++});
-      PhotonMap caustic = build_photon_map(*backend, std::move(traced.caustic));
-      PhotonMap global = build_photon_map(*backend, std::move(traced.global));
+      PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
+      PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
       stored = caustic.size() + global.size();
       map_bytes = caustic.bytes() + global.bytes();
     });
-    report.line("photon_pass", name + absl::StrFormat(" %d photons", o.photons), m.median, "ms", &m, o.runs);
+    const std::string label = name + absl::StrFormat(" %d photons", o.photons);
+    report.line("photon_pass", label, m.median, "ms", &m, o.runs);
+    Measurement traced_only = measure(o, *backend, [&] { (void)trace_photons(*backend, resident, trace); });
+    report.line("photon_trace", label, traced_only.median, "ms", &traced_only, o.runs);
+    TracedPhotons traced = trace_photons(*backend, resident, trace);
+    Measurement maps = measure(o, *backend, [&] {
+      (void)build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
+      (void)build_photon_map(*backend, traced.global, o.photons_per_leaf);
+    });
+    report.line("photon_maps_build", label + absl::StrFormat(" %zu stored", stored), maps.median, "ms",
+                &maps, o.runs);
     report.line("photon_map_bytes_per_photon", name, stored ? double(map_bytes) / stored : 0.0, "B/photon");
   }
   if (wanted(o, "frame")) {
@@ -181,7 +202,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     scene->camera.height = o.height;
     scene->settings.k_nearest = o.k;
     scene->settings.photons_per_pass = o.photons;
-    auto engine = Engine::create({.backend = *made});
+    auto engine = Engine::create({.backend = *made, .photons_per_leaf = o.photons_per_leaf});
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
@@ -193,6 +214,23 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
       (void)(*engine)->render(1);
     });
     report.line("light_change_to_frame", name, change.median, "ms", &change, o.runs);
+
+    // The render pass alone on maps already built: camera rays, specular chains, shadow rays and
+    // both k-nearest gathers, as the frame target counts it.
+    const RenderSettings& rs = scene->settings;
+    TracedPhotons traced = trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
+    PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
+    PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
+    Film film(*backend, o.width, o.height);
+    const PinholeCamera camera = PinholeCamera::from(scene->camera);
+    const float max_radius = (*engine)->max_radius();
+    uint32_t pass = 0;
+    Measurement gather = measure(o, *backend, [&] {
+      render_pass(*backend, resident, caustic, global, camera,
+                  {o.k, max_radius, rs.kernel, rs.max_depth, rs.area_light_samples, rs.seed, pass++}, film);
+    });
+    report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
+                gather.median, "ms", &gather, o.runs);
   }
   return absl::OkStatus();
 }

@@ -9,6 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "renderer/photon/photon_map.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica {
@@ -23,6 +24,7 @@ struct BenchOptions {
   int width = 1024, height = 1024;
   uint32_t photons = 1000000;
   uint32_t k = 64;
+  uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
   std::string device = "cpu";           // serving benchmarks: the server's --device
 };
 

@@ -13,6 +13,7 @@
 
 #include "absl/status/statusor.h"
 #include "renderer/parallel/backend.h"
+#include "renderer/photon/photon_map.h"
 #include "renderer/render/film.h"
 #include "renderer/scene/scene.h"
 
@@ -33,6 +34,8 @@ struct EngineOptions {
   size_t memory_budget_bytes = size_t(8) << 30;
   // When set, the engine allocates from this backend and ignores the two fields above.
   std::shared_ptr<Backend> backend;
+  // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h); a tuning knob.
+  uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
 };
 
 // Change counters; each frame reports the epochs it reflects.

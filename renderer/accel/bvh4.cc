@@ -5,37 +5,52 @@
 namespace caustica {
 namespace {
 
+// A binary subtree with the range of sorted leaves it covers. The radix tree stores no ranges,
+// but they follow from the root down: internal node k covering [first, last] has children
+// covering [first, k] and [k + 1, last].
+struct Subtree {
+  uint32_t node;  // binary child field: internal node index or kLeafFlag | sorted leaf
+  uint32_t first, last;
+
+  CAUSTICA_HDI uint32_t size() const { return last - first + 1; }
+  // Small subtrees (single leaves included) end the collapse as one leaf child.
+  CAUSTICA_HDI bool becomes_leaf() const { return size() <= kMaxLeafTriangles; }
+};
+
 // The up-to-four children a binary node's 4-wide node takes: start with its two children and
-// repeatedly open the internal one of largest surface area.
+// repeatedly open the one of largest surface area that is not to become a leaf.
 struct Opened {
-  uint32_t child[4];
+  Subtree child[4];
   Aabb box[4];
   int count;
 };
 
-CAUSTICA_HDI Opened open_children(const BvhNode* nodes, uint32_t binary_node) {
+CAUSTICA_HDI Opened open_children(const BvhNode* nodes, Subtree parent) {
   Opened o;
-  o.count = 2;
-  for (int i = 0; i < 2; ++i) {
-    o.child[i] = nodes[binary_node].child[i];
-    o.box[i] = nodes[binary_node].child_bounds[i];
-  }
+  // Opening slot i puts the left child of its subtree in its place and appends the right child.
+  auto open = [&](int i) {
+    const Subtree s = o.child[i];
+    const BvhNode& n = nodes[s.node];
+    o.child[i] = {n.child[0].index, s.first, s.node};
+    o.box[i] = n.child[0].bounds();
+    o.child[o.count] = {n.child[1].index, s.node + 1, s.last};
+    o.box[o.count] = n.child[1].bounds();
+    ++o.count;
+  };
+  o.child[0] = parent;
+  o.count = 1;
+  open(0);
   while (o.count < 4) {
     int best = -1;
     float best_area = -1.0f;
     for (int i = 0; i < o.count; ++i) {
-      if (!is_leaf(o.child[i]) && o.box[i].half_area() > best_area) {
+      if (!o.child[i].becomes_leaf() && o.box[i].half_area() > best_area) {
         best_area = o.box[i].half_area();
         best = i;
       }
     }
     if (best < 0) break;
-    const BvhNode& n = nodes[o.child[best]];
-    o.child[best] = n.child[0];
-    o.box[best] = n.child_bounds[0];
-    o.child[o.count] = n.child[1];
-    o.box[o.count] = n.child_bounds[1];
-    ++o.count;
+    open(best);
   }
   return o;
 }
@@ -45,30 +60,31 @@ CAUSTICA_HDI Opened open_children(const BvhNode* nodes, uint32_t binary_node) {
 Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
   Bvh4 out;
   out.bounds = binary.bounds;
-  out.leaf_count = binary.leaf_count;
+  out.triangle_count = binary.leaf_count;
   out.nodes.bind(backend);
   if (binary.leaf_count < 2) return out;
 
-  // Every 4-wide node takes at least one more leaf than it splits off, so n - 1 nodes suffice.
+  // Every 4-wide node has at least two children, so there are fewer nodes than leaves.
   out.nodes.resize_discard(binary.leaf_count - 1);
-  Buffer<uint32_t> frontier(backend, 1), next_frontier(backend, 0), counts(backend, 0);
-  frontier.upload(std::vector<uint32_t>{binary.root});
+  Buffer<Subtree> frontier(backend, 1), next_frontier(backend, 0);
+  Buffer<uint32_t> counts(backend, 0);
+  frontier.upload(std::vector<Subtree>{{binary.root, 0, binary.leaf_count - 1}});
   const BvhNode* nodes = binary.nodes.data();
   Bvh4Node* wide = out.nodes.data();
   uint32_t level_base = 0, level_size = 1;
   while (level_size > 0) {
     counts.resize_discard(level_size);
-    const uint32_t* front = frontier.data();
+    const Subtree* front = frontier.data();
     uint32_t* count = counts.data();
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
       Opened o = open_children(nodes, front[i]);
       uint32_t internal = 0;
-      for (int c = 0; c < o.count; ++c) internal += !is_leaf(o.child[c]);
+      for (int c = 0; c < o.count; ++c) internal += !o.child[c].becomes_leaf();
       count[i] = internal;
     });
     const uint32_t next_size = backend.exclusive_scan(count, count, level_size);
     next_frontier.resize_discard(next_size);
-    uint32_t* next = next_frontier.data();
+    Subtree* next = next_frontier.data();
     const uint32_t next_base = level_base + level_size;
     const uint32_t base = level_base;
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
@@ -85,8 +101,8 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
         w.upper_z[c] = b.upper.z;
         if (c >= o.count) {
           w.child[c] = kEmptyChild;
-        } else if (is_leaf(o.child[c])) {
-          w.child[c] = o.child[c];
+        } else if (o.child[c].becomes_leaf()) {
+          w.child[c] = make_leaf_child(o.child[c].first, o.child[c].size());
         } else {
           next[slot] = o.child[c];
           w.child[c] = next_base + slot;

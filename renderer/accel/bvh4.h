@@ -4,6 +4,14 @@
 // bounds traversal (the binary tree spent ~30 ns per node visit on the dragon, nearly all in
 // waiting for the node). The greedy choice of which children to open follows Wald et al.,
 // "Getting Rid of Packets" (2008): open the child of largest surface area until four remain.
+//
+// Leaves hold up to kMaxLeafTriangles consecutive triangles of the sorted order instead of one.
+// With one triangle per leaf, the bottom levels are nodes whose boxes cost as much to fetch and
+// test as the triangles they guard, and the nodes took 52 of the 92 bytes per triangle on the
+// dragon. Stopping the collapse at small subtrees removes most of those nodes (and one node
+// level from a ray's path); in a radix tree every subtree is a contiguous range of sorted
+// triangles, so a leaf is just (first, count) packed into the child field and needs no index
+// list.
 #pragma once
 
 #include <cstdint>
@@ -14,9 +22,34 @@ namespace caustica {
 
 constexpr uint32_t kEmptyChild = 0xffffffffu;
 
-struct Bvh4Node {
+// A binary subtree over at most this many triangles becomes one leaf. Four is the smallest limit
+// that takes the dragon's structure under 64 bytes per triangle (three gives 64.3); on the CPU,
+// rays measured the same with two, three and four (docs/performance.md): the node level saved
+// pays for the extra triangle tests.
+constexpr uint32_t kMaxLeafTriangles = 4;
+
+// A leaf child is kLeafFlag | (count - 1) << kLeafCountShift | first: the range of sorted
+// triangles [first, first + count). The first index takes the low 28 bits, which caps the
+// triangles one structure can hold (scene_limits.h keeps scenes under it).
+constexpr int kLeafCountShift = 28;
+constexpr uint32_t kLeafFirstMask = (1u << kLeafCountShift) - 1;
+constexpr uint32_t kMaxBvh4Triangles = 1u << kLeafCountShift;
+static_assert(kMaxLeafTriangles - 1 <= (~kLeafFlag >> kLeafCountShift),
+              "the leaf triangle count must fit between the flag and the first index");
+
+CAUSTICA_HDI uint32_t make_leaf_child(uint32_t first, uint32_t count) {
+  return kLeafFlag | (count - 1) << kLeafCountShift | first;
+}
+// For a child with is_leaf(child) (bvh.h) that is not kEmptyChild.
+CAUSTICA_HDI uint32_t leaf_first(uint32_t child) { return child & kLeafFirstMask; }
+CAUSTICA_HDI uint32_t leaf_count(uint32_t child) {
+  return ((child & ~kLeafFlag) >> kLeafCountShift) + 1;
+}
+
+// 16-byte aligned (112 bytes either way) so that each row of four is one vector load on a GPU.
+struct alignas(16) Bvh4Node {
   float lower_x[4], upper_x[4], lower_y[4], upper_y[4], lower_z[4], upper_z[4];
-  uint32_t child[4];  // Bvh4 node index, kLeafFlag | sorted primitive, or kEmptyChild
+  uint32_t child[4];  // Bvh4 node index, a leaf (make_leaf_child), or kEmptyChild
 
   CAUSTICA_HDI Aabb child_bounds(int i) const {
     return {Vec3f(lower_x[i], lower_y[i], lower_z[i]), Vec3f(upper_x[i], upper_y[i], upper_z[i])};
@@ -24,13 +57,16 @@ struct Bvh4Node {
 };
 
 struct Bvh4 {
-  Buffer<Bvh4Node> nodes;  // node 0 is the root (when there are >= 2 leaves)
+  Buffer<Bvh4Node> nodes;  // node 0 is the root (when there are >= 2 triangles)
   Aabb bounds;
-  uint32_t leaf_count = 0;
+  uint32_t triangle_count = 0;
 };
 
-// Collapses `binary` into a 4-wide tree over the same sorted leaves, level by level from the root
-// (two passes and a scan per level, so it runs on any backend).
+// Collapses `binary` (a radix tree: internal node k splits its range between sorted leaves k and
+// k + 1) into a 4-wide tree over the same sorted leaves, level by level from the root (two passes
+// and a scan per level, so it runs on any backend). The root is always a node; below it, every
+// binary subtree of at most kMaxLeafTriangles leaves becomes one leaf child. At most
+// kMaxBvh4Triangles leaves.
 Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary);
 
 }  // namespace caustica

@@ -30,7 +30,8 @@ CAUSTICA_HDI uint64_t split_key(const uint32_t* codes, uint32_t k) {
 }  // namespace detail
 
 // Builds the binary radix tree over `n` primitives whose Morton codes are sorted ascending;
-// `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order. Equal
+// `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order; it is
+// called exactly once per leaf, so it may also move that primitive into its sorted place. Equal
 // codes are split by index, so any input gives a valid tree.
 template <typename LeafBox>
 Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
@@ -39,6 +40,7 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
   bvh.leaf_count = n;
   bvh.bounds = bounds;
   bvh.nodes.bind(backend);
+  if (n == 1) parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { (void)leaf_box(0u); });
   if (n < 2) return bvh;
 
   bvh.nodes.resize_discard(n - 1);
@@ -58,23 +60,25 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
     Aabb box = leaf_box(uint32_t(leaf));
     while (true) {
       uint32_t parent, seen;
+      int side;  // which child of `parent` we are; the sibling is the other
       if (l == 0 || (r != last && detail::split_key(sorted_codes, r) <
                                       detail::split_key(sorted_codes, l - 1))) {
         parent = r;  // we are the left child of the split after our range
-        nodes[parent].child[0] = current;
-        nodes[parent].child_bounds[0] = box;
-        seen = atomic_exchange(&other[parent], l);
-        if (seen == detail::kUnvisited) return;  // the sibling will finish this node
-        r = seen;
+        side = 0;
       } else {
         parent = l - 1;  // we are the right child of the split before our range
-        nodes[parent].child[1] = current;
-        nodes[parent].child_bounds[1] = box;
-        seen = atomic_exchange(&other[parent], r);
-        if (seen == detail::kUnvisited) return;
+        side = 1;
+      }
+      nodes[parent].child[side] = BvhChild{box.lower, current, box.upper};
+      seen = atomic_exchange(&other[parent], side == 0 ? l : r);
+      if (seen == detail::kUnvisited) return;  // the sibling will finish this node
+      if (side == 0) {
+        r = seen;
+      } else {
         l = seen;
       }
-      box = merge(nodes[parent].child_bounds[0], nodes[parent].child_bounds[1]);
+      const BvhChild sibling = nodes[parent].child[1 - side];
+      box = merge(box, sibling.bounds());
       current = parent;
       if (l == 0 && r == last) {
         *root_out = current;

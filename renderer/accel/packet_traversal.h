@@ -5,7 +5,9 @@
 // shared origin makes the triangle's vertices relative to it common to the packet, so the
 // watertight test (triangle.h) per ray costs a few multiply-adds. Results are the same t and
 // barycentrics the single-ray closest_hit computes, bit for bit (same operations in the same
-// order); among exact ties the triangle found may differ.
+// order); among exact ties the triangle found may differ. A leaf's triangles (up to four, bvh4.h)
+// are tested one after another behind its one box test, and the distance the packet culls boxes
+// against is updated once per leaf.
 #pragma once
 
 #include "renderer/accel/traversal.h"
@@ -58,6 +60,48 @@ CAUSTICA_HDI PacketFrame packet_frame(const RayPacket& p) {
   return f;
 }
 
+// Tests one triangle (at sorted index `sorted`) against every ray of a coherent packet, keeping
+// each ray's nearest hit in t_max[i] and hit_sorted[i].
+CAUSTICA_HDI void intersect_packet_triangle(const PacketFrame& f, const RayPacket& packet,
+                                            const TriangleVertices& tri, uint32_t sorted,
+                                            float* t_max, uint32_t* hit_sorted) {
+  const Vec3f o = packet.origin;
+  const Vec3f a = tri.p0 - o, b = tri.p1 - o, cc = tri.p2 - o;
+  const float a_kx = a[f.kx], a_ky = a[f.ky], a_kz = a[f.kz];
+  const float b_kx = b[f.kx], b_ky = b[f.ky], b_kz = b[f.kz];
+  const float c_kx = cc[f.kx], c_ky = cc[f.ky], c_kz = cc[f.kz];
+  int edge_case = 0;
+  // The watertight test of triangle.h for all lanes at once, no branches (int masks, so that the
+  // loop vectorises).
+  for (int i = 0; i < kPacketRays; ++i) {
+    const float sx = f.sx[i], sy = f.sy[i], sz = f.sz[i];
+    float ax = a_kx - sx * a_kz, ay = a_ky - sy * a_kz;
+    float bx = b_kx - sx * b_kz, by = b_ky - sy * b_kz;
+    float cx = c_kx - sx * c_kz, cy = c_ky - sy * c_kz;
+    float u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
+    int outside = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
+    float det = u + v + w;
+    float t_scaled = u * (sz * a_kz) + v * (sz * b_kz) + w * (sz * c_kz);
+    float th = t_scaled * (1.0f / det);
+    int on_edge = (u == 0.0f) | (v == 0.0f) | (w == 0.0f);  // decided below in double
+    edge_case |= on_edge;
+    int accept = ((outside | on_edge) == 0) & (det != 0.0f) & (th > 0.0f) & (th < t_max[i]);
+    t_max[i] = accept ? th : t_max[i];
+    hit_sorted[i] = accept ? sorted : hit_sorted[i];
+  }
+  if (edge_case) {
+    // A lane exactly on an edge in float: redo that triangle per ray with the double fallback.
+    for (int i = 0; i < packet.count; ++i) {
+      WatertightRay w(Ray{o, packet.direction[i]});
+      float th, u, v;
+      if (intersect_triangle(w, tri, 0.0f, t_max[i], th, u, v)) {
+        t_max[i] = th;
+        hit_sorted[i] = sorted;
+      }
+    }
+  }
+}
+
 }  // namespace detail
 
 // Writes hits[i] for each ray i of the packet.
@@ -72,10 +116,10 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
   }
   const Vec3f o = packet.origin;
   float t_max[kPacketRays];
-  uint32_t leaf_hit[kPacketRays];
+  uint32_t hit_sorted[kPacketRays];
   for (int i = 0; i < kPacketRays; ++i) {
     t_max[i] = i < n ? FLT_MAX : -INFINITY;  // missing lanes never accept a hit
-    leaf_hit[i] = kNoHit;
+    hit_sorted[i] = kNoHit;
   }
   float packet_t_max = FLT_MAX;  // the largest t_max of any ray: what boxes are culled against
 
@@ -107,41 +151,10 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
     }
     for (int c = 0; c < 4; ++c) {
       if (!(t[c] <= packet_t_max) || !is_leaf(nd.child[c])) continue;
-      const uint32_t leaf = leaf_index(nd.child[c]);
-      const TriangleVertices& tri = bvh.triangles[leaf];
-      const Vec3f a = tri.p0 - o, b = tri.p1 - o, cc = tri.p2 - o;
-      const float a_kx = a[f.kx], a_ky = a[f.ky], a_kz = a[f.kz];
-      const float b_kx = b[f.kx], b_ky = b[f.ky], b_kz = b[f.kz];
-      const float c_kx = cc[f.kx], c_ky = cc[f.ky], c_kz = cc[f.kz];
-      int edge_case = 0;
-      // The watertight test of triangle.h for all lanes at once, no branches (int masks, so that
-      // the loop vectorises).
-      for (int i = 0; i < kPacketRays; ++i) {
-        const float sx = f.sx[i], sy = f.sy[i], sz = f.sz[i];
-        float ax = a_kx - sx * a_kz, ay = a_ky - sy * a_kz;
-        float bx = b_kx - sx * b_kz, by = b_ky - sy * b_kz;
-        float cx = c_kx - sx * c_kz, cy = c_ky - sy * c_kz;
-        float u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
-        int outside = ((u < 0.0f) | (v < 0.0f) | (w < 0.0f)) & ((u > 0.0f) | (v > 0.0f) | (w > 0.0f));
-        float det = u + v + w;
-        float t_scaled = u * (sz * a_kz) + v * (sz * b_kz) + w * (sz * c_kz);
-        float th = t_scaled * (1.0f / det);
-        int on_edge = (u == 0.0f) | (v == 0.0f) | (w == 0.0f);  // decided below in double
-        edge_case |= on_edge;
-        int accept = ((outside | on_edge) == 0) & (det != 0.0f) & (th > 0.0f) & (th < t_max[i]);
-        t_max[i] = accept ? th : t_max[i];
-        leaf_hit[i] = accept ? leaf : leaf_hit[i];
-      }
-      if (edge_case) {
-        // A lane exactly on an edge in float: redo that triangle per ray with the double fallback.
-        for (int i = 0; i < n; ++i) {
-          WatertightRay w(Ray{o, packet.direction[i]});
-          float th, u, v;
-          if (intersect_triangle(w, tri, 0.0f, t_max[i], th, u, v)) {
-            t_max[i] = th;
-            leaf_hit[i] = leaf;
-          }
-        }
+      const uint32_t first = leaf_first(nd.child[c]), end = first + leaf_count(nd.child[c]);
+      for (uint32_t sorted = first; sorted < end; ++sorted) {
+        detail::intersect_packet_triangle(f, packet, bvh.triangles[sorted], sorted, t_max,
+                                          hit_sorted);
       }
       packet_t_max = -INFINITY;
       for (int i = 0; i < kPacketRays; ++i) packet_t_max = max_f(packet_t_max, t_max[i]);
@@ -152,14 +165,14 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
   // Barycentrics of the winning triangle, recomputed once per ray with the scalar test (keeping
   // them in the loop above costs more: the extra selects stop it from vectorising).
   for (int i = 0; i < n; ++i) {
-    if (leaf_hit[i] == kNoHit) continue;
+    if (hit_sorted[i] == kNoHit) continue;
     WatertightRay w(Ray{o, packet.direction[i]});
     float th, u, v;
-    if (intersect_triangle(w, bvh.triangles[leaf_hit[i]], 0.0f, FLT_MAX, th, u, v)) {
+    if (intersect_triangle(w, bvh.triangles[hit_sorted[i]], 0.0f, FLT_MAX, th, u, v)) {
       hits[i].t = th;
       hits[i].u = u;
       hits[i].v = v;
-      hits[i].triangle = bvh.triangle_ids[leaf_hit[i]];
+      hits[i].triangle = bvh.triangle_ids[hit_sorted[i]];
     }
   }
 }

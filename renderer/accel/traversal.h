@@ -27,43 +27,56 @@ CAUSTICA_HDI void intersect_children(const Bvh4Node& n, Vec3f origin, Vec3f inv_
 }
 
 // Chooses the next node: the internal children of `n` with t[c] <= t_limit, nearest first, the
-// rest pushed on the stack (at most four: insertion sort); with none, the top of the stack.
-// Returns false when the traversal is over.
+// rest pushed on the stack; with none, the top of the stack. Returns false when the traversal is
+// over. The four (distance, child) pairs go through a fixed sorting network, so that every index
+// is known at compile time and the pairs stay in registers on a GPU (an insertion sort indexed
+// by a running count put them in local memory).
 CAUSTICA_HDI bool descend_near_first(const Bvh4Node& n, const float t[4], float t_limit,
                                      uint32_t* stack, int& top, uint32_t& node) {
-  uint32_t next[4];
-  float next_t[4];
-  int k = 0;
+  float key[4];
+  uint32_t child[4];
   for (int c = 0; c < 4; ++c) {
-    if (!(t[c] <= t_limit)) continue;
-    int j = k++;
-    while (j > 0 && next_t[j - 1] > t[c]) {
-      next[j] = next[j - 1];
-      next_t[j] = next_t[j - 1];
-      --j;
-    }
-    next[j] = n.child[c];
-    next_t[j] = t[c];
+    key[c] = t[c] <= t_limit ? t[c] : INFINITY;
+    child[c] = n.child[c];
   }
-  if (k == 0) {
-    if (top == 0) return false;
-    node = stack[--top];
+  auto order = [&](int a, int b) {
+    if (key[b] < key[a]) {
+      float k = key[a];
+      key[a] = key[b];
+      key[b] = k;
+      uint32_t c = child[a];
+      child[a] = child[b];
+      child[b] = c;
+    }
+  };
+  order(0, 1);
+  order(2, 3);
+  order(0, 2);
+  order(1, 3);
+  order(1, 2);
+  if (key[3] != INFINITY) stack[top++] = child[3];
+  if (key[2] != INFINITY) stack[top++] = child[2];
+  if (key[1] != INFINITY) stack[top++] = child[1];
+  if (key[0] != INFINITY) {
+    node = child[0];
     return true;
   }
-  for (int j = k - 1; j >= 1; --j) stack[top++] = next[j];
-  node = next[0];
+  if (top == 0) return false;
+  node = stack[--top];
   return true;
 }
 
-// Visits leaves along `ray`, nearer subtrees first; `on_leaf(sorted_index, t_max&)` tests one
-// triangle, may shrink t_max, and returns true to stop the traversal (any hit).
-template <typename OnLeaf>
-CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_max, OnLeaf on_leaf) {
+// Visits the triangles of the leaves along `ray`, nearer subtrees first;
+// `on_triangle(sorted_index, t_max&)` tests one triangle, may shrink t_max, and returns true to
+// stop the traversal (any hit), even in the middle of a leaf.
+template <typename OnTriangle>
+CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_max,
+                           OnTriangle on_triangle) {
   if (bvh.count == 0) return;
   Vec3f inv_dir = safe_reciprocal(ray.direction);
   if (intersect_slabs(bvh.bounds, ray.origin, inv_dir, ray.t_min, t_max) > t_max) return;
   if (bvh.count == 1) {
-    on_leaf(0u, t_max);
+    on_triangle(0u, t_max);
     return;
   }
   uint32_t stack[kTraversalStackSize];
@@ -76,7 +89,10 @@ CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_
     // Leaves first, so that their hits shrink t_max before the subtrees are ordered.
     for (int c = 0; c < 4; ++c) {
       if (t[c] <= t_max && is_leaf(n.child[c])) {
-        if (on_leaf(leaf_index(n.child[c]), t_max)) return;
+        const uint32_t first = leaf_first(n.child[c]), end = first + leaf_count(n.child[c]);
+        for (uint32_t i = first; i < end; ++i) {
+          if (on_triangle(i, t_max)) return;
+        }
         t[c] = INFINITY;
       }
     }
@@ -90,14 +106,14 @@ CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
   Hit hit;
   WatertightRay wray(ray);
   float t_max = ray.t_max;
-  detail::traverse(bvh, ray, t_max, [&](uint32_t leaf, float& t_limit) {
+  detail::traverse(bvh, ray, t_max, [&](uint32_t sorted, float& t_limit) {
     float t, u, v;
-    if (intersect_triangle(wray, bvh.triangles[leaf], ray.t_min, t_limit, t, u, v)) {
+    if (intersect_triangle(wray, bvh.triangles[sorted], ray.t_min, t_limit, t, u, v)) {
       t_limit = t;
       hit.t = t;
       hit.u = u;
       hit.v = v;
-      hit.triangle = bvh.triangle_ids[leaf];
+      hit.triangle = bvh.triangle_ids[sorted];
     }
     return false;
   });
@@ -109,9 +125,9 @@ CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
   WatertightRay wray(ray);
   float t_max = ray.t_max;
   bool blocked = false;
-  detail::traverse(bvh, ray, t_max, [&](uint32_t leaf, float& t_limit) {
+  detail::traverse(bvh, ray, t_max, [&](uint32_t sorted, float& t_limit) {
     float t, u, v;
-    blocked = intersect_triangle(wray, bvh.triangles[leaf], ray.t_min, t_limit, t, u, v);
+    blocked = intersect_triangle(wray, bvh.triangles[sorted], ray.t_min, t_limit, t, u, v);
     return blocked;
   });
   return blocked;

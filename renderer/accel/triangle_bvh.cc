@@ -27,13 +27,15 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   out.triangle_ids = std::move(sorted_order.order);
   const uint32_t* ids = out.triangle_ids.data();
 
-  // Pass 3: triangles gathered into leaf order; the hierarchy reads their boxes from there.
+  // Pass 3: the hierarchy; each leaf's thread also moves its triangle into leaf order, so the
+  // triangles are read once, not once for a gather and again for their boxes.
   out.triangles.resize_discard(count);
   TriangleVertices* sorted = out.triangles.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { sorted[i] = triangles[ids[i]]; });
   out.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), count, scene_bounds,
                                         [=] CAUSTICA_HD(uint32_t leaf) {
-                                          return triangle_bounds(sorted[leaf]);
+                                          const TriangleVertices t = triangles[ids[leaf]];
+                                          sorted[leaf] = t;
+                                          return triangle_bounds(t);
                                         });
   return out;
 }

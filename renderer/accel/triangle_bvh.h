@@ -1,6 +1,7 @@
 // The ray-tracing structure over a scene's triangles: the binary LBVH (Karras 2012) over the
-// triangles in Morton order, collapsed into a 4-wide tree for traversal; the triangles are stored
-// as vertex triples in leaf order next to their original indices.
+// triangles in Morton order, collapsed into a 4-wide tree for traversal whose leaves are runs of
+// up to kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex triples in that sorted
+// order, so a leaf names them by range, next to their original indices.
 #pragma once
 
 #include "renderer/accel/bvh.h"
@@ -12,8 +13,8 @@ namespace caustica {
 // Plain pointers into a TriangleBvh, copied by value into kernels.
 struct TriangleBvhView {
   const Bvh4Node* nodes = nullptr;
-  const TriangleVertices* triangles = nullptr;  // in leaf (sorted) order
-  const uint32_t* triangle_ids = nullptr;       // leaf -> original triangle index
+  const TriangleVertices* triangles = nullptr;  // in sorted order: leaves are ranges of it
+  const uint32_t* triangle_ids = nullptr;       // sorted -> original triangle index
   uint32_t count = 0;
   Aabb bounds;
 };
@@ -31,7 +32,7 @@ struct TriangleBvh {
   Buffer<uint32_t> triangle_ids;
 
   TriangleBvhView view() const {
-    return {bvh.nodes.data(), triangles.data(), triangle_ids.data(), bvh.leaf_count, bvh.bounds};
+    return {bvh.nodes.data(), triangles.data(), triangle_ids.data(), bvh.triangle_count, bvh.bounds};
   }
   size_t node_count() const { return bvh.nodes.size(); }
   size_t bytes() const { return bvh.nodes.bytes() + triangles.bytes() + triangle_ids.bytes(); }

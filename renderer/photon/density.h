@@ -12,62 +12,63 @@ namespace caustica {
 constexpr uint32_t kMaxNearest = 1024;  // the largest k validation admits
 constexpr int kKnnStackSize = 64;
 
-struct Neighbour {
+// 8-byte aligned so that a heap entry moves as one load or store.
+struct alignas(8) Neighbour {
   float distance_squared;
-  uint32_t index;  // leaf order
+  uint32_t index;  // map (Morton) order
 };
 
 namespace detail {
 
-CAUSTICA_HDI void sift_down(Neighbour* heap, uint32_t size, uint32_t i) {
+// Places `x` at position i of the max-heap heap[0..size), whose subtrees below i are heaps,
+// moving the hole down instead of swapping.
+CAUSTICA_HDI void sift_down(Neighbour* heap, uint32_t size, uint32_t i, Neighbour x) {
   while (true) {
-    uint32_t l = 2 * i + 1, r = l + 1, largest = i;
-    if (l < size && heap[l].distance_squared > heap[largest].distance_squared) largest = l;
-    if (r < size && heap[r].distance_squared > heap[largest].distance_squared) largest = r;
-    if (largest == i) return;
-    Neighbour t = heap[i];
-    heap[i] = heap[largest];
-    heap[largest] = t;
-    i = largest;
+    uint32_t child = 2 * i + 1;
+    if (child >= size) break;
+    if (child + 1 < size && heap[child + 1].distance_squared > heap[child].distance_squared) ++child;
+    if (heap[child].distance_squared <= x.distance_squared) break;
+    heap[i] = heap[child];
+    i = child;
   }
+  heap[i] = x;
 }
 
-CAUSTICA_HDI void sift_up(Neighbour* heap, uint32_t i) {
-  while (i > 0) {
-    uint32_t p = (i - 1) / 2;
-    if (heap[p].distance_squared >= heap[i].distance_squared) return;
-    Neighbour t = heap[i];
-    heap[i] = heap[p];
-    heap[p] = t;
-    i = p;
-  }
+// Turns heap[0..size) into a max-heap (Floyd's bottom-up construction, O(size)).
+CAUSTICA_HDI void make_heap(Neighbour* heap, uint32_t size) {
+  for (uint32_t i = size / 2; i-- > 0;) sift_down(heap, size, i, heap[i]);
 }
 
 }  // namespace detail
 
 // Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared.
-// `heap` must hold k entries; on return heap[0..count) holds them as a max-heap (heap[0] is the
-// farthest). Returns count.
+// `heap` must hold k entries; on return heap[0..count) holds them, as a max-heap (heap[0] the
+// farthest) when count == k and in no particular order otherwise. Returns count.
 CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k,
                                    float max_distance_squared, Neighbour* heap) {
   if (map.count == 0 || k == 0) return 0;
   uint32_t size = 0;
   float limit = max_distance_squared;  // shrinks to the k-th distance once the heap is full
-  auto offer = [&](uint32_t leaf) {
-    float d2 = length_squared(map.photons[leaf].position - p);
-    if (d2 >= limit) return;
-    if (size < k) {
-      heap[size] = {d2, leaf};
-      detail::sift_up(heap, size++);
-      if (size == k) limit = heap[0].distance_squared;
-    } else {
-      heap[0] = {d2, leaf};
-      detail::sift_down(heap, size, 0);
-      limit = heap[0].distance_squared;
+  auto offer_leaf = [&](uint32_t leaf) {
+    const uint32_t end = map.leaf_end(leaf);
+    for (uint32_t i = map.leaf_begin(leaf); i < end; ++i) {
+      float d2 = length_squared(map.positions[i] - p);
+      if (d2 >= limit) continue;
+      if (size < k) {
+        // Candidates are only appended until there are k; then one heap construction.
+        heap[size++] = {d2, i};
+        if (size == k) {
+          detail::make_heap(heap, size);
+          limit = heap[0].distance_squared;
+        }
+      } else {
+        detail::sift_down(heap, size, 0, {d2, i});  // the farthest makes room
+        limit = heap[0].distance_squared;
+      }
     }
   };
-  if (map.count == 1) {
-    offer(0);
+  if (map.leaf_count == 1) {
+    offer_leaf(0);
     return size;
   }
   // Deferred subtrees keep their box distance: by the time one is popped the k-th distance has
@@ -77,12 +78,12 @@ CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k
   int top = 0;
   uint32_t node = map.root;
   while (true) {
-    const BvhNode& n = map.nodes[node];
-    float d0 = distance_squared(n.child_bounds[0], p);
-    float d1 = distance_squared(n.child_bounds[1], p);
-    uint32_t c0 = n.child[0], c1 = n.child[1];
-    if (d0 < limit && is_leaf(c0)) offer(leaf_index(c0));
-    if (d1 < limit && is_leaf(c1)) offer(leaf_index(c1));
+    const BvhChild a = map.nodes[node].child[0], b = map.nodes[node].child[1];
+    float d0 = distance_squared(a.bounds(), p);
+    float d1 = distance_squared(b.bounds(), p);
+    uint32_t c0 = a.index, c1 = b.index;
+    if (d0 < limit && is_leaf(c0)) offer_leaf(leaf_index(c0));
+    if (d1 < limit && is_leaf(c1)) offer_leaf(leaf_index(c1));
     bool go0 = d0 < limit && !is_leaf(c0), go1 = d1 < limit && !is_leaf(c1);
     if (go0 && go1) {
       if (d1 < d0) {
@@ -137,8 +138,8 @@ CAUSTICA_HDI Vec3f estimate_radiance(const PhotonMapView& map, Vec3f p, Vec3f no
   Vec3f flux(0.0f);
   float inv_r2 = 1.0f / r2;
   for (uint32_t i = 0; i < found; ++i) {
-    const Photon& ph = map.photons[heap[i].index];
-    if (dot(ph.incoming, normal) <= 0.0f) continue;
+    const PhotonFlux& ph = map.flux[heap[i].index];
+    if (dot(decode_octahedral(ph.incoming), normal) <= 0.0f) continue;
     flux += ph.power * kernel_weight(kernel, heap[i].distance_squared * inv_r2);
   }
   return albedo * flux * (kInvPi * kInvPi * inv_r2);

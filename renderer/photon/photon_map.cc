@@ -6,29 +6,56 @@
 
 namespace caustica {
 
-PhotonMap build_photon_map(Backend& backend, Buffer<Photon> photons) {
+std::vector<Photon> PhotonMap::download() const {
+  std::vector<Vec3f> p = positions.download();
+  std::vector<PhotonFlux> f = flux.download();
+  std::vector<Photon> out(p.size());
+  for (size_t i = 0; i < p.size(); ++i) out[i] = {p[i], f[i].power, decode_octahedral(f[i].incoming)};
+  return out;
+}
+
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf) {
   PhotonMap map;
   const uint32_t n = uint32_t(photons.size());
-  map.photons.bind(backend);
-  if (n == 0) {
-    map.bvh.nodes.bind(backend);
-    return map;
-  }
+  const uint32_t per_leaf = photons_per_leaf > 0 ? photons_per_leaf : 1;
+  map.photons_per_leaf = per_leaf;
+  map.positions.bind(backend);
+  map.flux.bind(backend);
+  map.bvh.nodes.bind(backend);
+  if (n == 0) return map;
+
   Buffer<Aabb> points(backend, n);
   Aabb* point = points.data();
   const Photon* in = photons.data();
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { point[i] = Aabb{in[i].position, in[i].position}; });
   const Aabb bounds = backend.reduce_bounds(point, n);
-
   MortonOrder sorted_order = sort_by_morton(backend, point, n, bounds);
-  const uint32_t* id = sorted_order.order.data();
 
-  map.photons.resize_discard(n);
-  Photon* sorted = map.photons.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { sorted[i] = in[id[i]]; });
-  map.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), n, bounds,
+  // The photons in Morton order, split into positions and flux, and the code of each leaf's
+  // first photon: ascending, so the radix tree over leaves is built like the one over photons.
+  const uint32_t leaves = (n + per_leaf - 1) / per_leaf;
+  map.positions.resize_discard(n);
+  map.flux.resize_discard(n);
+  Buffer<uint32_t> leaf_codes(backend, leaves);
+  Vec3f* position = map.positions.data();
+  PhotonFlux* flux = map.flux.data();
+  uint32_t* leaf_code = leaf_codes.data();
+  const uint32_t* id = sorted_order.order.data();
+  const uint32_t* code = sorted_order.codes.data();
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    const Photon& ph = in[id[i]];
+    position[i] = ph.position;
+    flux[i] = {ph.power, encode_octahedral(ph.incoming)};
+    if (i % per_leaf == 0) leaf_code[i / per_leaf] = code[i];
+  });
+  map.bvh = build_bvh_from_sorted_codes(backend, leaf_code, leaves, bounds,
                                         [=] CAUSTICA_HD(uint32_t leaf) {
-                                          return Aabb{sorted[leaf].position, sorted[leaf].position};
+                                          uint32_t begin = leaf * per_leaf;
+                                          uint32_t end = begin + per_leaf < n ? begin + per_leaf : n;
+                                          Aabb box;
+                                          for (uint32_t i = begin; i < end; ++i) box.extend(position[i]);
+                                          return box;
                                         });
   return map;
 }

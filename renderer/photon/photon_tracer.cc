@@ -1,5 +1,8 @@
 #include "renderer/photon/photon_tracer.h"
 
+#include <algorithm>
+
+#include "renderer/base/atomic.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/scattering.h"
@@ -65,7 +68,9 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   out.caustic.bind(backend);
   out.global.bind(backend);
   const ResidentSceneView scene = resident.view();
-  if (settings.photon_count == 0 || scene.light_count == 0 || scene.total_power <= 0) return out;
+  if (settings.photon_count == 0 || settings.max_bounces == 0 || scene.light_count == 0 ||
+      scene.total_power <= 0)
+    return out;
   out.emitted = settings.photon_count;
 
   const uint32_t max_bounces = settings.max_bounces;
@@ -84,38 +89,62 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   const float inv_count = 1.0f / float(settings.photon_count);
   const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
 
-  parallel_for(backend, settings.photon_count, [=] CAUSTICA_HD(size_t path) {
-    Sampler s(seed, uint32_t(path), pass);
-    uint32_t li = ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
-    const DeviceLight& light = scene.lights[li];
-    float choice_pdf = light_power(light, radius) / scene.total_power;
-    EmittedPhoton e = emit_from(light, s, center, radius);
-    Ray ray = e.ray;
-    Vec3f power = e.power * (inv_count / choice_pdf);
+  // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
+  // one path per thread keeps its lanes waiting for its longest path: 10% of the lanes were busy
+  // on an H200. On the GPU a fixed set of workers therefore takes the next path as soon as its
+  // current one ends, and every lane traces a hit in every step. The result does not depend on
+  // which worker traced a path: its samples and slots follow from its index alone.
+  const uint32_t count = settings.photon_count;
+  const bool regenerate = backend.kind() == DeviceKind::kCuda;
+  const uint32_t workers =
+      regenerate ? uint32_t(std::min<size_t>(count, size_t(backend.info().compute_units) * 2048))
+                 : count;
+  Buffer<uint32_t> next_path(backend, 1);
+  uint32_t* next = next_path.data();
+  parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
+
+  parallel_for(backend, workers, [=] CAUSTICA_HD(size_t worker) {
+    uint32_t path = uint32_t(worker);
+    Sampler s(seed, path, pass);
+    Ray ray;
+    Vec3f power;
     bool only_specular = true;  // no diffuse bounce yet on this path
-    for (uint32_t bounce = 0; bounce < max_bounces; ++bounce) {
+    uint32_t bounce = 0;
+    auto start_path = [&] {
+      s = Sampler(seed, path, pass);
+      uint32_t li = ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
+      const DeviceLight& light = scene.lights[li];
+      float choice_pdf = light_power(light, radius) / scene.total_power;
+      EmittedPhoton e = emit_from(light, s, center, radius);
+      ray = e.ray;
+      power = e.power * (inv_count / choice_pdf);
+      only_specular = true;
+      bounce = 0;
+    };
+    // One hit of the current path; false when the path ends there.
+    auto trace_bounce = [&]() -> bool {
       Hit hit = closest_hit(scene.bvh, ray);
-      if (!hit.valid()) return;
+      if (!hit.valid()) return false;
       SurfaceHit sh = surface_at(scene, hit);
       const DeviceMaterial& m = scene.materials[sh.material];
       Vec3f d = ray.direction;
       Vec3f next_dir;
-      if (m.type == MaterialType::kEmissive) return;  // lights have black surfaces
+      if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
       if (m.type == MaterialType::kDiffuse) {
         if (bounce > 0) {
-          size_t k = path * max_bounces + bounce;
+          size_t k = size_t(path) * max_bounces + bounce;
           slot[k] = Photon{sh.position, power, -d};
           (only_specular ? caustic_flag : global_flag)[k] = 1;
         }
         float survive = average(m.color);
-        if (s.next_float() >= survive) return;
+        if (s.next_float() >= survive) return false;
         power = power * m.color / survive;
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
         next_dir = Frame::from_normal(n).to_world(sample_cosine_hemisphere(s.next_float(), s.next_float()));
         only_specular = false;
       } else if (m.type == MaterialType::kMirror) {
         float survive = average(m.color);
-        if (s.next_float() >= survive) return;
+        if (s.next_float() >= survive) return false;
         power = power * m.color / survive;
         next_dir = reflect(d, sh.shading_normal);
       } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
@@ -128,6 +157,17 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
       ray.direction = next_dir;
       ray.t_min = 0.0f;
       ray.t_max = FLT_MAX;
+      return ++bounce < max_bounces;
+    };
+    // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
+    // end do not wait at the inner loop's exit for the others.
+    start_path();
+    while (true) {
+      if (trace_bounce()) continue;
+      if (!regenerate) return;
+      path = atomic_fetch_add(next, 1u);
+      if (path >= count) return;
+      start_path();
     }
   });
 

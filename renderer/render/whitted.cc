@@ -1,6 +1,7 @@
 #include "renderer/render/whitted.h"
 
 #include "renderer/accel/camera_tiles.h"
+#include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/density.h"
@@ -47,8 +48,12 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
                      },
                      primary);
 
-  // Stage 2: shading, one pixel per thread.
-  parallel_for(backend, size_t(width) * height, [=] CAUSTICA_HD(size_t pixel) {
+  // Stage 2: shading, one pixel per thread, a warp per 8x4 pixels so that its gathers query
+  // neighbouring points.
+  const PixelBlocks blocks(width, height);
+  parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+    size_t pixel;
+    if (!blocks.pixel_of(thread, pixel)) return;
     Sampler s(seed, uint32_t(pixel), pass);
     // Depth-first over the specular tree: each dielectric hit adds at most one pending branch.
     PendingRay stack[kMaxSpecularDepth + 2];

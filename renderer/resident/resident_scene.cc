@@ -3,8 +3,13 @@
 #include <cmath>
 
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/scene/scene_limits.h"
 
 namespace caustica {
+
+// Validated scenes must fit the triangle structure's leaf encoding.
+static_assert(kMaxSceneTriangles <= kMaxBvh4Triangles);
+
 namespace {
 
 DeviceLight to_device_light(const Light& l) {

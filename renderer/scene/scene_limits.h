@@ -16,6 +16,9 @@ inline constexpr uint32_t kMaxAreaLightSamples = 1024;
 inline constexpr uint32_t kMaxPasses = 100'000;
 inline constexpr size_t kMaxTrianglesPerMesh = 100'000'000;
 inline constexpr size_t kMaxVerticesPerMesh = 100'000'000;
+// All meshes together: the triangle structure's leaves address the sorted triangles with 28 bits
+// (kMaxBvh4Triangles in accel/bvh4.h; resident_scene.cc checks that the two agree).
+inline constexpr size_t kMaxSceneTriangles = size_t{1} << 28;
 // What a (possibly compressed) file may expand to in memory; stops gzip bombs.
 inline constexpr size_t kMaxFileBytes = size_t{8} << 30;
 

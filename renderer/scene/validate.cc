@@ -222,6 +222,15 @@ absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_t
   return absl::OkStatus();
 }
 
+absl::Status validate_triangle_total(size_t triangles) {
+  if (triangles > kMaxSceneTriangles) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene has ", triangles, " triangles in all meshes, more than the limit of ",
+                     kMaxSceneTriangles, " per scene"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status validate_scene(const Scene& scene) {
   SCENE_RETURN_IF_ERROR(validate_camera(scene.camera));
   SCENE_RETURN_IF_ERROR(validate_settings(scene.settings));
@@ -231,6 +240,8 @@ absl::Status validate_scene(const Scene& scene) {
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     SCENE_RETURN_IF_ERROR(validate_light(scene.lights[i], i));
   }
+  // Before the meshes, whose checks would otherwise walk every one of too many triangles.
+  SCENE_RETURN_IF_ERROR(validate_triangle_total(scene.triangle_count()));
   size_t emitting_triangles = 0;
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     SCENE_ASSIGN_OR_RETURN(const size_t emitters,

@@ -23,5 +23,8 @@ absl::Status validate_camera(const Camera& camera);
 absl::Status validate_settings(const RenderSettings& settings);
 // `emitting_triangles`: the scene's area-light triangles, which count as light too.
 absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles);
+// The scene's triangle count, all meshes together, against kMaxSceneTriangles: on its own so that
+// a count can be checked before the triangles exist (and tested without allocating them).
+absl::Status validate_triangle_total(size_t triangles);
 
 }  // namespace caustica

@@ -1,9 +1,11 @@
 // LBVH structure invariants and traversal against brute force over every triangle.
 #include <gtest/gtest.h>
 
-#include <random>
+#include <algorithm>
+#include <cstdio>
 #include <functional>
-#include <set>
+#include <random>
+#include <string>
 
 #include "renderer/accel/traversal.h"
 #include "renderer/base/sampling.h"
@@ -45,6 +47,97 @@ struct Built {
   }
 };
 
+// The 4-wide collapse: every triangle in exactly one leaf; leaves are runs of 1 to
+// kMaxLeafTriangles sorted triangles whose box is exactly theirs; child boxes lie inside their
+// parents; every node has at least two children, empty slots last; and the collapse stopped
+// exactly at the small subtrees: each node covers a contiguous range, an internal child covers
+// more than kMaxLeafTriangles triangles, and a node with a free slot has only leaves. Reports the
+// node and leaf counts.
+void check_wide_invariants(const Built& b, const std::vector<TriangleVertices>& tris) {
+  const size_t n = tris.size();
+  ASSERT_EQ(b.bvh.bvh.triangle_count, n);
+  auto wide = b.bvh.bvh.nodes.download();
+  auto sorted = b.bvh.triangles.download();
+  ASSERT_GE(wide.size(), 1u);
+  ASSERT_LE(wide.size(), n - 1);
+  std::vector<int> triangle_seen(n, 0), node_seen(wide.size(), 0);
+  size_t leaves = 0, leaf_sizes[kMaxLeafTriangles + 1] = {};
+  struct Range {
+    uint32_t first, last;
+  };
+  // Checks the subtree of `node`, whose box is `box`, and sets the range of triangles it covers.
+  std::function<void(uint32_t, const Aabb&, Range&)> walk = [&](uint32_t node, const Aabb& box,
+                                                                Range& covered) {
+    ASSERT_LT(node, wide.size());
+    ASSERT_EQ(++node_seen[node], 1) << "node " << node << " reached twice";
+    const Bvh4Node& w = wide[node];
+    std::vector<Range> ranges;
+    int internal = 0;
+    for (int c = 0; c < 4; ++c) {
+      const uint32_t child = w.child[c];
+      if (child == kEmptyChild) continue;
+      ASSERT_EQ(int(ranges.size()), c) << "node " << node << ": empty slot before a child";
+      const Aabb child_box = w.child_bounds(c);
+      ASSERT_TRUE(box.contains(child_box)) << "node " << node << " child " << c;
+      Range r;
+      if (is_leaf(child)) {
+        const uint32_t first = leaf_first(child), count = leaf_count(child);
+        ASSERT_GE(count, 1u);
+        ASSERT_LE(count, kMaxLeafTriangles);
+        ASSERT_LE(size_t(first) + count, n);
+        Aabb tight;
+        for (uint32_t i = first; i < first + count; ++i) {
+          ++triangle_seen[i];
+          tight.extend(box_of(sorted[i]));
+        }
+        ASSERT_EQ(child_box.lower, tight.lower) << "leaf at node " << node << " child " << c;
+        ASSERT_EQ(child_box.upper, tight.upper) << "leaf at node " << node << " child " << c;
+        ++leaves;
+        ++leaf_sizes[count];
+        r = {first, first + count - 1};
+      } else {
+        ++internal;
+        walk(child, child_box, r);
+        if (::testing::Test::HasFatalFailure()) return;
+        ASSERT_GT(r.last - r.first + 1, kMaxLeafTriangles)
+            << "node " << child << " covers few enough triangles to be a leaf";
+      }
+      ranges.push_back(r);
+    }
+    ASSERT_GE(ranges.size(), 2u) << "node " << node;
+    if (ranges.size() < 4) {
+      ASSERT_EQ(internal, 0) << "node " << node << " left a slot unused";
+    }
+    std::sort(ranges.begin(), ranges.end(),
+              [](const Range& x, const Range& y) { return x.first < y.first; });
+    for (size_t i = 1; i < ranges.size(); ++i) {
+      ASSERT_EQ(ranges[i].first, ranges[i - 1].last + 1) << "node " << node << " has a gap";
+    }
+    covered = {ranges.front().first, ranges.back().last};
+  };
+  Range all;
+  walk(0, b.bvh.bvh.bounds, all);
+  if (::testing::Test::HasFatalFailure()) return;
+  EXPECT_EQ(all.first, 0u);
+  EXPECT_EQ(all.last, n - 1);
+  for (int c : node_seen) ASSERT_EQ(c, 1);
+  for (int c : triangle_seen) ASSERT_EQ(c, 1);
+
+  // Every node has at least two children, so the leaves outnumber the nodes.
+  EXPECT_LT(wide.size(), leaves);
+  EXPECT_GE(leaves, (n + kMaxLeafTriangles - 1) / kMaxLeafTriangles);
+  std::string sizes;
+  for (uint32_t k = 1; k <= kMaxLeafTriangles; ++k) {
+    sizes += (k > 1 ? " " : "") + std::to_string(leaf_sizes[k]);
+  }
+  ::testing::Test::RecordProperty("bvh4_nodes", int(wide.size()));
+  ::testing::Test::RecordProperty("bvh4_leaves", int(leaves));
+  std::printf("%zu triangles: %zu 4-wide nodes (%.1f B/triangle), %zu leaves (%.2f triangles "
+              "each; of 1..%u triangles: %s)\n",
+              n, wide.size(), double(wide.size() * sizeof(Bvh4Node)) / double(n), leaves,
+              double(n) / double(leaves), kMaxLeafTriangles, sizes.c_str());
+}
+
 // Walks the tree from the root: every leaf reached once, every child box inside its parent's.
 void check_invariants(const std::vector<TriangleVertices>& tris) {
   Built b(tris);
@@ -78,9 +171,9 @@ void check_invariants(const std::vector<TriangleVertices>& tris) {
     ++internal_seen[it.node];
     ++visited;
     for (int c = 0; c < 2; ++c) {
-      const Aabb& child_box = nodes[it.node].child_bounds[c];
+      const Aabb child_box = nodes[it.node].child[c].bounds();
       ASSERT_TRUE(it.box.contains(child_box)) << "node " << it.node << " child " << c;
-      uint32_t child = nodes[it.node].child[c];
+      uint32_t child = nodes[it.node].child[c].index;
       if (is_leaf(child)) {
         uint32_t leaf = leaf_index(child);
         ASSERT_LT(leaf, n);
@@ -101,7 +194,7 @@ void check_invariants(const std::vector<TriangleVertices>& tris) {
   std::vector<std::pair<uint32_t, uint32_t>> range(n - 1);
   std::function<std::pair<uint32_t, uint32_t>(uint32_t)> span = [&](uint32_t child) {
     if (is_leaf(child)) return std::make_pair(leaf_index(child), leaf_index(child));
-    auto l = span(nodes[child].child[0]), r = span(nodes[child].child[1]);
+    auto l = span(nodes[child].child[0].index), r = span(nodes[child].child[1].index);
     EXPECT_EQ(l.second, child);
     EXPECT_EQ(r.first, child + 1);
     return std::make_pair(l.first, r.second);
@@ -110,38 +203,23 @@ void check_invariants(const std::vector<TriangleVertices>& tris) {
   EXPECT_EQ(all.first, 0u);
   EXPECT_EQ(all.second, n - 1);
 
-  // The 4-wide collapse: every leaf once, child boxes inside their parents, no empty node.
-  auto wide = b.bvh.bvh.nodes.download();
-  ASSERT_GE(wide.size(), (n + 2) / 3);
-  ASSERT_LE(wide.size(), n - 1);
-  std::vector<int> wide_leaf_seen(n, 0), wide_seen(wide.size(), 0);
-  std::vector<Item> open{{0, b.bvh.bvh.bounds}};
-  while (!open.empty()) {
-    Item it = open.back();
-    open.pop_back();
-    ASSERT_LT(it.node, wide.size());
-    ++wide_seen[it.node];
-    int children = 0;
-    for (int c = 0; c < 4; ++c) {
-      uint32_t child = wide[it.node].child[c];
-      if (child == kEmptyChild) continue;
-      ++children;
-      Aabb box = wide[it.node].child_bounds(c);
-      ASSERT_TRUE(it.box.contains(box));
-      if (is_leaf(child)) {
-        ++wide_leaf_seen[leaf_index(child)];
-      } else {
-        open.push_back({child, box});
-      }
+  check_wide_invariants(b, tris);
+}
+
+TEST(Bvh4, LeafChildEncodingRoundTrips) {
+  for (uint32_t first : {0u, 1u, 12345u, kMaxBvh4Triangles - kMaxLeafTriangles}) {
+    for (uint32_t count = 1; count <= kMaxLeafTriangles; ++count) {
+      const uint32_t child = make_leaf_child(first, count);
+      EXPECT_TRUE(is_leaf(child));
+      EXPECT_NE(child, kEmptyChild);
+      EXPECT_EQ(leaf_first(child), first);
+      EXPECT_EQ(leaf_count(child), count);
     }
-    ASSERT_GE(children, 2);
   }
-  for (int c : wide_seen) ASSERT_EQ(c, 1);
-  for (int c : wide_leaf_seen) ASSERT_EQ(c, 1);
 }
 
 TEST(Lbvh, InvariantsOnRandomSoups) {
-  for (size_t n : {2, 3, 5, 64, 1000, 50000}) {
+  for (size_t n : {2, 3, 4, 5, 6, 9, 64, 1000, 50000}) {
     SCOPED_TRACE(n);
     check_invariants(random_soup(n, uint32_t(n)));
   }
@@ -186,8 +264,10 @@ Hit brute_force(const std::vector<TriangleVertices>& tris, const Ray& ray) {
   return best;
 }
 
-// Rays from a sphere around the mesh towards random points inside its box: most hit something.
-void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, uint32_t seed) {
+// Rays from a sphere around the mesh towards random points inside its box (or, with
+// `aim_at_triangles`, towards random triangles' centroids): most hit something.
+void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, uint32_t seed,
+                     bool aim_at_triangles = false) {
   Built b(tris);
   TriangleBvhView view = b.bvh.view();
   Aabb bounds = view.bounds;
@@ -200,6 +280,10 @@ void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, u
     Ray ray;
     bool inside = i % 2 == 0;  // half the rays start inside the box, in random directions
     Vec3f target = bounds.lower + bounds.extent() * Vec3f(u(rng), u(rng), u(rng));
+    if (aim_at_triangles) {
+      const TriangleVertices& aim = tris[rng() % tris.size()];
+      target = (aim.p0 + aim.p1 + aim.p2) * (1.0f / 3.0f);
+    }
     if (inside) {
       ray.origin = target;
       ray.direction = sample_uniform_sphere(u(rng), u(rng));
@@ -231,6 +315,21 @@ void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, u
 }
 
 TEST(Traversal, MatchesBruteForceOnRandomSoup) { check_traversal(random_soup(4000, 99), 10000, 1); }
+
+// Trees whose root holds only leaves, and sizes around the leaf limit: every leaf range and the
+// any-hit exit in the middle of a leaf.
+TEST(Traversal, MatchesBruteForceOnSmallSoups) {
+  for (size_t n = 1; n <= 3 * kMaxLeafTriangles + 1; ++n) {
+    SCOPED_TRACE(n);
+    check_traversal(random_soup(n, uint32_t(100 + n)), 400, uint32_t(n), true);
+  }
+}
+
+// Identical triangles tie at every hit; leaves hold several of them.
+TEST(Traversal, MatchesBruteForceWhenEveryTriangleCoincides) {
+  std::vector<TriangleVertices> same(37, {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0)});
+  check_traversal(same, 1000, 5, true);
+}
 
 TEST(Traversal, MatchesBruteForceOnBundledScenes) {
   check_traversal(scene_triangles("cornell-caustics"), 10000, 2);

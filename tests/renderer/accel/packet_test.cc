@@ -4,24 +4,25 @@
 #include "renderer/accel/packet_traversal.h"
 #include "renderer/render/camera.h"
 #include "renderer/scene/load_scene.h"
+#include "tests/renderer/accel/triangle_soup.h"
 
 namespace caustica {
 namespace {
 
-void check_packets(const std::string& scene_name, const Camera& camera_override, bool use_override) {
-  absl::StatusOr<Scene> scene =
-      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + scene_name + "/scene.json");
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  auto backend = make_cpu_backend(size_t(1) << 30);
+std::vector<TriangleVertices> triangles_of(const Scene& scene) {
   std::vector<TriangleVertices> tris;
-  for (const Mesh& m : scene->meshes)
+  for (const Mesh& m : scene.meshes)
     for (size_t t = 0; t < m.triangle_count(); ++t)
       tris.push_back({m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
                       m.positions[m.indices[3 * t + 2]]});
+  return tris;
+}
+
+void check_packets(const std::vector<TriangleVertices>& tris, Camera cam) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
   Buffer<TriangleVertices> input(*backend, tris.size());
   input.upload(tris);
   TriangleBvh bvh = build_triangle_bvh(*backend, input.data(), uint32_t(tris.size()));
-  Camera cam = use_override ? camera_override : scene->camera;
   cam.width = 100;  // not a multiple of the tile: partial packets too
   cam.height = 70;
   PinholeCamera pc = PinholeCamera::from(cam);
@@ -57,11 +58,27 @@ void check_packets(const std::string& scene_name, const Camera& camera_override,
   EXPECT_GT(hits, rays / 4);
 }
 
+void check_packets(const std::string& scene_name, const Camera* camera_override) {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + scene_name + "/scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  check_packets(triangles_of(*scene), camera_override ? *camera_override : scene->camera);
+}
+
 TEST(PacketTraversal, MatchesSingleRaysFromTheSceneCameras) {
   for (const char* name : {"cornell-box", "cornell-caustics", "ring"}) {
     SCOPED_TRACE(name);
-    check_packets(name, {}, false);
+    check_packets(name, nullptr);
   }
+}
+
+// Many small triangles, so that most leaves hold several and packets meet leaves of every size.
+TEST(PacketTraversal, MatchesSingleRaysOnADenseSoup) {
+  Camera cam;
+  cam.position = Vec3f(3, 4, -40);
+  cam.look_at = Vec3f(0, 0, 0);
+  cam.vertical_fov_deg = 40;
+  check_packets(random_soup(30000, 11), cam);
 }
 
 TEST(PacketTraversal, MatchesSingleRaysWhenTilesStraddleAxisPlanes) {
@@ -71,7 +88,7 @@ TEST(PacketTraversal, MatchesSingleRaysWhenTilesStraddleAxisPlanes) {
   cam.position = Vec3f(100, 274, 280);
   cam.look_at = Vec3f(500, 274, 280);
   cam.vertical_fov_deg = 100;
-  check_packets("cornell-caustics", cam, true);
+  check_packets("cornell-caustics", &cam);
 }
 
 }  // namespace

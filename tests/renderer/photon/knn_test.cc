@@ -15,7 +15,8 @@ struct Points {
   std::vector<Photon> photons;
 };
 
-std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered) {
+std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered,
+                                 uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf) {
   auto p = std::make_unique<Points>();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -27,13 +28,13 @@ std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered) {
   }
   Buffer<Photon> buf(*p->backend, n);
   buf.upload(p->photons);
-  p->map = build_photon_map(*p->backend, std::move(buf));
+  p->map = build_photon_map(*p->backend, buf, photons_per_leaf);
   return p;
 }
 
-void check_knn(size_t n, bool clustered) {
-  auto p = make_map(n, 5, clustered);
-  auto sorted = p->map.photons.download();
+void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf) {
+  auto p = make_map(n, 5, clustered, photons_per_leaf);
+  auto sorted = p->map.download();
   ASSERT_EQ(sorted.size(), n);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-0.1f, 1.1f);
@@ -67,10 +68,55 @@ TEST(PhotonMapKnn, MatchesBruteForceOnPlaneWithCoincidentPoints) { check_knn(200
 TEST(PhotonMapKnn, SmallMaps) {
   for (size_t n : {1, 2, 3, 17}) check_knn(n, false);
 }
+// Leaves of one photon, of a size that leaves a partial last leaf, and larger than the map.
+TEST(PhotonMapKnn, AnyLeafSize) {
+  for (uint32_t per_leaf : {1u, 3u, 32u}) check_knn(3001, false, per_leaf);
+  check_knn(5, false, 16);
+}
+
+TEST(PhotonMap, LeavesCoverTheirPhotons) {
+  auto p = make_map(10007, 4, false, 8);
+  const PhotonMapView v = p->map.view();
+  ASSERT_EQ(v.leaf_count, (10007u + 7) / 8);
+  ASSERT_EQ(p->map.bvh.nodes.size(), v.leaf_count - 1);
+  auto nodes = p->map.bvh.nodes.download();
+  auto sorted = p->map.download();
+  std::vector<int> leaf_seen(v.leaf_count);
+  for (const BvhNode& n : nodes)
+    for (int c = 0; c < 2; ++c) {
+      if (!is_leaf(n.child[c].index)) continue;
+      uint32_t leaf = leaf_index(n.child[c].index);
+      ++leaf_seen[leaf];
+      for (uint32_t i = v.leaf_begin(leaf); i < v.leaf_end(leaf); ++i) {
+        ASSERT_TRUE(n.child[c].bounds().contains(Aabb{sorted[i].position, sorted[i].position})) << "leaf " << leaf;
+      }
+    }
+  for (int s : leaf_seen) ASSERT_EQ(s, 1);
+}
+
+// Incoming directions survive the 32-bit octahedral encoding within 1e-4 radians.
+TEST(PhotonMap, StoresDirectionsWithinTenthOfMilliradian) {
+  std::mt19937 rng(17);
+  std::normal_distribution<float> g;
+  double worst = 0;
+  std::vector<Vec3f> dirs = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int i = 0; i < 100000; ++i) dirs.push_back(normalize(Vec3f(g(rng), g(rng), g(rng))));
+  for (Vec3f d : dirs) {
+    Vec3f back = decode_octahedral(encode_octahedral(d));
+    // The angle from the cross product, in double: acos of a float dot product near 1 would
+    // measure its own rounding.
+    double cx = double(back.y) * d.z - double(back.z) * d.y, cy = double(back.z) * d.x - double(back.x) * d.z,
+           cz = double(back.x) * d.y - double(back.y) * d.x;
+    double angle = std::asin(std::min(1.0, std::sqrt(cx * cx + cy * cy + cz * cz)));
+    worst = std::max(worst, angle);
+    ASSERT_NEAR(length(back), 1.0f, 1e-6f);
+  }
+  EXPECT_LT(worst, 1e-4);
+}
 
 TEST(PhotonMap, KeepsEveryPhotonOnce) {
   auto p = make_map(5000, 3, false);
-  auto sorted = p->map.photons.download();
+  auto sorted = p->map.download();
   std::vector<int> seen(5000);
   for (const Photon& ph : sorted) ++seen[size_t(ph.power.x)];
   for (int s : seen) ASSERT_EQ(s, 1);
@@ -102,7 +148,7 @@ TEST(Density, RecoversUniformIrradiance) {
     ph = {Vec3f(u(rng), u(rng), 0), Vec3f(total_flux / n), normalize(Vec3f(0.3f, 0, 1))};
   Buffer<Photon> buf(*backend, n);
   buf.upload(photons);
-  PhotonMap map = build_photon_map(*backend, std::move(buf));
+  PhotonMap map = build_photon_map(*backend, buf);
   std::vector<Neighbour> heap(kMaxNearest);
   for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
     double mean = 0;

@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "renderer/scene/scene_limits.h"
 #include "renderer/scene/shapes.h"
 #include "tests/renderer/scene/scene_test_util.h"
 
@@ -104,6 +105,16 @@ TEST(ValidateScene, EmissiveTriangleCountsAsLight) {
   // Black emitters give no light.
   scene.materials[1].radiance = Vec3f(0);
   EXPECT_THAT(error_of(scene), HasSubstr("scene has no light"));
+}
+
+// The total is checked on a count: a scene over the limit would take gigabytes to build here.
+TEST(ValidateScene, TriangleTotalMustFitTheTriangleStructure) {
+  EXPECT_TRUE(validate_triangle_total(kMaxSceneTriangles).ok());
+  const absl::Status over = validate_triangle_total(kMaxSceneTriangles + 1);
+  EXPECT_EQ(over.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(over),
+              HasSubstr("scene has 268435457 triangles in all meshes, more than the limit of "
+                        "268435456 per scene"));
 }
 
 TEST(ValidateScene, DielectricNeedsPositiveIor) {
