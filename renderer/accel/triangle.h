@@ -21,7 +21,7 @@ struct WatertightRay {
   float sx, sy, sz;
 
   CAUSTICA_HD explicit WatertightRay(const Ray& ray) : origin(ray.origin) {
-    Vec3f d = ray.direction;
+    const Vec3f d = ray.direction;
     kz = max_dimension(abs(d));
     kx = kz == 2 ? 0 : kz + 1;
     ky = kx == 2 ? 0 : kx + 1;
@@ -41,7 +41,7 @@ struct WatertightRay {
 CAUSTICA_HDI bool intersect_triangle(const WatertightRay& r, const TriangleVertices& tri,
                                      float t_min, float t_max, float& t_out, float& u_out,
                                      float& v_out) {
-  Vec3f a = tri.p0 - r.origin, b = tri.p1 - r.origin, c = tri.p2 - r.origin;
+  const Vec3f a = tri.p0 - r.origin, b = tri.p1 - r.origin, c = tri.p2 - r.origin;
   float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
   float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
   float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];

@@ -30,7 +30,9 @@ struct Vec3f {
   CAUSTICA_HD constexpr explicit Vec3f(float s) : x(s), y(s), z(s) {}
 
   // Indexed as an array: a load, not a chain of branches (the watertight test indexes by axis).
-  CAUSTICA_HDI float operator[](int i) const { return (&x)[i]; }
+  // Selects, not (&x)[i]: an index known only at run time (the watertight triangle test's axis
+  // permutation) would otherwise force the vector into local memory on a GPU.
+  CAUSTICA_HDI float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
   CAUSTICA_HDI float& operator[](int i) { return (&x)[i]; }
   CAUSTICA_HDI Vec3f operator-() const { return {-x, -y, -z}; }
   CAUSTICA_HDI Vec3f& operator+=(const Vec3f& o) {

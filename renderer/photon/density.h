@@ -22,7 +22,8 @@ namespace detail {
 
 // Places `x` at position i of the max-heap heap[0..size), whose subtrees below i are heaps,
 // moving the hole down instead of swapping.
-CAUSTICA_HDI void sift_down(Neighbour* heap, uint32_t size, uint32_t i, Neighbour x) {
+template <typename Heap>
+CAUSTICA_HDI void sift_down(Heap heap, uint32_t size, uint32_t i, Neighbour x) {
   while (true) {
     uint32_t child = 2 * i + 1;
     if (child >= size) break;
@@ -35,17 +36,20 @@ CAUSTICA_HDI void sift_down(Neighbour* heap, uint32_t size, uint32_t i, Neighbou
 }
 
 // Turns heap[0..size) into a max-heap (Floyd's bottom-up construction, O(size)).
-CAUSTICA_HDI void make_heap(Neighbour* heap, uint32_t size) {
+template <typename Heap>
+CAUSTICA_HDI void make_heap(Heap heap, uint32_t size) {
   for (uint32_t i = size / 2; i-- > 0;) sift_down(heap, size, i, heap[i]);
 }
 
 }  // namespace detail
 
 // Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared.
-// `heap` must hold k entries; on return heap[0..count) holds them, as a max-heap (heap[0] the
+// `heap` (a Neighbour* or anything indexed like one, such as a Scratch<Neighbour>) must hold k
+// entries; on return heap[0..count) holds them, as a max-heap (heap[0] the
 // farthest) when count == k and in no particular order otherwise. Returns count.
+template <typename Heap>
 CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k,
-                                   float max_distance_squared, Neighbour* heap) {
+                                   float max_distance_squared, Heap heap) {
   if (map.count == 0 || k == 0) return 0;
   uint32_t size = 0;
   float limit = max_distance_squared;  // shrinks to the k-th distance once the heap is full
@@ -128,8 +132,9 @@ CAUSTICA_HDI float kernel_weight(Kernel kernel, float x_squared) {
 // Reflected radiance at a diffuse point from the photons of `map` arriving on the side of
 // `normal`: (albedo / pi) * sum w dPhi / (pi r^2), with r the k-th distance, or the maximum
 // radius when fewer than k photons lie within it.
+template <typename Heap>
 CAUSTICA_HDI Vec3f estimate_radiance(const PhotonMapView& map, Vec3f p, Vec3f normal, Vec3f albedo,
-                                     uint32_t k, float max_radius, Kernel kernel, Neighbour* heap) {
+                                     uint32_t k, float max_radius, Kernel kernel, Heap heap) {
   float max_d2 = max_radius * max_radius;
   uint32_t found = find_nearest(map, p, k, max_d2, heap);
   if (found == 0) return Vec3f(0.0f);

@@ -1,6 +1,8 @@
 #include "renderer/render/whitted.h"
 
 #include "renderer/accel/camera_tiles.h"
+#include "renderer/base/atomic.h"
+#include "renderer/base/morton.h"
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
@@ -16,6 +18,87 @@ struct PendingRay {
   uint32_t depth;
 };
 
+// A diffuse hit of a camera path, waiting for its two photon-map estimates.
+struct GatherRequest {
+  Vec3f position;
+  Vec3f normal;  // towards the viewer
+  Vec3f weight;  // path throughput times albedo
+  uint32_t pixel;
+  uint32_t order;  // among its pixel's requests, in the order the specular tree met them
+};
+
+// Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
+// pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput)` is
+// called at every diffuse hit in a fixed order; emitted light seen along the tree is returned.
+template <typename OnDiffuse>
+CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray& camera_ray,
+                                      const Hit& first_hit, uint32_t max_depth, OnDiffuse on_diffuse) {
+  PendingRay stack[kMaxSpecularDepth + 2];
+  int top = 0;
+  stack[top++] = {camera_ray, Vec3f(1.0f), 0};
+  bool first = true;
+  Vec3f emitted(0.0f);
+  while (top > 0) {
+    PendingRay pr = stack[--top];
+    Hit hit = first ? first_hit : closest_hit(scene.bvh, pr.ray);
+    first = false;
+    if (!hit.valid()) continue;  // black background
+    SurfaceHit sh = surface_at(scene, hit);
+    const DeviceMaterial& m = scene.materials[sh.material];
+    Vec3f d = pr.ray.direction;
+    auto spawn = [&](Vec3f dir, Vec3f throughput) {
+      if (pr.depth >= max_depth || max_component(throughput) <= 0.0f) return;
+      Ray r;
+      r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
+      r.direction = dir;
+      stack[top++] = {r, throughput, pr.depth + 1};
+    };
+    switch (m.type) {
+      case MaterialType::kEmissive:
+        if (dot(d, sh.geometric_normal) < 0.0f) emitted += pr.throughput * m.radiance;
+        break;
+      case MaterialType::kDiffuse: {
+        Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        on_diffuse(sh, n, m, pr.throughput);
+        break;
+      }
+      case MaterialType::kMirror:
+        spawn(reflect(d, sh.shading_normal), pr.throughput * m.color);
+        break;
+      case MaterialType::kDielectric: {
+        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+        float fr = fresnel_dielectric(side.cos_i, side.eta);
+        Vec3f refracted;
+        if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
+          spawn(refracted, pr.throughput * (1.0f - fr));
+        spawn(reflect(d, side.normal), pr.throughput * fr);
+        break;
+      }
+    }
+  }
+  return emitted;
+}
+
+// Stage 4 of the pass: the caustic and global estimates of the i-th request in Morton order.
+struct GatherEstimates {
+  PhotonMapView caustics, global;
+  const GatherRequest* requests;
+  const uint32_t* by_code;
+  const uint32_t* pixel_offsets;  // where each pixel's estimates start in `gathered`
+  Vec3f* gathered;                // in pixel order, then path order
+  uint32_t k;
+  float max_radius;
+  Kernel kernel;
+
+  template <typename Heap>
+  CAUSTICA_HDI void operator()(size_t i, Heap heap) const {
+    const GatherRequest q = requests[by_code[i]];
+    Vec3f l = estimate_radiance(caustics, q.position, q.normal, q.weight, k, max_radius, kernel, heap);
+    l += estimate_radiance(global, q.position, q.normal, q.weight, k, max_radius, kernel, heap);
+    gathered[pixel_offsets[q.pixel] + q.order] = l;
+  }
+};
+
 }  // namespace
 
 void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
@@ -26,10 +109,12 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const PhotonMapView global = global_map.view();
   const ShadingSettings cfg = settings;
   const float scene_radius = resident.radius();
+  const Aabb scene_bounds = resident.bounds();
   const uint32_t k = cfg.k_nearest < kMaxNearest ? cfg.k_nearest : kMaxNearest;
   const uint32_t max_depth = cfg.max_depth < kMaxSpecularDepth ? cfg.max_depth : kMaxSpecularDepth;
   Vec3f* accum = film.accumulator();
   const int width = camera.width, height = camera.height;
+  const size_t pixels = size_t(width) * height;
   const uint32_t seed = cfg.seed, pass = cfg.pass;
   // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
   auto camera_ray = [=] CAUSTICA_HD(size_t pixel, Sampler& s) {
@@ -37,9 +122,10 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
     float y = float(pixel / width) + s.next_float();
     return camera.ray_through(x, y);
   };
+  const PixelBlocks blocks(width, height);
 
-  // Stage 1: primary hits, traced as packets of kPacketTile^2 camera rays sharing the eye.
-  Buffer<Hit> primary_hits(backend, size_t(width) * height);
+  // Stage 1: primary hits (packets on the CPU, a warp per 8x4 pixels on a GPU).
+  Buffer<Hit> primary_hits(backend, pixels);
   Hit* primary = primary_hits.data();
   trace_camera_tiles(backend, scene.bvh, camera.origin, width, height,
                      [=] CAUSTICA_HD(size_t pixel) {
@@ -48,63 +134,85 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
                      },
                      primary);
 
-  // Stage 2: shading, one pixel per thread, a warp per 8x4 pixels so that its gathers query
-  // neighbouring points.
-  const PixelBlocks blocks(width, height);
-  parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
-    size_t pixel;
-    if (!blocks.pixel_of(thread, pixel)) return;
-    Sampler s(seed, uint32_t(pixel), pass);
-    // Depth-first over the specular tree: each dielectric hit adds at most one pending branch.
-    PendingRay stack[kMaxSpecularDepth + 2];
-    int top = 0;
-    stack[top++] = {camera_ray(pixel, s), Vec3f(1.0f), 0};
-    bool camera_ray_pending = true;
-    Neighbour heap[kMaxNearest];
-    Vec3f radiance(0.0f);
-    while (top > 0) {
-      PendingRay pr = stack[--top];
-      Hit hit = camera_ray_pending ? primary[pixel] : closest_hit(scene.bvh, pr.ray);
-      camera_ray_pending = false;
-      if (!hit.valid()) continue;  // black background
-      SurfaceHit sh = surface_at(scene, hit);
-      const DeviceMaterial& m = scene.materials[sh.material];
-      Vec3f d = pr.ray.direction;
-      auto spawn = [&](Vec3f dir, Vec3f throughput) {
-        if (pr.depth >= max_depth || max_component(throughput) <= 0.0f) return;
-        Ray r;
-        r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
-        r.direction = dir;
-        stack[top++] = {r, throughput, pr.depth + 1};
-      };
-      switch (m.type) {
-        case MaterialType::kEmissive:
-          if (dot(d, sh.geometric_normal) < 0.0f) radiance += pr.throughput * m.radiance;
-          break;
-        case MaterialType::kDiffuse: {
-          Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-          Vec3f l = direct_light(scene, sh.position, n, sh.geometric_normal, m.color,
-                                 cfg.area_light_samples, scene_radius, s);
-          l += estimate_radiance(caustics, sh.position, n, m.color, k, cfg.max_radius, cfg.kernel, heap);
-          l += estimate_radiance(global, sh.position, n, m.color, k, cfg.max_radius, cfg.kernel, heap);
-          radiance += pr.throughput * l;
-          break;
-        }
-        case MaterialType::kMirror:
-          spawn(reflect(d, sh.shading_normal), pr.throughput * m.color);
-          break;
-        case MaterialType::kDielectric: {
-          DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-          float fr = fresnel_dielectric(side.cos_i, side.eta);
-          Vec3f refracted;
-          if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
-            spawn(refracted, pr.throughput * (1.0f - fr));
-          spawn(reflect(d, side.normal), pr.throughput * fr);
-          break;
-        }
-      }
-    }
-    accum[pixel] += radiance;
+  // The gathers run apart from the paths that need them (a wavefront, as in pbrt-v4): inside one
+  // per-pixel kernel, a pixel on the glass sphere made its warp wait through half a dozen
+  // gathers while the other lanes idled, and the lanes of a warp searched far-apart photons.
+  // Stage 2 walks each pixel's specular tree once: emitted and direct light (shadow rays) per
+  // pixel, and one gather request per diffuse hit, appended wherever there is room; each request
+  // knows its pixel and its place in the pixel's path order. A pixel makes ~2 requests on
+  // average in the bundled scenes; when a pass needs more room than it was given, stage 2 runs
+  // again with exactly enough (nothing it computes depends on what it wrote before).
+  Buffer<Vec3f> direct_light_of(backend, pixels);
+  Buffer<uint32_t> request_counts(backend, pixels), request_offsets(backend, pixels);
+  Buffer<uint32_t> appended(backend, 1);
+  Buffer<GatherRequest> requests(backend, 0);
+  Vec3f* direct_out = direct_light_of.data();
+  uint32_t* count = request_counts.data();
+  uint32_t* offset = request_offsets.data();
+  uint32_t* next_request = appended.data();
+  size_t capacity = size_t(cfg.gather_requests_per_pixel) * pixels;
+  uint32_t request_total = 0;
+  while (true) {
+    requests.resize_discard(capacity);
+    GatherRequest* request = requests.data();
+    const uint32_t room = uint32_t(capacity);
+    backend.fill_bytes(next_request, 0, sizeof(uint32_t));
+    parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+      size_t pixel;
+      if (!blocks.pixel_of(thread, pixel)) return;
+      Sampler s(seed, uint32_t(pixel), pass);
+      Vec3f direct(0.0f);
+      uint32_t made = 0;
+      Vec3f emitted = walk_specular_tree(
+          scene, camera_ray(pixel, s), primary[pixel], max_depth,
+          [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
+            direct += throughput * direct_light(scene, sh.position, n, sh.geometric_normal, m.color,
+                                                cfg.area_light_samples, scene_radius, s);
+            const uint32_t slot = atomic_fetch_add(next_request, 1u);
+            if (slot < room) request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
+            ++made;
+          });
+      direct_out[pixel] = emitted + direct;
+      count[pixel] = made;
+    });
+    request_total = backend.exclusive_scan(count, offset, pixels);
+    if (request_total <= capacity) break;
+    capacity = request_total;
+  }
+  const GatherRequest* request = requests.data();
+
+  // Stage 3: the requests in Morton order of their positions, so that the threads of a warp
+  // search the same nodes and photons.
+  Buffer<uint32_t> codes(backend, request_total), order(backend, request_total);
+  uint32_t* code = codes.data();
+  uint32_t* by_code = order.data();
+  parallel_for(backend, request_total, [=] CAUSTICA_HD(size_t i) {
+    code[i] = morton_code(request[i].position, scene_bounds);
+    by_code[i] = uint32_t(i);
+  });
+  backend.sort_pairs(code, by_code, request_total, 30);
+
+  // Stage 4: both photon-map estimates per request, stored in pixel and path order, with the
+  // neighbour heap in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a
+  // private array.
+  Buffer<Vec3f> gathered(backend, request_total);
+  const GatherEstimates gather{caustics,       global,     request, by_code, offset, gathered.data(),
+                               k,              cfg.max_radius, cfg.kernel};
+  if (!parallel_for_with_scratch<Neighbour>(backend, request_total, k, gather)) {
+    parallel_for(backend, request_total, [=] CAUSTICA_HD(size_t i) {
+      Neighbour heap[kMaxNearest];
+      gather(i, heap);
+    });
+  }
+
+  // Stage 5: each pixel adds its direct light and its requests' estimates in path order, so the
+  // sum is the same on every backend and every run, whatever order the requests were appended in.
+  const Vec3f* gathered_at = gathered.data();
+  parallel_for(backend, pixels, [=] CAUSTICA_HD(size_t pixel) {
+    const uint32_t begin = offset[pixel], end = begin + count[pixel];
+    Vec3f sum = direct_out[pixel];
+    for (uint32_t r = begin; r < end; ++r) sum += gathered_at[r];
+    accum[pixel] += sum;
   });
   film.add_pass();
 }

@@ -22,10 +22,15 @@ struct ShadingSettings {
   uint32_t area_light_samples = 4;
   uint32_t seed = 1;
   uint32_t pass = 0;
+  // Room for gather requests made ready before a pass, per pixel; a pass that needs more walks
+  // its specular trees again with exactly enough, so this changes speed, never the image.
+  uint32_t gather_requests_per_pixel = 4;
 };
 
-// Renders one pass (one jittered sample per pixel) and adds it to the film: camera rays first, as
-// packets (accel/packet_traversal.h), then shading per pixel.
+// Renders one pass (one jittered sample per pixel) and adds it to the film, as a wavefront:
+// camera rays (accel/camera_tiles.h); per pixel the specular tree with emitted and direct light,
+// which leaves one gather request per diffuse hit; the requests' photon-map estimates in Morton
+// order; and per pixel the sum of its requests' estimates.
 void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,
                  const ShadingSettings& settings, Film& film);

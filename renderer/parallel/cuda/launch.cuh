@@ -7,6 +7,7 @@
 #include <cstddef>
 
 #include "renderer/parallel/backend.h"
+#include "renderer/parallel/scratch.h"
 #include "renderer/parallel/cuda/cuda_check.h"
 
 namespace caustica {
@@ -24,7 +25,67 @@ __global__ void __launch_bounds__(kParallelForBlock) parallel_for_kernel(size_t 
   if (i < n) f(i);
 }
 
+// One shared-memory array per block for parallel_for_with_scratch; element j of thread t's
+// scratch is at j * blockDim.x + t, so that every thread keeps to its own banks.
+template <typename T, typename F>
+__global__ void scratch_kernel(size_t n, F f) {
+  extern __shared__ __align__(16) unsigned char shared_scratch[];
+  const size_t i = size_t(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i, Scratch<T>{reinterpret_cast<T*>(shared_scratch) + threadIdx.x, blockDim.x});
+}
+
 }  // namespace detail
+
+namespace detail {
+
+// Warps per block for `per_thread` bytes of scratch: the count that lets the most warps share a
+// multiprocessor's shared memory (each block also costs the reserved bytes), or 0 when one warp's
+// scratch is more than a block may have without opting in (48 KiB).
+inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm, size_t reserved_per_block) {
+  constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8, kMaxBlocksPerSm = 32, kMaxWarpsPerSm = 64;
+  if (per_thread == 0) return kMaxWarps;
+  unsigned best = 0;
+  size_t best_resident = 0;
+  for (size_t warps = 1; warps <= kMaxWarps && warps * 32 * per_thread <= kBlockBytes; ++warps) {
+    size_t blocks = shared_per_sm / (warps * 32 * per_thread + reserved_per_block);
+    if (blocks > kMaxBlocksPerSm) blocks = kMaxBlocksPerSm;
+    size_t resident = blocks * warps < kMaxWarpsPerSm ? blocks * warps : kMaxWarpsPerSm;
+    if (resident >= best_resident) {
+      best_resident = resident;
+      best = unsigned(warps);
+    }
+  }
+  return best;
+}
+
+}  // namespace detail
+
+// Returns false, launching nothing, when one warp's scratch does not fit in a block's shared
+// memory. The kernel asks for the largest shared-memory carveout, since its occupancy is bounded
+// by shared memory, not by L1.
+template <typename T, typename F>
+bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_count, const F& f) {
+  const size_t per_thread = size_t(scratch_count) * sizeof(T);
+  int device = 0, shared_per_sm = 0, reserved = 0;
+  CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
+  CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&shared_per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
+  CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
+  const unsigned warps = detail::scratch_block_warps(per_thread, size_t(shared_per_sm), size_t(reserved));
+  if (warps == 0) return false;
+  static const bool carveout_set = [] {
+    CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(detail::scratch_kernel<T, F>,
+                                             cudaFuncAttributePreferredSharedMemoryCarveout,
+                                             int(cudaSharedmemCarveoutMaxShared)));
+    return true;
+  }();
+  (void)carveout_set;
+  const unsigned block = 32 * warps;
+  const size_t blocks = (n + block - 1) / block;
+  if (blocks > 0x7fffffffu) throw DeviceError("parallel_for: too many elements for one launch");
+  detail::scratch_kernel<T><<<unsigned(blocks), block, block * per_thread, cuda_stream(backend)>>>(n, f);
+  CAUSTICA_CUDA_CHECK(cudaGetLastError());
+  return true;
+}
 
 template <typename F>
 void launch_on_cuda(Backend& backend, size_t n, const F& f) {

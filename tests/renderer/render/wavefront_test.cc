@@ -1,0 +1,54 @@
+// The render pass's gather requests: however little room a pass starts with, it grows it and
+// produces the same image bit for bit.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "renderer/photon/photon_map.h"
+#include "renderer/photon/photon_tracer.h"
+#include "renderer/render/whitted.h"
+#include "renderer/resident/resident_scene.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+std::vector<float> render_with_room(uint32_t requests_per_pixel) {
+  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  if (!scene.ok()) return {};
+  scene->camera.width = 64;
+  scene->camera.height = 48;
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  TracedPhotons traced = trace_photons(*backend, resident, {20000, 8, 3, 0});
+  PhotonMap caustic = build_photon_map(*backend, traced.caustic);
+  PhotonMap global = build_photon_map(*backend, traced.global);
+  Film film(*backend, scene->camera.width, scene->camera.height);
+  ShadingSettings settings;
+  settings.k_nearest = 16;
+  settings.max_radius = 30.0f;
+  settings.gather_requests_per_pixel = requests_per_pixel;
+  for (uint32_t pass = 0; pass < 2; ++pass) {
+    settings.pass = pass;
+    render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings, film);
+  }
+  return film.resolve_linear();
+}
+
+TEST(RenderPass, TooLittleRoomForGatherRequestsChangesNothing) {
+  std::vector<float> roomy = render_with_room(4);
+  std::vector<float> none = render_with_room(0);
+  std::vector<float> one = render_with_room(1);  // the glass sphere's pixels need several
+  ASSERT_FALSE(roomy.empty());
+  ASSERT_EQ(roomy.size(), none.size());
+  ASSERT_EQ(roomy.size(), one.size());
+  EXPECT_EQ(0, std::memcmp(roomy.data(), none.data(), roomy.size() * sizeof(float)));
+  EXPECT_EQ(0, std::memcmp(roomy.data(), one.data(), roomy.size() * sizeof(float)));
+  double sum = 0;
+  for (float v : roomy) sum += v;
+  EXPECT_GT(sum, 64 * 48);  // more than the alpha channel: the image is not black
+}
+
+}  // namespace
+}  // namespace caustica
