@@ -11,10 +11,10 @@ MortonOrder sort_by_morton(Backend& backend, const Aabb* boxes, uint32_t n, cons
   uint32_t* id = out.order.data();
   const Aabb b = bounds;
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    code[i] = morton_code(boxes[i].center(), b);
+    code[i] = extended_morton_code(boxes[i], b);
     id[i] = uint32_t(i);
   });
-  backend.sort_pairs(code, id, n, 30);
+  backend.sort_pairs(code, id, n, 31);
   return out;
 }
 

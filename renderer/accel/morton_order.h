@@ -1,5 +1,6 @@
 // The first step of every LBVH build here (triangles and photons alike): Morton codes of the
-// primitives' box centres on a 1024^3 grid over their bounds, radix-sorted with the indices.
+// primitives' box centres on a 1024^3 grid over their bounds, below a bit for huge boxes
+// (extended_morton_code, base/morton.h), radix-sorted with the indices.
 #pragma once
 
 #include "renderer/parallel/buffer.h"

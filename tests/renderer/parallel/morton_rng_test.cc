@@ -44,6 +44,27 @@ TEST(Morton, QuantisesPointsInBoundsAndClampsOutside) {
   EXPECT_EQ(morton_code(Vec3f(1, 1, 1), flat), morton3_30(1023, 0, 1023));
 }
 
+// Huge boxes (diagonal over a quarter of the scene's) sort before all others; within a class
+// the order is the Morton order of the centres.
+TEST(Morton, ExtendedCodesPutHugeBoxesFirst) {
+  const Aabb scene{Vec3f(0, 0, 0), Vec3f(100, 100, 100)};     // diagonal 173
+  const Aabb wall{Vec3f(0, 0, 99), Vec3f(100, 100, 100)};     // 141: huge
+  const Aabb ceiling{Vec3f(0, 99, 0), Vec3f(100, 100, 100)};  // 141: huge
+  const Aabb block{Vec3f(10, 10, 10), Vec3f(30, 30, 30)};     // 34.6: not
+  const Aabb grain{Vec3f(1, 1, 1), Vec3f(1.1f, 1.1f, 1.1f)};
+  const Aabb point{Vec3f(99, 99, 99), Vec3f(99, 99, 99)};
+  EXPECT_EQ(size_class(wall, scene), 0u);
+  EXPECT_EQ(size_class(block, scene), 1u);
+  EXPECT_EQ(size_class(grain, scene), 1u);
+  EXPECT_EQ(size_class(point, scene), 1u);
+  for (const Aabb& small : {block, grain, point}) {
+    EXPECT_LT(extended_morton_code(wall, scene), extended_morton_code(small, scene));
+    EXPECT_LT(extended_morton_code(ceiling, scene), extended_morton_code(small, scene));
+    EXPECT_EQ(extended_morton_code(small, scene), (1u << 30) | morton_code(small.center(), scene));
+  }
+  EXPECT_EQ(extended_morton_code(wall, scene), morton_code(wall.center(), scene));
+}
+
 TEST(Sampler, IsAPureFunctionOfItsCounters) {
   Sampler a(42, 7, 3), b(42, 7, 3);
   for (int i = 0; i < 100; ++i) ASSERT_EQ(a.next_u32(), b.next_u32());
