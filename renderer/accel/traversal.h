@@ -39,15 +39,15 @@ CAUSTICA_HDI bool descend_near_first(const Bvh4Node& n, const float t[4], float 
     key[c] = t[c] <= t_limit ? t[c] : INFINITY;
     child[c] = n.child[c];
   }
+  // Selects, not branches: which way each pair goes is data-dependent and would mispredict.
   auto order = [&](int a, int b) {
-    if (key[b] < key[a]) {
-      float k = key[a];
-      key[a] = key[b];
-      key[b] = k;
-      uint32_t c = child[a];
-      child[a] = child[b];
-      child[b] = c;
-    }
+    const bool swap = key[b] < key[a];
+    const float ka = key[a], kb = key[b];
+    const uint32_t ca = child[a], cb = child[b];
+    key[a] = swap ? kb : ka;
+    key[b] = swap ? ka : kb;
+    child[a] = swap ? cb : ca;
+    child[b] = swap ? ca : cb;
   };
   order(0, 1);
   order(2, 3);
