@@ -29,29 +29,43 @@ CAUSTICA_HDI uint64_t split_key(const uint32_t* codes, uint32_t k) {
 
 }  // namespace detail
 
-// Builds the binary radix tree over `n` primitives whose Morton codes are sorted ascending;
+// What the host needs of a build, fetched in one copy when it ends: the primitives' bounds
+// (written before the build by Backend::reduce_bounds_to) and the root (written by the build).
+struct BvhSummary {
+  Aabb bounds;
+  uint32_t root;
+};
+
+// Builds the binary radix tree over `n` primitives whose Morton codes are sorted ascending, with
+// `summary` (in the backend's memory) holding their bounds; the root is written there and both
+// come back in the Bvh with one wait for the device;
 // `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order; it is
 // called exactly once per leaf, so it may also move that primitive into its sorted place. Equal
 // codes are split by index, so any input gives a valid tree.
 template <typename LeafBox>
 Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
-                                Aabb bounds, LeafBox leaf_box) {
+                                BvhSummary* summary, LeafBox leaf_box) {
   Bvh bvh;
   bvh.leaf_count = n;
-  bvh.bounds = bounds;
   bvh.nodes.bind(backend);
+  auto finish = [&] {
+    BvhSummary s;
+    backend.copy_to_host(&s, summary, sizeof(BvhSummary));
+    bvh.bounds = s.bounds;
+    bvh.root = n < 2 ? 0 : s.root;
+    return std::move(bvh);
+  };
   if (n == 1) parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { (void)leaf_box(0u); });
-  if (n < 2) return bvh;
+  if (n < 2) return finish();
 
   bvh.nodes.resize_discard(n - 1);
   // other_end[k]: the far end of the range of node k's first child to arrive, or kUnvisited.
   Buffer<uint32_t> other_end(backend, n - 1);
-  Buffer<uint32_t> root(backend, 1);
   backend.fill_bytes(other_end.data(), 0xff, other_end.size() * sizeof(uint32_t));
 
   BvhNode* nodes = bvh.nodes.data();
   uint32_t* other = other_end.data();
-  uint32_t* root_out = root.data();
+  uint32_t* root_out = &summary->root;
   const uint32_t last = n - 1;
 
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t leaf) {
@@ -86,8 +100,7 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
       }
     }
   });
-  bvh.root = root.download()[0];
-  return bvh;
+  return finish();
 }
 
 }  // namespace caustica

@@ -12,7 +12,8 @@ struct MortonOrder {
   Buffer<uint32_t> order;  // order[i]: the primitive with the i-th code
 };
 
-// `boxes` holds one box per primitive (degenerate for points); `bounds` is their reduction.
-MortonOrder sort_by_morton(Backend& backend, const Aabb* boxes, uint32_t n, const Aabb& bounds);
+// `boxes` holds one box per primitive (degenerate for points); `bounds`, in the backend's memory,
+// is their reduction (Backend::reduce_bounds_to), read by the kernel so the host need not wait.
+MortonOrder sort_by_morton(Backend& backend, const Aabb* boxes, uint32_t n, const Aabb* bounds);
 
 }  // namespace caustica

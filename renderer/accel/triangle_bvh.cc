@@ -15,15 +15,17 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
     out.bvh.nodes.bind(backend);
     return out;
   }
-  // Pass 1: triangle boxes and the scene box. Codes quantise box centres over the scene box (not
-  // the tighter centroid box): one reduction less, and no measurable loss on scanned meshes.
+  // Pass 1: triangle boxes and the scene box, left on the device for the next kernels. Codes
+  // quantise box centres over the scene box (not the tighter centroid box): one reduction less,
+  // and no measurable loss on scanned meshes.
   Buffer<Aabb> boxes(backend, count);
+  Buffer<BvhSummary> summary(backend, 1);
   Aabb* box = boxes.data();
   parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
-  const Aabb scene_bounds = backend.reduce_bounds(box, count);
+  backend.reduce_bounds_to(box, count, &summary.data()->bounds);
 
   // Pass 2: Morton codes, sorted with the triangle indices.
-  MortonOrder sorted_order = sort_by_morton(backend, box, count, scene_bounds);
+  MortonOrder sorted_order = sort_by_morton(backend, box, count, &summary.data()->bounds);
   out.triangle_ids = std::move(sorted_order.order);
   const uint32_t* ids = out.triangle_ids.data();
 
@@ -31,7 +33,7 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   // triangles are read once, not once for a gather and again for their boxes.
   out.triangles.resize_discard(count);
   TriangleVertices* sorted = out.triangles.data();
-  out.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), count, scene_bounds,
+  out.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), count, summary.data(),
                                         [=] CAUSTICA_HD(uint32_t leaf) {
                                           const TriangleVertices t = triangles[ids[leaf]];
                                           sorted[leaf] = t;

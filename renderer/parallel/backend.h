@@ -90,6 +90,9 @@ class Backend {
   virtual double reduce_sum(const float* in, size_t n) = 0;
   virtual float reduce_max(const float* in, size_t n) = 0;
   virtual Aabb reduce_bounds(const Aabb* in, size_t n) = 0;
+  // The same reduction written to `out` (one Aabb in the backend's memory) without waiting for
+  // it, for a build whose next kernel reads it: no round trip to the host in between.
+  virtual void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) = 0;
   // Writes, in order, the in[i] whose flags[i] != 0 to `out`; returns how many. With in == nullptr
   // the selected indices i themselves are written (the gather step of a compaction).
   virtual size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,

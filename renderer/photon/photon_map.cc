@@ -29,8 +29,9 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   Aabb* point = points.data();
   const Photon* in = photons.data();
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { point[i] = Aabb{in[i].position, in[i].position}; });
-  const Aabb bounds = backend.reduce_bounds(point, n);
-  MortonOrder sorted_order = sort_by_morton(backend, point, n, bounds);
+  Buffer<BvhSummary> summary(backend, 1);
+  backend.reduce_bounds_to(point, n, &summary.data()->bounds);
+  MortonOrder sorted_order = sort_by_morton(backend, point, n, &summary.data()->bounds);
 
   // The photons in Morton order, split into positions and flux, and the code of each leaf's
   // first photon: ascending, so the radix tree over leaves is built like the one over photons.
@@ -49,7 +50,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
     flux[i] = {ph.power, encode_octahedral(ph.incoming)};
     if (i % per_leaf == 0) leaf_code[i / per_leaf] = code[i];
   });
-  map.bvh = build_bvh_from_sorted_codes(backend, leaf_code, leaves, bounds,
+  map.bvh = build_bvh_from_sorted_codes(backend, leaf_code, leaves, summary.data(),
                                         [=] CAUSTICA_HD(uint32_t leaf) {
                                           uint32_t begin = leaf * per_leaf;
                                           uint32_t end = begin + per_leaf < n ? begin + per_leaf : n;

@@ -204,6 +204,7 @@ class CpuBackend final : public Backend {
   Aabb reduce_bounds(const Aabb* in, size_t n) override {
     return parallel_reduce<Aabb>(in, n, Aabb{}, [](Aabb a, const Aabb& b) { return merge(a, b); });
   }
+  void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override { *out = reduce_bounds(in, n); }
 
   template <typename Key>
   void sort_with_scratch(Key* keys, uint32_t* values, size_t n, int end_bit) {

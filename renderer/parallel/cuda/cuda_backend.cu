@@ -194,6 +194,9 @@ class CudaBackend final : public Backend {
   Aabb reduce_bounds(const Aabb* in, size_t n) override {
     return reduce(in, n, MergeBoundsOp(), Aabb{});
   }
+  void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override {
+    reduce_to(in, n, MergeBoundsOp(), Aabb{}, out);
+  }
 
   size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,
                         uint32_t* out) override {
@@ -315,10 +318,20 @@ class CudaBackend final : public Backend {
   Acc reduce(const In* in, size_t n, Op op, Acc init) {
     if (n == 0) return init;
     Buffer<Acc> result(*this, 1);
-    run_cub("cub::DeviceReduce::Reduce", [&](void* temp, size_t& temp_bytes) {
-      return cub::DeviceReduce::Reduce(temp, temp_bytes, in, result.data(), n, op, init, stream_);
-    });
+    reduce_to(in, n, op, init, result.data());
     return fetch(result.data());
+  }
+  // Leaves the result at `out` in device memory, ordered on the stream.
+  template <typename In, typename Op, typename Acc>
+  void reduce_to(const In* in, size_t n, Op op, Acc init, Acc* out) {
+    if (n == 0) {
+      CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(out, &init, sizeof(Acc), cudaMemcpyHostToDevice, stream_));
+      CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));  // `init` is on this frame
+      return;
+    }
+    run_cub("cub::DeviceReduce::Reduce", [&](void* temp, size_t& temp_bytes) {
+      return cub::DeviceReduce::Reduce(temp, temp_bytes, in, out, n, op, init, stream_);
+    });
   }
 
   // Idempotent, so the constructor can undo a partial set-up with it.

@@ -154,6 +154,10 @@ TEST_P(GpuParityTest, Reductions) {
   const Aabb c_bounds = cpu().reduce_bounds(cb.data(), n),
              g_bounds = gpu().reduce_bounds(gb.data(), n);
   EXPECT_TRUE(c_bounds.lower == g_bounds.lower && c_bounds.upper == g_bounds.upper);
+  Buffer<Aabb> g_left(gpu(), 1);
+  gpu().reduce_bounds_to(gb.data(), n, g_left.data());
+  const Aabb g_kept = g_left.download()[0];
+  EXPECT_TRUE(c_bounds.lower == g_kept.lower && c_bounds.upper == g_kept.upper);
 }
 
 TEST_P(GpuParityTest, SelectFlaggedValuesAndIndices) {

@@ -128,6 +128,11 @@ TEST_P(PrimitivesTest, ReductionsMatchStd) {
   Aabb got = backend->reduce_bounds(bb.data(), n);
   EXPECT_EQ(got.lower, expected_box.lower);
   EXPECT_EQ(got.upper, expected_box.upper);
+  Buffer<Aabb> left(*backend, 1);
+  backend->reduce_bounds_to(bb.data(), n, left.data());
+  const Aabb kept = left.download()[0];
+  EXPECT_EQ(kept.lower, expected_box.lower);
+  EXPECT_EQ(kept.upper, expected_box.upper);
 }
 
 TEST_P(PrimitivesTest, SelectFlaggedMatchesCopyIf) {
