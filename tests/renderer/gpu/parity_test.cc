@@ -7,8 +7,11 @@
 
 #include <cfloat>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
+#include <tuple>
 #include <random>
 #include <vector>
 
@@ -19,6 +22,8 @@
 #include "renderer/parallel/buffer.h"
 #include "renderer/parallel/cuda/cuda_backend.h"
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/density.h"
+#include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/triangle_soup.h"
 
 namespace caustica {
@@ -263,6 +268,120 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
   const Vec3f eye(0.0f, 0.0f, -30.0f);
   EXPECT_TRUE(
       same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256), camera_hits(*both.gpu, g_bvh, eye, 256)));
+}
+
+constexpr uint32_t kNnQueries = 4096, kNnMaxK = 64;
+
+struct NearestResults {
+  std::vector<uint32_t> counts;
+  std::vector<Neighbour> found;  // kNnMaxK per query, unused entries zero
+  std::vector<Vec3f> radiance;
+};
+
+// k-nearest searches (k = 1..64 in turn, two maximum radii) and radiance estimates (the three
+// kernels in turn) at `points` on `backend`.
+NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const std::vector<Vec3f>& points) {
+  const uint32_t n = uint32_t(points.size());
+  Buffer<Vec3f> at = upload(backend, points);
+  Buffer<Neighbour> found(backend, size_t(n) * kNnMaxK);
+  Buffer<uint32_t> counts(backend, n);
+  Buffer<Vec3f> radiance(backend, n);
+  const Vec3f* q = at.data();
+  Neighbour* out = found.data();
+  uint32_t* count = counts.data();
+  Vec3f* l = radiance.data();
+  const PhotonMapView view = map.view();
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    const uint32_t k = 1 + uint32_t(i % kNnMaxK);
+    const float max_radius = i % 3 == 0 ? 0.02f : 1.0f;
+    Neighbour heap[kNnMaxK];
+    count[i] = find_nearest(view, q[i], k, max_radius * max_radius, heap);
+    for (uint32_t j = 0; j < kNnMaxK; ++j) out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
+    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3), heap);
+  });
+  return {counts.download(), found.download(), radiance.download()};
+}
+
+// The photon map from the same photons, and k-nearest searches and radiance estimates on it: the
+// same integer decisions and uncontracted float operations, so everything agrees bit for bit.
+TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> photons(60000);
+  for (size_t i = 0; i < photons.size(); ++i) {
+    // Half on a plane, with repeated points, half in the volume: equal codes and ties included.
+    Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
+    if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
+    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)), normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
+  }
+  Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
+  PhotonMap c_map = build_photon_map(*both.cpu, c_in), g_map = build_photon_map(*both.gpu, g_in);
+  EXPECT_EQ(c_map.bvh.root, g_map.bvh.root);
+  EXPECT_TRUE(same_bytes(c_map.bvh.nodes.download(), g_map.bvh.nodes.download()));
+  EXPECT_TRUE(same_bytes(c_map.positions.download(), g_map.positions.download()));
+  EXPECT_TRUE(same_bytes(c_map.flux.download(), g_map.flux.download()));
+
+  std::vector<Vec3f> points(kNnQueries);
+  for (Vec3f& q : points) q = Vec3f(u(rng), u(rng), u(rng) < 0.5f ? 0.5f : u(rng));
+  auto search = [&](Backend& backend, const PhotonMap& map) {
+    NearestResults r = search_photon_map(backend, map, points);
+    return std::make_tuple(std::move(r.counts), std::move(r.found), std::move(r.radiance));
+  };
+  auto [c_counts, c_found, c_radiance] = search(*both.cpu, c_map);
+  auto [g_counts, g_found, g_radiance] = search(*both.gpu, g_map);
+  EXPECT_EQ(c_counts, g_counts);
+  EXPECT_TRUE(same_bytes(c_found, g_found));
+  EXPECT_TRUE(same_bytes(c_radiance, g_radiance));
+  uint32_t full = 0;
+  for (uint32_t i = 0; i < kNnQueries; ++i) full += c_counts[i] == 1 + i % kNnMaxK;
+  EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
+}
+
+// Whole images of every bundled scene on both backends, same seed. Photon paths may part where
+// the GPU's sinf/cosf/powf differ from the C library's in the last bit, so the images agree to
+// within the relative RMS difference below, not bit for bit.
+constexpr double kImageRelativeRmse = 0.02;
+
+TEST(GpuParity, BundledScenesRenderAlike) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  int scenes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(CAUSTICA_SCENES_DIR)) {
+    const std::filesystem::path file = entry.path() / "scene.json";
+    if (!std::filesystem::exists(file)) continue;
+    SCOPED_TRACE(entry.path().filename().string());
+    absl::StatusOr<Scene> scene = load_scene(file);
+    ASSERT_TRUE(scene.ok()) << scene.status();
+    scene->camera.width = 128;
+    scene->camera.height = 96;
+    scene->settings.photons_per_pass = 100000;
+    scene->settings.seed = 5;
+    std::vector<float> images[2];
+    int which = 0;
+    for (DeviceKind device : {DeviceKind::kCpu, DeviceKind::kCuda}) {
+      auto engine = Engine::create({.device = device, .memory_budget_bytes = kBudget});
+      ASSERT_TRUE(engine.ok()) << engine.status();
+      ASSERT_TRUE((*engine)->load(*scene).ok());
+      ASSERT_TRUE((*engine)->render(4).ok());
+      images[which++] = (*engine)->image_linear();
+    }
+    ASSERT_EQ(images[0].size(), images[1].size());
+    double difference = 0, reference = 0;
+    for (size_t i = 0; i < images[0].size(); ++i) {
+      if (i % 4 == 3) continue;  // alpha
+      const double d = double(images[1][i]) - images[0][i];
+      difference += d * d;
+      reference += double(images[0][i]) * images[0][i];
+    }
+    ASSERT_GT(reference, 0.0);
+    const double relative_rmse = std::sqrt(difference / reference);
+    std::printf("%s: relative RMSE GPU vs CPU %.5f\n", entry.path().filename().string().c_str(),
+                relative_rmse);
+    EXPECT_LT(relative_rmse, kImageRelativeRmse);
+    ++scenes;
+  }
+  EXPECT_GE(scenes, 3);
 }
 
 TEST(GpuParity, BudgetCoversTemporaryStorageAndIsReturned) {
