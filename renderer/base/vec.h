@@ -29,9 +29,9 @@ struct Vec3f {
   CAUSTICA_HD constexpr Vec3f(float x_, float y_, float z_) : x(x_), y(y_), z(z_) {}
   CAUSTICA_HD constexpr explicit Vec3f(float s) : x(s), y(s), z(s) {}
 
-  // Indexed as an array: a load, not a chain of branches (the watertight test indexes by axis).
-  // Selects, not (&x)[i]: an index known only at run time (the watertight triangle test's axis
-  // permutation) would otherwise force the vector into local memory on a GPU.
+  // Reading by selects, not (&x)[i]: an index known only at run time (the watertight triangle
+  // test's axis permutation) would otherwise force the vector into local memory on a GPU. Keep
+  // const vectors where an index varies, so that this overload is the one called.
   CAUSTICA_HDI float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
   CAUSTICA_HDI float& operator[](int i) { return (&x)[i]; }
   CAUSTICA_HDI Vec3f operator-() const { return {-x, -y, -z}; }

@@ -68,13 +68,16 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   out.caustic.bind(backend);
   out.global.bind(backend);
   const ResidentSceneView scene = resident.view();
-  if (settings.photon_count == 0 || settings.max_bounces == 0 || scene.light_count == 0 ||
+  // A photon is stored at its second hit at the earliest (first hits are direct light), so a
+  // path of one hit stores nothing.
+  if (settings.photon_count == 0 || settings.max_bounces < 2 || scene.light_count == 0 ||
       scene.total_power <= 0)
     return out;
   out.emitted = settings.photon_count;
 
   const uint32_t max_bounces = settings.max_bounces;
-  const size_t slots = size_t(settings.photon_count) * max_bounces;
+  // One slot per path and hit after the first.
+  const size_t slots = size_t(settings.photon_count) * (max_bounces - 1);
   Buffer<Photon> slot_photons(backend, slots);
   Buffer<uint8_t> caustic_flags(backend, slots);
   Buffer<uint8_t> global_flags(backend, slots);
@@ -132,7 +135,7 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
       if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
       if (m.type == MaterialType::kDiffuse) {
         if (bounce > 0) {
-          size_t k = size_t(path) * max_bounces + bounce;
+          size_t k = size_t(path) * (max_bounces - 1) + (bounce - 1);
           slot[k] = Photon{sh.position, power, -d};
           (only_specular ? caustic_flag : global_flag)[k] = 1;
         }
