@@ -47,6 +47,11 @@ std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::strin
   std::vector<std::string> args = {CAUSTICA_SERVER_BIN, "--listen", "127.0.0.1:0", "--port-file",
                                    port_file.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
+  // CAUSTICA_TEST_DEVICE=cuda runs the whole suite against a server on the GPU.
+  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE"); device != nullptr && *device != '\0') {
+    args.push_back("--device");
+    args.push_back(device);
+  }
   absl::StatusOr<pid_t> pid = client::spawn_process(args, server->dir_ / "server.log");
   if (!pid.ok()) {
     ADD_FAILURE() << "could not start caustica-server: " << pid.status();
@@ -74,7 +79,9 @@ std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::strin
 
 ServerProcess::~ServerProcess() {
   // Every test ends with a clean shutdown: exit code 0 (a sanitizer finding would change it).
-  if (pid_ > 0 && running()) EXPECT_EQ(terminate(), 0) << log();
+  if (pid_ > 0 && running()) {
+    EXPECT_EQ(terminate(), 0) << log();
+  }
   // Kept for inspection when the test failed.
   if (!::testing::Test::HasFailure()) {
     std::error_code ignored;

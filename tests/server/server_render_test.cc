@@ -384,9 +384,13 @@ TEST_F(ServerStatsTest, GetStatsReportsTheServersActivity) {
     ASSERT_TRUE(stub_->GetStats(&context, {}, &stats).ok());
   }
   EXPECT_GT(stats.uptime_s(), 0);
-  // --device auto: the GPU where there is one, else the CPU.
+  // --device auto: the GPU where there is one, else the CPU; or what CAUSTICA_TEST_DEVICE names.
   EXPECT_TRUE(stats.device().kind() == "cpu" || stats.device().kind() == "cuda")
       << stats.device().kind();
+  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE"); device != nullptr && *device != '\0' &&
+                                                                 std::string(device) != "auto") {
+    EXPECT_EQ(stats.device().kind(), device);
+  }
   EXPECT_FALSE(stats.device().name().empty());
   EXPECT_GT(stats.device().compute_units(), 0u);
   EXPECT_EQ(stats.memory_budget_bytes(), uint64_t{1} << 30);
