@@ -25,6 +25,7 @@
 #include "renderer/photon/density.h"
 #include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/triangle_soup.h"
+#include "tests/renderer/parallel/scratch_check.h"
 
 namespace caustica {
 namespace {
@@ -214,6 +215,21 @@ std::vector<uint32_t> morton_codes(Backend& backend, const std::vector<Aabb>& ho
   parallel_for(backend, host.size(),
                [=] CAUSTICA_HD(size_t i) { code[i] = morton_code(box[i].center(), bounds); });
   return codes.download();
+}
+
+// Scratch in shared memory: each thread its own, of the size asked for; and no launch at all when
+// one warp's scratch cannot fit in a block's 48 KiB.
+TEST_P(GpuParityTest, ParallelForWithScratchGivesEachThreadItsOwn) {
+  const size_t n = GetParam();
+  for (uint32_t count : {1u, 5u, 64u, 384u}) {
+    Buffer<uint32_t> sums(gpu(), n);
+    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(gpu(), n, count, ScratchCheck{count, sums.data()}));
+    auto got = sums.download();
+    for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
+  }
+  Buffer<uint32_t> unused(gpu(), 1);
+  EXPECT_FALSE(parallel_for_with_scratch<uint32_t>(gpu(), 64, 1024, ScratchCheck{1024, unused.data()}))
+      << "32 threads x 1024 x 4 bytes is over 48 KiB";
 }
 
 TEST_P(GpuParityTest, ParallelForMortonCodes) {

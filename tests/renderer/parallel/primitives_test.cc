@@ -8,6 +8,7 @@
 
 #include "renderer/parallel/buffer.h"
 #include "renderer/parallel/parallel_for.h"
+#include "tests/renderer/parallel/scratch_check.h"
 
 namespace caustica {
 namespace {
@@ -198,6 +199,17 @@ TEST_P(PrimitivesTest, ParallelForVisitsEveryIndexOnce) {
   parallel_for(*backend, n, [=](size_t i) { h[i] += uint32_t(i % 13) + 1; });
   auto got = hits.download();
   for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], i % 13 + 1);
+}
+
+// Each element gets scratch of its own, of the size asked for.
+TEST_P(PrimitivesTest, ParallelForWithScratchGivesEachElementItsOwn) {
+  const size_t n = GetParam();
+  for (uint32_t count : {1u, 5u, 64u}) {
+    Buffer<uint32_t> sums(*backend, n);
+    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(*backend, n, count, ScratchCheck{count, sums.data()}));
+    auto got = sums.download();
+    for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
+  }
 }
 
 TEST(BackendBudget, AllocationBeyondBudgetThrowsBudgetExceeded) {
