@@ -178,7 +178,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     size_t stored = 0, map_bytes = 0;
     const PhotonTraceSettings trace{o.photons, 8, 1, 0};
     Measurement m = measure(o, *backend, [&] {
-      TracedPhotons traced = trace_photons(*backend, resident, {o.photons, 8, 1, pass++});
+      PhotonTraceSettings this_pass = trace;
+      this_pass.pass = pass++;
+      TracedPhotons traced = trace_photons(*backend, resident, this_pass);
       PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
       PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
       stored = caustic.size() + global.size();

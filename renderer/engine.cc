@@ -152,7 +152,7 @@ absl::StatusOr<std::unique_ptr<Engine>> Engine::create(const EngineOptions& opti
     if (!backend.ok()) return backend.status();
     state->backend = *std::move(backend);
   }
-  state->photons_per_leaf = options.photons_per_leaf > 0 ? options.photons_per_leaf : 1;
+  state->photons_per_leaf = options.photons_per_leaf;  // build_photon_map takes 0 as 1
   return std::unique_ptr<Engine>(new Engine(std::move(state)));
 }
 

@@ -52,10 +52,9 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   });
   map.bvh = build_bvh_from_sorted_codes(backend, leaf_code, leaves, summary.data(),
                                         [=] CAUSTICA_HD(uint32_t leaf) {
-                                          uint32_t begin = leaf * per_leaf;
-                                          uint32_t end = begin + per_leaf < n ? begin + per_leaf : n;
+                                          const uint32_t end = photon_leaf_end(leaf, per_leaf, n);
                                           Aabb box;
-                                          for (uint32_t i = begin; i < end; ++i) box.extend(position[i]);
+                                          for (uint32_t i = leaf * per_leaf; i < end; ++i) box.extend(position[i]);
                                           return box;
                                         });
   return map;

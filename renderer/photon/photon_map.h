@@ -18,6 +18,12 @@ namespace caustica {
 
 constexpr uint32_t kDefaultPhotonsPerLeaf = 8;
 
+// One past the last photon of leaf `leaf`: leaves are runs of `per_leaf`, the last one shorter.
+CAUSTICA_HDI uint32_t photon_leaf_end(uint32_t leaf, uint32_t per_leaf, uint32_t count) {
+  const uint32_t end = (leaf + 1) * per_leaf;
+  return end < count ? end : count;
+}
+
 // What the estimate needs of a photon besides its position.
 struct PhotonFlux {
   Vec3f power;
@@ -36,8 +42,7 @@ struct PhotonMapView {
 
   CAUSTICA_HDI uint32_t leaf_begin(uint32_t leaf) const { return leaf * photons_per_leaf; }
   CAUSTICA_HDI uint32_t leaf_end(uint32_t leaf) const {
-    uint32_t end = (leaf + 1) * photons_per_leaf;
-    return end < count ? end : count;
+    return photon_leaf_end(leaf, photons_per_leaf, count);
   }
 };
 

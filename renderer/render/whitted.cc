@@ -1,6 +1,7 @@
 #include "renderer/render/whitted.h"
 
 #include "renderer/accel/camera_tiles.h"
+#include "renderer/accel/morton_order.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/morton.h"
 #include "renderer/base/pixel_blocks.h"
@@ -192,14 +193,10 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
 
   // Stage 3: the requests in Morton order of their positions, so that the threads of a warp
   // search the same nodes and photons.
-  Buffer<uint32_t> codes(backend, request_total), order(backend, request_total);
-  uint32_t* code = codes.data();
-  uint32_t* by_code = order.data();
-  parallel_for(backend, request_total, [=] CAUSTICA_HD(size_t i) {
-    code[i] = morton_code(request[i].position, scene_bounds);
-    by_code[i] = uint32_t(i);
-  });
-  backend.sort_pairs(code, by_code, request_total, 30);
+  const MortonOrder request_order = sort_by_code(
+      backend, request_total, 30,
+      [=] CAUSTICA_HD(uint32_t i) { return morton_code(request[i].position, scene_bounds); });
+  const uint32_t* by_code = request_order.order.data();
 
   // Stage 4: both photon-map estimates per request, stored in pixel and path order, with the
   // neighbour heap in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a

@@ -34,10 +34,6 @@ __global__ void scratch_kernel(size_t n, F f) {
   if (i < n) f(i, Scratch<T>{reinterpret_cast<T*>(shared_scratch) + threadIdx.x, blockDim.x});
 }
 
-}  // namespace detail
-
-namespace detail {
-
 // Warps per block for `per_thread` bytes of scratch: the count that lets the most warps share a
 // multiprocessor's shared memory (each block also costs the reserved bytes), or 0 when one warp's
 // scratch is more than a block may have without opting in (48 KiB).
@@ -66,19 +62,23 @@ inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm, siz
 template <typename T, typename F>
 bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_count, const F& f) {
   const size_t per_thread = size_t(scratch_count) * sizeof(T);
-  int device = 0, shared_per_sm = 0, reserved = 0;
-  CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
-  CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&shared_per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
-  CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
-  const unsigned warps = detail::scratch_block_warps(per_thread, size_t(shared_per_sm), size_t(reserved));
-  if (warps == 0) return false;
-  static const bool carveout_set = [] {
+  // Asked of the driver once per kernel, not at every launch (the gather launches once a pass).
+  struct SharedMemory {
+    size_t per_multiprocessor, reserved_per_block;
+  };
+  static const SharedMemory shared = [] {
+    int device = 0, per_sm = 0, reserved = 0;
+    CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
+    CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
+    CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
     CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(detail::scratch_kernel<T, F>,
                                              cudaFuncAttributePreferredSharedMemoryCarveout,
                                              int(cudaSharedmemCarveoutMaxShared)));
-    return true;
+    return SharedMemory{size_t(per_sm), size_t(reserved)};
   }();
-  (void)carveout_set;
+  const unsigned warps =
+      detail::scratch_block_warps(per_thread, shared.per_multiprocessor, shared.reserved_per_block);
+  if (warps == 0) return false;
   const unsigned block = 32 * warps;
   const size_t blocks = (n + block - 1) / block;
   if (blocks > 0x7fffffffu) throw DeviceError("parallel_for: too many elements for one launch");
