@@ -5,6 +5,7 @@
 // parallel_for launches kernels; every GPU case skips where the CUDA runtime finds no device.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdio>
@@ -353,6 +354,65 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   uint32_t full = 0;
   for (uint32_t i = 0; i < kNnQueries; ++i) full += c_counts[i] == 1 + i % kNnMaxK;
   EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
+}
+
+// Estimates at `points` with the given squared-radius bounds, each warp's 32 lanes searching as
+// one group (a lone search per thread on the CPU).
+std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMap& map,
+                                                const std::vector<Vec3f>& points,
+                                                const std::vector<float>& bounds) {
+  const uint32_t n = uint32_t(points.size());
+  Buffer<Vec3f> at = upload(backend, points);
+  Buffer<float> bound = upload(backend, bounds);
+  Buffer<RadianceEstimate> out(backend, n);
+  const Vec3f* q = at.data();
+  const float* b = bound.data();
+  RadianceEstimate* e = out.data();
+  const PhotonMapView view = map.view();
+  const SearchGroup group{backend.kind() == DeviceKind::kCuda ? 0xffffffffu : 0u};
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    Neighbour heap[kNnMaxK];
+    e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), kNnMaxK, 0.2f,
+                                    Kernel(i / 32 % 3), heap, b[i], group);
+  });
+  return out.download();
+}
+
+// Searches in a group, each bounded by the k-th distance 32 points back in Morton order (or by a
+// bound too small, for one warp in five), find the k-th distance of a lone search from the
+// maximum radius bit for bit, and the estimate up to the order of its sum.
+TEST(GpuParity, GroupSearchesWithCarriedBoundsFindWhatLoneSearchesFind) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> photons(80000);
+  for (Photon& ph : photons) {
+    const float x = u(rng), y = u(rng);
+    ph = {Vec3f(x * x, y, 0.0f), Vec3f(u(rng), u(rng), u(rng)), Vec3f(0, 0, 1)};  // denser at x = 0
+  }
+  Buffer<Photon> g_in = upload(*both.gpu, photons);
+  PhotonMap g_map = build_photon_map(*both.gpu, g_in);
+  Buffer<Photon> c_in = upload(*both.cpu, photons);
+  PhotonMap c_map = build_photon_map(*both.cpu, c_in);
+
+  std::vector<Vec3f> points(32 * 256);
+  for (Vec3f& q : points) q = Vec3f(u(rng), u(rng), 0.0f);
+  const Aabb unit{Vec3f(0.0f), Vec3f(1.0f)};
+  std::sort(points.begin(), points.end(),
+            [&](Vec3f a, Vec3f b) { return morton_code(a, unit) < morton_code(b, unit); });
+  const std::vector<float> none(points.size(), INFINITY);
+  const std::vector<RadianceEstimate> lone = grouped_estimates(*both.cpu, c_map, points, none);
+  std::vector<float> bounds(points.size(), INFINITY);
+  for (size_t i = 32; i < points.size(); ++i)
+    bounds[i] = i / 32 % 5 == 0 ? 0.25f * lone[i].radius_squared
+                                : carried_radius_squared(lone[i - 32].radius_squared, points[i - 32], points[i]);
+  const std::vector<RadianceEstimate> grouped = grouped_estimates(*both.gpu, g_map, points, bounds);
+  for (size_t i = 0; i < points.size(); ++i) {
+    ASSERT_EQ(grouped[i].radius_squared, lone[i].radius_squared) << "point " << i;
+    for (int c = 0; c < 3; ++c)
+      ASSERT_NEAR(grouped[i].radiance[c], lone[i].radiance[c], 1e-5f * lone[i].radiance[c]) << "point " << i;
+  }
 }
 
 // `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.

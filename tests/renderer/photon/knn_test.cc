@@ -167,5 +167,38 @@ TEST(Density, RecoversUniformIrradiance) {
   }
 }
 
+// A bound carried from the previous point of a walk (as the renderer's gathers carry it from one
+// Morton-neighbour request to the next) finds the same k-th distance and estimate as a search
+// from the maximum radius; so does a bound that is too small, by searching again.
+TEST(Density, CarriedBoundsChangeNothingButSpeed) {
+  auto p = make_map(100000, 3, /*clustered=*/true);
+  const PhotonMapView map = p->map.view();
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<float> step(-0.004f, 0.004f);
+  std::vector<Neighbour> heap(kMaxNearest);
+  Vec3f x(0.3f, 0.3f, 0.0f), previous = x;
+  float previous_r2 = INFINITY;
+  int bounded = 0;
+  for (int q = 0; q < 3000; ++q) {
+    x = Vec3f(std::clamp(x.x + step(rng), 0.0f, 1.0f), std::clamp(x.y + step(rng), 0.0f, 1.0f), 0.0f);
+    const uint32_t k = q % 2 ? 64 : 17;
+    const Kernel kernel = Kernel(q % 3);
+    const float max_radius = q % 500 < 5 ? 0.005f : 0.5f;  // a few searches find fewer than k
+    const RadianceEstimate lone = estimate_radiance_within(
+        map, x, Vec3f(0, 0, 1), Vec3f(1.0f), k, max_radius, kernel, heap.data(), INFINITY, {});
+    float bound = q % 2 ? carried_radius_squared(previous_r2, previous, x) : INFINITY;
+    if (q % 7 == 0) bound = 0.25f * lone.radius_squared;  // too small: the search must recover
+    bounded += bound < max_radius * max_radius;
+    const RadianceEstimate carried = estimate_radiance_within(
+        map, x, Vec3f(0, 0, 1), Vec3f(1.0f), k, max_radius, kernel, heap.data(), bound, {});
+    ASSERT_EQ(carried.radius_squared, lone.radius_squared) << "query " << q;
+    for (int c = 0; c < 3; ++c)
+      ASSERT_NEAR(carried.radiance[c], lone.radiance[c], 1e-5f * std::max(1.0f, lone.radiance[c])) << q;
+    previous = x;
+    previous_r2 = carried.radius_squared;
+  }
+  EXPECT_GT(bounded, 1500);
+}
+
 }  // namespace
 }  // namespace caustica
