@@ -353,6 +353,7 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
 
   progress_.resize(header.meshes_size());
   counts_.resize(header.meshes_size());
+  uint64_t scene_triangles = 0;
   for (int i = 0; i < header.meshes_size(); ++i) {
     const v1::MeshHeader& h = header.meshes(i);
     const std::string field = absl::StrCat("meshes[", i, "] '", h.name(), "'");
@@ -366,17 +367,25 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
                                                        " exceeds the limit of ", kMaxTrianglesPerMesh));
     }
     if (h.triangle_count() == 0) return invalid(join_field(field, "triangle_count"), "is 0");
+    // Each mesh is within its limit here, so the sum cannot overflow.
+    scene_triangles += h.triangle_count();
+    if (scene_triangles > kMaxSceneTriangles) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "meshes: the header declares ", scene_triangles, " triangles in meshes[0..", i,
+          "] alone, more than the limit of ", kMaxSceneTriangles, " per scene"));
+    }
     if (!h.per_triangle_materials() && h.material() >= scene_.materials.size()) {
       return invalid(join_field(field, "material"),
                      absl::StrCat(h.material(), " is out of range (the scene has ",
                                   scene_.materials.size(), " materials)"));
     }
     counts_[i] = {h.vertex_count(), h.triangle_count(), h.has_normals(),
-                  h.per_triangle_materials()};
+                  h.per_triangle_materials(), h.material()};
     for (int a = 1; a < 5; ++a) bytes_declared_ += expected_bytes(counts_[i], a);
+    // Arrays are allocated as their data arrives, after the server has checked the declared
+    // bytes against its memory budget; a one-material mesh's ids are filled in by finish().
     Mesh mesh;
     mesh.name = h.name().empty() ? absl::StrCat("mesh", i) : h.name();
-    if (!h.per_triangle_materials()) mesh.material_ids.assign(h.triangle_count(), h.material());
     scene_.meshes.push_back(std::move(mesh));
   }
   has_header_ = true;
@@ -490,6 +499,10 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
                                     expected, " (", kElementBytes[a], " per element)"));
       }
     }
+  }
+  for (size_t m = 0; m < scene_.meshes.size(); ++m) {
+    if (!counts_[m].per_triangle_materials)
+      scene_.meshes[m].material_ids.assign(counts_[m].triangles, counts_[m].material);
   }
   return std::move(scene_);
 }

@@ -62,6 +62,7 @@ struct MeshHeaderCounts {
   uint64_t triangles = 0;
   bool has_normals = false;
   bool per_triangle_materials = false;
+  uint32_t material = 0;  // the whole mesh's, without per-triangle materials
 };
 
 class SceneAssembler {

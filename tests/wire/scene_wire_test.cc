@@ -10,6 +10,7 @@
 #include <filesystem>
 
 #include "renderer/scene/load_scene.h"
+#include "renderer/scene/scene_limits.h"
 
 namespace caustica::wire {
 namespace {
@@ -193,6 +194,20 @@ INSTANTIATE_TEST_SUITE_P(
                     c[0].mutable_header()->mutable_meshes(0)->set_vertex_count(uint64_t{1} << 40);
                   },
                   absl::StatusCode::kResourceExhausted, "vertex_count: 1099511627776 exceeds"},
+        BadUpload{"too many triangles in all",
+                  [](auto& c) {
+                    // Each mesh within the per-mesh limit, together over the scene's: refused at
+                    // the header, before anything the size of the declared meshes is allocated.
+                    v1::SceneHeader* h = c[0].mutable_header();
+                    for (int i = 0; i < 8; ++i) {
+                      v1::MeshHeader* m = h->add_meshes();
+                      *m = h->meshes(0);
+                      m->set_triangle_count(kMaxTrianglesPerMesh);
+                      m->set_vertex_count(3);
+                    }
+                  },
+                  absl::StatusCode::kResourceExhausted,
+                  "alone, more than the limit of 268435456 per scene"},
         BadUpload{"unknown material type",
                   [](auto& c) {
                     c[0].mutable_header()->mutable_materials(0)->set_type(v1::Material::TYPE_UNSPECIFIED);
