@@ -12,6 +12,7 @@
 #include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/traversal.h"
+#include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
 #include "renderer/engine.h"
@@ -120,18 +121,17 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
     const std::vector<Ray> shadow_list = [&] {
       std::vector<Hit> h = hits.download();
       std::vector<Ray> rays;
-      for (int by = 0; by < camera.height; by += 4)
-        for (int bx = 0; bx < camera.width; bx += 8)
-          for (int y = by; y < std::min(by + 4, camera.height); ++y)
-            for (int x = bx; x < std::min(bx + 8, camera.width); ++x) {
-              const Hit& hit_here = h[size_t(y) * camera.width + x];
-              if (!hit_here.valid()) continue;
-              Ray primary = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
-              Vec3f p = primary.origin + primary.direction * hit_here.t;
-              Vec3f d = light - p;
-              float dist = length(d);
-              rays.push_back(Ray{p, d / dist, 1e-4f * dist, dist});
-            }
+      const PixelBlocks blocks(camera.width, camera.height);
+      for (size_t thread = 0; thread < blocks.thread_count(); ++thread) {
+        size_t pixel;
+        if (!blocks.pixel_of(thread, pixel) || !h[pixel].valid()) continue;
+        Ray primary = camera.ray_through(float(pixel % camera.width) + 0.5f,
+                                         float(pixel / camera.width) + 0.5f);
+        Vec3f p = primary.origin + primary.direction * h[pixel].t;
+        Vec3f d = light - p;
+        float dist = length(d);
+        rays.push_back(Ray{p, d / dist, 1e-4f * dist, dist});
+      }
       return rays;
     }();
     Buffer<Ray> shadow_rays(*backend, shadow_list.size());
@@ -225,11 +225,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
     Film film(*backend, o.width, o.height);
     const PinholeCamera camera = PinholeCamera::from(scene->camera);
-    const float max_radius = (*engine)->max_radius();
     uint32_t pass = 0;
     Measurement gather = measure(o, *backend, [&] {
-      render_pass(*backend, resident, caustic, global, camera,
-                  {o.k, max_radius, rs.kernel, rs.max_depth, rs.area_light_samples, rs.seed, pass++}, film);
+      render_pass(*backend, resident, caustic, global, camera, (*engine)->shading(pass++), film);
     });
     report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
                 gather.median, "ms", &gather, o.runs);

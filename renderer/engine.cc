@@ -254,10 +254,13 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   return report;
 }
 
-float Engine::max_radius() const {
+ShadingSettings Engine::shading(uint32_t pass) const {
   const State& st = *state_;
-  if (st.scene.settings.max_radius > 0) return st.scene.settings.max_radius;
-  return st.resident ? 0.05f * length(st.resident->bounds().extent()) : 0.0f;
+  const RenderSettings& rs = st.scene.settings;
+  // The gather radius cap: the setting, or 5% of the scene's diagonal when it is 0.
+  float max_radius = rs.max_radius;
+  if (max_radius <= 0) max_radius = st.resident ? 0.05f * length(st.resident->bounds().extent()) : 0.0f;
+  return {rs.k_nearest, max_radius, rs.kernel, rs.max_depth, rs.area_light_samples, rs.seed, pass};
 }
 
 absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progress) {
@@ -265,7 +268,6 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   PassReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    const RenderSettings& rs = st.scene.settings;
     const PinholeCamera camera = PinholeCamera::from(st.scene.camera);
     Backend& backend = *st.backend;
     for (uint32_t i = 0; i < passes; ++i) {
@@ -281,9 +283,7 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
       st.prepared.reset();
 
       auto t0 = std::chrono::steady_clock::now();
-      ShadingSettings shading{rs.k_nearest, max_radius(), rs.kernel, rs.max_depth,
-                              rs.area_light_samples, rs.seed, pass};
-      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading, *st.film);
+      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass), *st.film);
       backend.synchronize();
       report.timings.render_ms += elapsed_ms(t0);
       ++report.passes_rendered;

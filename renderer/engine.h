@@ -15,6 +15,7 @@
 #include "renderer/parallel/backend.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/render/film.h"
+#include "renderer/render/whitted.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica {
@@ -109,8 +110,9 @@ class Engine {
   SceneStats scene_stats() const;
   DeviceInfo device_info() const;
   Backend& backend();
-  // The gather radius cap in use (the setting, or 5% of the scene's diagonal when it is 0).
-  float max_radius() const;
+  // The shading of pass `pass` as render() runs it, from the scene's settings; with it a caller
+  // can time the render pass alone on photon maps of its own.
+  ShadingSettings shading(uint32_t pass) const;
 
  private:
   struct State;

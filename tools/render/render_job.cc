@@ -54,7 +54,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   log << absl::StrFormat("photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
                          rs.photons_per_pass, report->caustic_photons, report->global_photons);
   log << absl::StrFormat("passes       %d at %dx%d, k = %d, max radius %.4g\n", report->passes_rendered,
-                         cam.width, cam.height, rs.k_nearest, (*engine)->max_radius());
+                         cam.width, cam.height, rs.k_nearest, (*engine)->shading(0).max_radius);
   log << absl::StrFormat("time (ms)    photon trace %.1f | photon maps %.1f | render %.1f | total %.1f\n",
                          t.photon_trace_ms, t.photon_map_build_ms, t.render_ms, t.total());
   log << absl::StrFormat("wrote        %s\n", job.output.string());
