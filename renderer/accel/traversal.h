@@ -83,7 +83,7 @@ CAUSTICA_HDI void traverse(const TriangleBvhView& bvh, const Ray& ray, float& t_
   int top = 0;
   uint32_t node = 0;
   while (true) {
-    const Bvh4Node& n = bvh.nodes[node];
+    const Bvh4Node n = load_node(bvh.nodes + node);
     float t[4];
     intersect_children(n, ray.origin, inv_dir, ray.t_min, t_max, t);
     // Leaves first, so that their hits shrink t_max before the subtrees are ordered.

@@ -10,10 +10,24 @@ namespace caustica {
 
 using std::isfinite;
 
-// min/max as compares: they compile to single minss/maxss instructions, where fminf/fmaxf
-// become library calls on x86 (their NaN rules have no one-instruction form there).
-CAUSTICA_HDI float min_f(float a, float b) { return a < b ? a : b; }
-CAUSTICA_HDI float max_f(float a, float b) { return a > b ? a : b; }
+// min/max in one instruction on each backend. On x86 that is the compare form (minss/maxss),
+// since fminf/fmaxf become library calls there (their NaN rules have no one-instruction form). On
+// a GPU it is fminf/fmaxf: the compare form costs a compare and a select, which ptxas may not
+// merge because the two differ when an argument is NaN. For numbers they agree exactly.
+CAUSTICA_HDI float min_f(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return fminf(a, b);
+#else
+  return a < b ? a : b;
+#endif
+}
+CAUSTICA_HDI float max_f(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return fmaxf(a, b);
+#else
+  return a > b ? a : b;
+#endif
+}
 
 constexpr float kPi = 3.14159265358979323846f;
 constexpr float kInvPi = 0.31830988618379067154f;
