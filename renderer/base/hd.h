@@ -12,3 +12,14 @@
 #endif
 
 #define CAUSTICA_HDI CAUSTICA_HD CAUSTICA_INLINE
+
+// Loop unrolling on a GPU: NO_UNROLL keeps a short loop rolled where unrolling would copy a large
+// inlined body; UNROLL_BY(n) lets n iterations' loads be in flight together.
+#if defined(__CUDA_ARCH__)
+#define CAUSTICA_NO_UNROLL _Pragma("unroll 1")
+#define CAUSTICA_PRAGMA(x) _Pragma(#x)
+#define CAUSTICA_UNROLL_BY(n) CAUSTICA_PRAGMA(unroll n)
+#else
+#define CAUSTICA_NO_UNROLL
+#define CAUSTICA_UNROLL_BY(n)
+#endif

@@ -14,7 +14,8 @@ template <typename T>
 struct Scratch {
   T* base;
   uint32_t stride;
-  CAUSTICA_HDI T& operator[](uint32_t i) const { return base[size_t(i) * stride]; }
+  // In 32 bits (i * stride < 2^32: scratch is small), which a GPU computes in one instruction.
+  CAUSTICA_HDI T& operator[](uint32_t i) const { return base[i * stride]; }
 };
 
 }  // namespace caustica

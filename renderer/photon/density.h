@@ -28,6 +28,92 @@ struct alignas(8) Neighbour {
   uint32_t index;  // map (Morton) order
 };
 
+// Two heap entries side by side: a heap node's two children, read with one 16-byte load.
+struct alignas(16) NeighbourPair {
+  Neighbour entry[2];
+};
+
+// The k nearest photons found so far as a binary max-heap whose root (the farthest, which every
+// candidate is measured against) is kept in a register and whose entries 2i+1 and 2i+2, node i's
+// children, share pairs[i]. A step down the heap then reads both children in one load and
+// compares them without reading the winner again: three dependent shared-memory reads per level
+// became one on a GPU, where the gather spends half its instructions in these steps.
+// `pairs` (a NeighbourPair* or anything indexed like one, such as a Scratch<NeighbourPair>)
+// holds pairs_for(k) pairs.
+template <typename Pairs>
+struct NeighbourHeap {
+  Pairs pairs;
+  Neighbour top{};
+  uint32_t size = 0;
+
+  // Entries 1..k-1, and for an even k a sentinel beside entry k - 1 that no entry loses to.
+  CAUSTICA_HDI static uint32_t pairs_for(uint32_t k) { return k / 2; }
+
+  // Entry i: after a search, entries [0, size) are the neighbours found, in no particular order.
+  CAUSTICA_HDI Neighbour operator[](uint32_t i) const { return i == 0 ? top : slot(i); }
+
+  // Adds x, which the caller has checked against the limit, to a heap of fewer than k entries or
+  // in place of the farthest of k. Returns the new limit: the farthest distance once there are k.
+  CAUSTICA_HDI float offer(Neighbour x, uint32_t k) {
+    if (size == k) return replace_farthest(x);
+    // Until there are k, each candidate climbs from the end (one or two steps on average). One
+    // heap construction once there are k would take fewer steps, but on a GPU the lanes of a warp
+    // fill their heaps at different photons and each built its heap alone.
+    uint32_t i = size++;
+    while (i > 0) {
+      const uint32_t parent = (i - 1) / 2;
+      const Neighbour above = (*this)[parent];
+      if (above.distance_squared >= x.distance_squared) break;
+      put(i, above);
+      i = parent;
+    }
+    put(i, x);
+    if (size < k) return INFINITY;
+    if (k % 2 == 0 && k > 1) slot(k) = {-1.0f, 0u};
+    return top.distance_squared;
+  }
+
+  // x, nearer than the farthest of a full heap, takes its place. Returns the new farthest
+  // distance. The search's hot path: below the root the hole is a pair and a half, known from the
+  // pair just read, so no step recomputes it from an entry number.
+  CAUSTICA_HDI float replace_farthest(Neighbour x) {
+    if (size < 2) {
+      top = x;
+      return top.distance_squared;
+    }
+    NeighbourPair children = pairs[0];
+    bool second = children.entry[1].distance_squared > children.entry[0].distance_squared;
+    Neighbour larger = second ? children.entry[1] : children.entry[0];
+    if (larger.distance_squared <= x.distance_squared) {
+      top = x;
+      return top.distance_squared;
+    }
+    top = larger;
+    uint32_t hole_pair = 0, hole_half = second;
+    for (uint32_t i = 1 + uint32_t(second); 2 * i + 1 < size; i = 2 * i + 1 + uint32_t(second)) {
+      children = pairs[i];
+      second = children.entry[1].distance_squared > children.entry[0].distance_squared;
+      larger = second ? children.entry[1] : children.entry[0];
+      if (larger.distance_squared <= x.distance_squared) break;
+      pairs[hole_pair].entry[hole_half] = larger;
+      hole_pair = i;
+      hole_half = second;
+    }
+    pairs[hole_pair].entry[hole_half] = x;
+    return top.distance_squared;
+  }
+
+ private:
+  CAUSTICA_HDI Neighbour& slot(uint32_t i) const { return pairs[(i - 1) >> 1].entry[(i - 1) & 1]; }
+  CAUSTICA_HDI void put(uint32_t i, Neighbour x) {
+    if (i == 0) {
+      top = x;
+    } else {
+      slot(i) = x;
+    }
+  }
+};
+
 // The threads searching together: `lanes` is a mask of GPU warp lanes that make the same calls
 // in step, or 0 for a thread searching alone (always on the CPU). A group's decisions are votes,
 // so every member visits every node it needs; which order the group takes changes only speed.
@@ -57,31 +143,6 @@ struct SearchGroup {
   }
 };
 
-namespace detail {
-
-// Places `x` at position i of the max-heap heap[0..size), whose subtrees below i are heaps,
-// moving the hole down instead of swapping.
-template <typename Heap>
-CAUSTICA_HDI void sift_down(Heap heap, uint32_t size, uint32_t i, Neighbour x) {
-  while (true) {
-    uint32_t child = 2 * i + 1;
-    if (child >= size) break;
-    if (child + 1 < size && heap[child + 1].distance_squared > heap[child].distance_squared) ++child;
-    if (heap[child].distance_squared <= x.distance_squared) break;
-    heap[i] = heap[child];
-    i = child;
-  }
-  heap[i] = x;
-}
-
-// Turns heap[0..size) into a max-heap (Floyd's bottom-up construction, O(size)).
-template <typename Heap>
-CAUSTICA_HDI void make_heap(Heap heap, uint32_t size) {
-  for (uint32_t i = size / 2; i-- > 0;) sift_down(heap, size, i, heap[i]);
-}
-
-}  // namespace detail
-
 // Calls visit_leaf(leaf) for every leaf of `map` whose box lies within squared distance `limit`
 // of `p`, nearer subtrees first; visit_leaf may shrink `limit` as it goes. Every member of `group`
 // must make this call with the same map; each branch is a vote, so the members stay in step, and
@@ -90,25 +151,38 @@ template <typename VisitLeaf>
 CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const float& limit,
                                       SearchGroup group, VisitLeaf visit_leaf) {
   if (map.count == 0) return;
-  if (map.leaf_count == 1) {
-    visit_leaf(0u);
-    return;
-  }
   // Deferred subtrees keep their box distance: by the time one is popped the limit has usually
   // shrunk below it, and the subtree is dropped without loading its node.
   uint32_t stack[kKnnStackSize];
   float stack_distance[kKnnStackSize];
   int top = 0;
-  uint32_t node = map.root;
+  constexpr uint32_t kNone = ~0u;
+  // A map of one leaf has no node: its leaf is visited alone.
+  uint32_t node = map.leaf_count == 1 ? kNone : map.root;
   while (true) {
-    const BvhChild a = map.nodes[node].child[0], b = map.nodes[node].child[1];
-    float d0 = distance_squared(a.bounds(), p);
-    float d1 = distance_squared(b.bounds(), p);
-    uint32_t c0 = a.index, c1 = b.index;
-    const bool want0 = group.any(d0 < limit), want1 = group.any(d1 < limit);
-    if (want0 && is_leaf(c0)) visit_leaf(leaf_index(c0));
-    if (want1 && is_leaf(c1)) visit_leaf(leaf_index(c1));
-    bool go0 = want0 && !is_leaf(c0), go1 = want1 && !is_leaf(c1);
+    uint32_t leaf0 = 0u, leaf1 = kNone;
+    bool go0 = false, go1 = false;
+    float d0 = 0.0f, d1 = 0.0f;
+    uint32_t c0 = 0, c1 = 0;
+    if (node != kNone) {
+      const BvhChild a = map.nodes[node].child[0], b = map.nodes[node].child[1];
+      d0 = distance_squared(a.bounds(), p);
+      d1 = distance_squared(b.bounds(), p);
+      c0 = a.index;
+      c1 = b.index;
+      const bool want0 = group.any(d0 < limit), want1 = group.any(d1 < limit);
+      leaf0 = want0 && is_leaf(c0) ? leaf_index(c0) : kNone;
+      leaf1 = want1 && is_leaf(c1) ? leaf_index(c1) : kNone;
+      go0 = want0 && !is_leaf(c0);
+      go1 = want1 && !is_leaf(c1);
+    }
+    // One call site: the leaf visit inlines the whole heap insertion.
+    CAUSTICA_NO_UNROLL
+    for (int l = 0; l < 2; ++l) {
+      const uint32_t leaf = l == 0 ? leaf0 : leaf1;  // an array would live in local memory
+      if (leaf != kNone) visit_leaf(leaf);
+    }
+    if (node == kNone) return;
     if (go0 && go1) {
       if (group.most(d1 < d0)) {
         uint32_t c = c0;
@@ -135,36 +209,89 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
   }
 }
 
-// Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared.
-// `heap` (a Neighbour* or anything indexed like one, such as a Scratch<Neighbour>) must hold k
-// entries; on return heap[0..count) holds them, as a max-heap (heap[0] the farthest) when
-// count == k and in no particular order otherwise. Returns count. Every member of `group` must
-// make this call with the same map and k.
-template <typename Heap>
+constexpr uint32_t kPhotonBatch = 8;
+
+// positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads on a GPU when they are
+// 16-byte aligned (a leaf of 8 photons always is, in an aligned buffer).
+CAUSTICA_HDI void load_positions(const Vec3f* positions, uint32_t first, Vec3f at[kPhotonBatch]) {
+  static_assert(kPhotonBatch % 4 == 0, "four positions make three 16-byte words");
+#if defined(__CUDA_ARCH__)
+  if (first % 4 == 0 && reinterpret_cast<uintptr_t>(positions) % 16 == 0) {
+    const float4* from = reinterpret_cast<const float4*>(positions + first);
+    for (uint32_t w = 0; w < kPhotonBatch / 4; ++w) {
+      const float4 a = __ldg(from + 3 * w), b = __ldg(from + 3 * w + 1), c = __ldg(from + 3 * w + 2);
+      at[4 * w + 0] = Vec3f(a.x, a.y, a.z);
+      at[4 * w + 1] = Vec3f(a.w, b.x, b.y);
+      at[4 * w + 2] = Vec3f(b.z, b.w, c.x);
+      at[4 * w + 3] = Vec3f(c.y, c.z, c.w);
+    }
+    return;
+  }
+#endif
+  for (uint32_t j = 0; j < kPhotonBatch; ++j) at[j] = positions[first + j];
+}
+
+// The index of the lowest set bit of x != 0.
+CAUSTICA_HDI uint32_t lowest_bit(uint32_t x) {
+#if defined(__CUDA_ARCH__)
+  return uint32_t(__ffs(int(x)) - 1);
+#else
+  return uint32_t(__builtin_ctz(x));
+#endif
+}
+
+// v[j] by selects on the bits of j: indexing the array at run time would put it in local memory on
+// a GPU.
+CAUSTICA_HDI float pick(const float v[kPhotonBatch], uint32_t j) {
+  static_assert(kPhotonBatch == 8, "three levels of selects");
+  const float a0 = j & 1 ? v[1] : v[0], a1 = j & 1 ? v[3] : v[2];
+  const float a2 = j & 1 ? v[5] : v[4], a3 = j & 1 ? v[7] : v[6];
+  const float b0 = j & 2 ? a1 : a0, b1 = j & 2 ? a3 : a2;
+  return j & 4 ? b1 : b0;
+}
+
+// Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared and
+// leaves them in `heap` (heap.size of them). Every member of `group` must make this call with the
+// same map and k.
+template <typename Pairs>
 CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k,
-                                   float max_distance_squared, Heap heap, SearchGroup group = {}) {
+                                   float max_distance_squared, NeighbourHeap<Pairs>& heap,
+                                   SearchGroup group = {}) {
+  heap.size = 0;
   if (k == 0) return 0;
-  uint32_t size = 0;
   float limit = max_distance_squared;  // shrinks to the k-th distance once the heap is full
   visit_photon_leaves(map, p, limit, group, [&](uint32_t leaf) {
+    uint32_t i = map.leaf_begin(leaf);
     const uint32_t end = map.leaf_end(leaf);
-    for (uint32_t i = map.leaf_begin(leaf); i < end; ++i) {
-      float d2 = length_squared(map.positions[i] - p);
-      if (d2 >= limit) continue;
-      if (size < k) {
-        // Candidates are only appended until there are k; then one heap construction.
-        heap[size++] = {d2, i};
-        if (size == k) {
-          detail::make_heap(heap, size);
-          limit = heap[0].distance_squared;
-        }
-      } else {
-        detail::sift_down(heap, size, 0, {d2, i});  // the farthest makes room
-        limit = heap[0].distance_squared;
+    // Eight photons at a time, all loaded before any is offered: one at a time, each photon's load
+    // waited behind the previous one's heap insertion.
+    for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
+      Vec3f at[kPhotonBatch];
+      load_positions(map.positions, i, at);
+      float d2[kPhotonBatch];
+      uint32_t nearer = 0;  // the photons nearer than the limit, one bit each
+      for (uint32_t j = 0; j < kPhotonBatch; ++j) {
+        d2[j] = length_squared(at[j] - p);
+        nearer |= uint32_t(d2[j] < limit) << j;
+      }
+      // In photon order, each checked again as the limit shrinks. On a GPU the lanes of a warp
+      // take this loop together, each at its own next photon, so the warp steps through as many
+      // insertions as its busiest lane makes, not one round per photon that any lane takes.
+      while (nearer != 0) {
+        const uint32_t j = lowest_bit(nearer);
+        nearer &= nearer - 1;
+        const float d = pick(d2, j);
+        if (d < limit) limit = min_f(limit, heap.offer({d, i + j}, k));
       }
     }
+    // A leaf's last photons, one at a time (rolled, since the body is big).
+    CAUSTICA_NO_UNROLL
+    for (; i < end; ++i) {
+      const float d2 = length_squared(map.positions[i] - p);
+      if (d2 < limit) limit = min_f(limit, heap.offer({d2, i}, k));
+    }
   });
-  return size;
+  return heap.size;
 }
 
 // Kernel weight at normalised distance x = d / r in [0, 1], scaled so that it integrates to
@@ -200,36 +327,49 @@ CAUSTICA_HDI float carried_radius_squared(float near_radius_squared, Vec3f near,
 // radius when fewer than k photons lie within it. `bound_squared`, when below the maximum, is a
 // squared radius known to hold the k nearest (carried_radius_squared); should it prove too small
 // the search is repeated from the maximum, so a bound changes speed, never the estimate's photons.
-// `heap` holds k Neighbours.
-template <typename Heap>
+// `pairs` is a NeighbourHeap's storage for k.
+template <typename Pairs>
 CAUSTICA_HDI RadianceEstimate estimate_radiance_within(const PhotonMapView& map, Vec3f p,
                                                        Vec3f normal, Vec3f albedo, uint32_t k,
-                                                       float max_radius, Kernel kernel, Heap heap,
+                                                       float max_radius, Kernel kernel, Pairs pairs,
                                                        float bound_squared, SearchGroup group) {
+  NeighbourHeap<Pairs> heap{pairs};
   const float max_d2 = max_radius * max_radius;
-  const bool bounded = bound_squared < max_d2;
-  uint32_t found = find_nearest(map, p, k, bounded ? bound_squared : max_d2, heap, group);
-  const bool missed = bounded && found < k;  // rare: the members that missed search again
-  const SearchGroup again = group.among(missed);
-  if (missed) found = find_nearest(map, p, k, max_d2, heap, again);
+  // One call site for both searches, since each inlines the whole search.
+  float limit = bound_squared < max_d2 ? bound_squared : max_d2;
+  SearchGroup searching = group;
+  bool searches = true;
+  uint32_t found = 0;
+  while (true) {
+    if (searches) found = find_nearest(map, p, k, limit, heap, searching);
+    // Rare: the members whose bound held fewer than k search again from the maximum.
+    const bool missed = searches && limit < max_d2 && found < k;
+    if (!group.any(missed)) break;
+    searching = group.among(missed);
+    searches = missed;
+    limit = max_d2;
+  }
   if (found == 0) return {Vec3f(0.0f), max_d2};
-  const float r2 = found == k ? heap[0].distance_squared : max_d2;
+  const float r2 = found == k ? heap.top.distance_squared : max_d2;
   if (r2 <= 0.0f) return {Vec3f(0.0f), r2};
   Vec3f flux(0.0f);
   const float inv_r2 = 1.0f / r2;
+  // Unrolled so that several photons' flux loads are in flight at once.
+  CAUSTICA_UNROLL_BY(4)
   for (uint32_t i = 0; i < found; ++i) {
-    const PhotonFlux& ph = map.flux[heap[i].index];
+    const Neighbour n = heap[i];
+    const PhotonFlux& ph = map.flux[n.index];
     if (dot(decode_octahedral(ph.incoming), normal) <= 0.0f) continue;
-    flux += ph.power * kernel_weight(kernel, heap[i].distance_squared * inv_r2);
+    flux += ph.power * kernel_weight(kernel, n.distance_squared * inv_r2);
   }
   return {albedo * flux * (kInvPi * kInvPi * inv_r2), r2};
 }
 
 // The same for a lone search with no bound.
-template <typename Heap>
+template <typename Pairs>
 CAUSTICA_HDI Vec3f estimate_radiance(const PhotonMapView& map, Vec3f p, Vec3f normal, Vec3f albedo,
-                                     uint32_t k, float max_radius, Kernel kernel, Heap heap) {
-  return estimate_radiance_within(map, p, normal, albedo, k, max_radius, kernel, heap, INFINITY, {})
+                                     uint32_t k, float max_radius, Kernel kernel, Pairs pairs) {
+  return estimate_radiance_within(map, p, normal, albedo, k, max_radius, kernel, pairs, INFINITY, {})
       .radiance;
 }
 

@@ -117,12 +117,12 @@ struct GatherEstimates {
     return (request_count + per_group - 1) / per_group * lanes;
   }
 
-  template <typename Heap>
-  CAUSTICA_HDI void operator()(size_t thread, Heap heap) const {
+  template <typename Pairs>
+  CAUSTICA_HDI void operator()(size_t thread, Pairs heap) const {
     const uint32_t lane = uint32_t(thread % lanes);
     const size_t group_first = (thread - lane) * chain;
     // An infinite radius carries no bound to the first request.
-    RadianceEstimate caustic{Vec3f(0.0f), INFINITY}, indirect{Vec3f(0.0f), INFINITY};
+    float caustic_r2 = INFINITY, indirect_r2 = INFINITY;
     Vec3f previous(0.0f);
     for (uint32_t step = 0; step < chain; ++step) {
       const size_t batch = group_first + size_t(step) * lanes;
@@ -130,13 +130,19 @@ struct GatherEstimates {
       const GatherRequest q = requests[by_code[batch + lane]];
       const size_t in_batch = request_count - batch < lanes ? request_count - batch : lanes;
       const SearchGroup group{lanes == 1 ? 0u : uint32_t((uint64_t(1) << in_batch) - 1)};
-      const float caustic_bound = carried_radius_squared(caustic.radius_squared, previous, q.position);
-      const float indirect_bound = carried_radius_squared(indirect.radius_squared, previous, q.position);
-      caustic = estimate_radiance_within(caustics, q.position, q.normal, q.weight, k, max_radius,
-                                         kernel, heap, caustic_bound, group);
-      indirect = estimate_radiance_within(global, q.position, q.normal, q.weight, k, max_radius,
-                                          kernel, heap, indirect_bound, group);
-      gathered[pixel_offsets[q.pixel] + q.order] = caustic.radiance + indirect.radiance;
+      Vec3f sum(0.0f);
+      // The caustic map, then the global one, from one call site: each call inlines the whole
+      // search, and two copies of it overflowed a GPU's instruction cache.
+      CAUSTICA_NO_UNROLL
+      for (int m = 0; m < 2; ++m) {
+        const float carried = carried_radius_squared(m == 0 ? caustic_r2 : indirect_r2, previous, q.position);
+        const RadianceEstimate e = estimate_radiance_within(m == 0 ? caustics : global, q.position,
+                                                            q.normal, q.weight, k, max_radius, kernel,
+                                                            heap, carried, group);
+        (m == 0 ? caustic_r2 : indirect_r2) = e.radius_squared;
+        sum += e.radiance;
+      }
+      gathered[pixel_offsets[q.pixel] + q.order] = sum;
       previous = q.position;
     }
   }
@@ -241,9 +247,10 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const GatherEstimates gather{caustics,      global, request, by_code, offset,         gathered.data(),
                                request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
   const size_t threads = GatherEstimates::threads(request_total, lanes, chain);
-  if (!parallel_for_with_scratch<Neighbour>(backend, threads, k, gather)) {
+  const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
+  if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {
     parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
-      Neighbour heap[kMaxNearest];
+      NeighbourPair heap[kMaxNearest / 2];
       gather(thread, heap);
     });
   }

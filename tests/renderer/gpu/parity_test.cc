@@ -311,10 +311,11 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const s
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
     const uint32_t k = 1 + uint32_t(i % kNnMaxK);
     const float max_radius = i % 3 == 0 ? 0.02f : 1.0f;
-    Neighbour heap[kNnMaxK];
+    NeighbourPair storage[kNnMaxK / 2];
+    NeighbourHeap<NeighbourPair*> heap{storage};
     count[i] = find_nearest(view, q[i], k, max_radius * max_radius, heap);
     for (uint32_t j = 0; j < kNnMaxK; ++j) out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
-    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3), heap);
+    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3), storage);
   });
   return {counts.download(), found.download(), radiance.download()};
 }
@@ -371,7 +372,7 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
   const PhotonMapView view = map.view();
   const SearchGroup group{backend.kind() == DeviceKind::kCuda ? 0xffffffffu : 0u};
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    Neighbour heap[kNnMaxK];
+    NeighbourPair heap[kNnMaxK / 2];
     e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), kNnMaxK, 0.2f,
                                     Kernel(i / 32 % 3), heap, b[i], group);
   });

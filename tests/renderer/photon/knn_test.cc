@@ -38,12 +38,14 @@ void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPho
   ASSERT_EQ(sorted.size(), n);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-0.1f, 1.1f);
-  std::vector<Neighbour> heap(kMaxNearest);
+  std::vector<NeighbourPair> storage(kMaxNearest / 2);
+  NeighbourHeap<NeighbourPair*> heap{storage.data()};
   for (int q = 0; q < 2000; ++q) {
     Vec3f x(u(rng), u(rng), clustered ? 0.01f * u(rng) : u(rng));
-    uint32_t k = std::vector<uint32_t>{1, 8, 64, 200}[q % 4];
+    // Odd and even k: an even k's heap ends in a half-used pair.
+    uint32_t k = std::vector<uint32_t>{1, 2, 7, 64, 201}[q % 5];
     float max_r = q % 3 == 0 ? 0.05f : 10.0f;
-    uint32_t found = find_nearest(p->map.view(), x, k, max_r * max_r, heap.data());
+    uint32_t found = find_nearest(p->map.view(), x, k, max_r * max_r, heap);
 
     std::vector<float> d2(n);
     for (size_t i = 0; i < n; ++i) d2[i] = length_squared(sorted[i].position - x);
@@ -149,7 +151,7 @@ TEST(Density, RecoversUniformIrradiance) {
   Buffer<Photon> buf(*backend, n);
   buf.upload(photons);
   PhotonMap map = build_photon_map(*backend, buf);
-  std::vector<Neighbour> heap(kMaxNearest);
+  std::vector<NeighbourPair> heap(kMaxNearest / 2);
   for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
     double mean = 0;
     const int queries = 400;
@@ -175,7 +177,7 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
   const PhotonMapView map = p->map.view();
   std::mt19937 rng(4);
   std::uniform_real_distribution<float> step(-0.004f, 0.004f);
-  std::vector<Neighbour> heap(kMaxNearest);
+  std::vector<NeighbourPair> heap(kMaxNearest / 2);
   Vec3f x(0.3f, 0.3f, 0.0f), previous = x;
   float previous_r2 = INFINITY;
   int bounded = 0;
