@@ -202,5 +202,85 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
   EXPECT_GT(bounded, 1500);
 }
 
+// The estimate against brute force: the k nearest by sorting every distance, their flux summed
+// with the kernel's weights, those arriving from behind left out. Photons of distinct powers and
+// directions, so that summing a wrong photon shows.
+TEST(Density, EstimateMatchesBruteForce) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g;
+  const size_t n = 20000;
+  std::vector<Photon> photons(n);
+  for (auto& ph : photons) {
+    ph = {Vec3f(u(rng), u(rng), 0.2f * u(rng)), Vec3f(u(rng), u(rng), u(rng)),
+          normalize(Vec3f(g(rng), g(rng), g(rng)))};
+  }
+  Buffer<Photon> buf(*backend, n);
+  buf.upload(photons);
+  const PhotonMap map = build_photon_map(*backend, buf);
+  const std::vector<Photon> stored = map.download();  // directions as decoded
+  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  for (int q = 0; q < 600; ++q) {
+    const Vec3f x(u(rng), u(rng), 0.1f);
+    const Vec3f normal = normalize(Vec3f(g(rng), g(rng), 2.0f));
+    const uint32_t k = std::vector<uint32_t>{1, 7, 64, 200}[q % 4];
+    const float max_radius = q % 3 == 0 ? 0.03f : 0.5f;
+    const Kernel kernel = Kernel(q % 3);
+    const RadianceEstimate got = estimate_radiance_within(
+        map.view(), x, normal, Vec3f(0.5f), k, max_radius, kernel, heap.data(), INFINITY, {});
+
+    std::vector<std::pair<float, size_t>> by_distance;
+    for (size_t i = 0; i < n; ++i) {
+      const float d2 = length_squared(stored[i].position - x);
+      if (d2 < max_radius * max_radius) by_distance.push_back({d2, i});
+    }
+    std::sort(by_distance.begin(), by_distance.end());
+    const size_t used = std::min<size_t>(k, by_distance.size());
+    const float r2 = used == k ? by_distance[k - 1].first : max_radius * max_radius;
+    ASSERT_EQ(got.radius_squared, r2) << "query " << q;
+    double sum[3] = {0, 0, 0};
+    for (size_t j = 0; j < used; ++j) {
+      const Photon& ph = stored[by_distance[j].second];
+      if (dot(ph.incoming, normal) <= 0.0f) continue;
+      // d2 times 1/r2 as the renderer computes it: at the k-th photon it may fall an ulp short
+      // of 1, where the Epanechnikov and cone weights are not yet 0.
+      const float w = kernel_weight(kernel, by_distance[j].first * (1.0f / r2));
+      for (int c = 0; c < 3; ++c) sum[c] += double(ph.power[c]) * w;
+    }
+    for (int c = 0; c < 3; ++c) {
+      const double expected = 0.5 * sum[c] / (kPi * kPi * r2);
+      ASSERT_NEAR(got.radiance[c], expected, 1e-5 * std::max(1.0, expected)) << "query " << q;
+    }
+  }
+
+}
+
+// Photons stacked on the same points, so that many lie exactly at the k-th distance: the estimate
+// takes as many of them as make k, whichever ones the search kept.
+TEST(Density, TakesExactlyKWhenPhotonsTieAtTheKthDistance) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> photons;
+  for (int point = 0; point < 400; ++point) {
+    const Vec3f at(u(rng), u(rng), 0.0f);
+    for (int copy = 0; copy < 25; ++copy) photons.push_back({at, Vec3f(1.0f), Vec3f(0, 0, 1)});
+  }
+  Buffer<Photon> buf(*backend, photons.size());
+  buf.upload(photons);
+  const PhotonMap map = build_photon_map(*backend, buf);
+  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  for (int q = 0; q < 300; ++q) {
+    const Vec3f x(u(rng), u(rng), 0.0f);
+    const uint32_t k = std::vector<uint32_t>{10, 33, 64}[q % 3];
+    const RadianceEstimate got = estimate_radiance_within(
+        map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f, Kernel::kUniform, heap.data(), INFINITY, {});
+    // Uniform kernel, unit powers: the sum is the number of photons taken.
+    const double taken = got.radiance.x * kPi * kPi * got.radius_squared;
+    ASSERT_NEAR(taken, double(k), 1e-3 * k) << "query " << q;
+  }
+}
+
 }  // namespace
 }  // namespace caustica
