@@ -320,8 +320,12 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const s
   return {counts.download(), found.download(), radiance.download()};
 }
 
-// The photon map from the same photons, and k-nearest searches and radiance estimates on it: the
-// same integer decisions and uncontracted float operations, so everything agrees bit for bit.
+// The photon map from the same photons, and k-nearest searches and radiance estimates on it. The
+// map agrees bit for bit, and so do the k nearest distances of every search (the same integer
+// decisions and uncontracted float operations). The heaps hold them in different orders (the GPU
+// fills its heaps by climbing, the CPU by one construction), so an estimate sums the same photons
+// in another order: equal to 1e-5. Where more photons lie exactly at the k-th distance than the k
+// nearest take, which of them are taken may differ too, and those estimates are not compared.
 TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
@@ -350,8 +354,28 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   auto [c_counts, c_found, c_radiance] = search(*both.cpu, c_map);
   auto [g_counts, g_found, g_radiance] = search(*both.gpu, g_map);
   EXPECT_EQ(c_counts, g_counts);
-  EXPECT_TRUE(same_bytes(c_found, g_found));
-  EXPECT_TRUE(same_bytes(c_radiance, g_radiance));
+  const std::vector<Photon> stored = c_map.download();
+  uint32_t compared = 0;
+  for (uint32_t i = 0; i < kNnQueries; ++i) {
+    std::vector<float> c_d2, g_d2;
+    for (uint32_t j = 0; j < c_counts[i]; ++j) {
+      c_d2.push_back(c_found[i * kNnMaxK + j].distance_squared);
+      g_d2.push_back(g_found[i * kNnMaxK + j].distance_squared);
+    }
+    std::sort(c_d2.begin(), c_d2.end());
+    std::sort(g_d2.begin(), g_d2.end());
+    ASSERT_TRUE(same_bytes(c_d2, g_d2)) << "query " << i;
+    // Photons at exactly the k-th distance, against those of them among the k nearest.
+    const float r2 = c_d2.empty() ? 0.0f : c_d2.back();
+    size_t at_r = 0;
+    for (const Photon& ph : stored) at_r += length_squared(ph.position - points[i]) == r2;
+    if (size_t(std::count(c_d2.begin(), c_d2.end(), r2)) != at_r) continue;
+    ++compared;
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_NEAR(g_radiance[i][c], c_radiance[i][c], 1e-5f * std::max(1.0f, c_radiance[i][c])) << "query " << i;
+    }
+  }
+  EXPECT_GT(compared, kNnQueries * 9 / 10);
   uint32_t full = 0;
   for (uint32_t i = 0; i < kNnQueries; ++i) full += c_counts[i] == 1 + i % kNnMaxK;
   EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
