@@ -122,7 +122,7 @@ struct GatherEstimates {
     const uint32_t lane = uint32_t(thread % lanes);
     const size_t group_first = (thread - lane) * chain;
     // An infinite radius carries no bound to the first request.
-    float caustic_r2 = INFINITY, indirect_r2 = INFINITY;
+    RadianceEstimate caustic{Vec3f(0.0f), INFINITY}, indirect{Vec3f(0.0f), INFINITY};
     Vec3f previous(0.0f);
     for (uint32_t step = 0; step < chain; ++step) {
       const size_t batch = group_first + size_t(step) * lanes;
@@ -130,19 +130,13 @@ struct GatherEstimates {
       const GatherRequest q = requests[by_code[batch + lane]];
       const size_t in_batch = request_count - batch < lanes ? request_count - batch : lanes;
       const SearchGroup group{lanes == 1 ? 0u : uint32_t((uint64_t(1) << in_batch) - 1)};
-      Vec3f sum(0.0f);
-      // The caustic map, then the global one, from one call site: each call inlines the whole
-      // search, and two copies of it overflowed a GPU's instruction cache.
-      CAUSTICA_NO_UNROLL
-      for (int m = 0; m < 2; ++m) {
-        const float carried = carried_radius_squared(m == 0 ? caustic_r2 : indirect_r2, previous, q.position);
-        const RadianceEstimate e = estimate_radiance_within(m == 0 ? caustics : global, q.position,
-                                                            q.normal, q.weight, k, max_radius, kernel,
-                                                            heap, carried, group);
-        (m == 0 ? caustic_r2 : indirect_r2) = e.radius_squared;
-        sum += e.radiance;
-      }
-      gathered[pixel_offsets[q.pixel] + q.order] = sum;
+      const float caustic_bound = carried_radius_squared(caustic.radius_squared, previous, q.position);
+      const float indirect_bound = carried_radius_squared(indirect.radius_squared, previous, q.position);
+      caustic = estimate_radiance_within(caustics, q.position, q.normal, q.weight, k, max_radius,
+                                         kernel, heap, caustic_bound, group);
+      indirect = estimate_radiance_within(global, q.position, q.normal, q.weight, k, max_radius,
+                                          kernel, heap, indirect_bound, group);
+      gathered[pixel_offsets[q.pixel] + q.order] = caustic.radiance + indirect.radiance;
       previous = q.position;
     }
   }
