@@ -91,8 +91,9 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
 
 // Requests per CPU thread in stage 4, each bounding the next one's search radius (density.h):
 // 1.26x faster on the CPU (cornell-caustics 512x512, k = 64). On a GPU the same chains cost more
-// than they save (11.7 ms at 1 request per thread, 13.1 at 2, 14.5 at 4, H200, 1024x1024): a warp
-// that searches as a group already shares its nodes, and longer threads leave fewer warps.
+// than they save (11.7 ms at 1 request per thread, 13.1 at 2, 14.5 at 4, H200, 1024x1024; with
+// today's heaps, and each lane bounded by the nearest of the previous batch's 32 requests, 9.5 at
+// 1, 9.65 at 2, 10.0 at 4): a warp that searches as a group already shares its nodes.
 constexpr uint32_t kGatherChain = 8;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Morton order. A group
