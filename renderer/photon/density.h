@@ -86,8 +86,8 @@ struct NeighbourHeap {
 
  private:
   // x, nearer than the farthest of a full heap, takes its place. Returns the new farthest
-  // distance. The search's hot path: below the root the hole is a pair and a half, known from the
-  // pair just read, so no step recomputes it from an entry number.
+  // distance. The search's hot path: below the root the hole is an address, the half of the pair
+  // just read, so no step recomputes it from an entry number.
   CAUSTICA_HDI float replace_farthest(Neighbour x) {
     if (size < 2) {
       top = x;
@@ -100,23 +100,25 @@ struct NeighbourHeap {
       return top.distance_squared;
     }
     top = larger;
-    uint32_t hole_pair = 0, hole_half = second;
+    Neighbour* hole = &pairs[0].entry[second ? 1 : 0];
     for (uint32_t i = 1 + uint32_t(second); 2 * i + 1 < size; i = 2 * i + 1 + uint32_t(second)) {
-      larger = larger_child(i, second);
+      NeighbourPair& children = pairs[i];
+      larger = larger_of(children, second);
       if (larger.distance_squared <= x.distance_squared) break;
-      pairs[hole_pair].entry[hole_half] = larger;
-      hole_pair = i;
-      hole_half = second;
+      *hole = larger;
+      hole = &children.entry[second ? 1 : 0];
     }
-    pairs[hole_pair].entry[hole_half] = x;
+    *hole = x;
     return top.distance_squared;
   }
 
-  // The larger of node i's two children, and whether it is the second. On a GPU, by selects on
+  // The larger of node i's two children (of a pair), and whether it is the second. On a GPU, by selects on
   // the pair as loaded; on the CPU, by indexing memory with the comparison, since a select between
   // two 8-byte values compiled to a branch there that mispredicted half the time.
   CAUSTICA_HDI Neighbour larger_child(uint32_t i, bool& second) const {
-    const NeighbourPair& children = pairs[i];
+    return larger_of(pairs[i], second);
+  }
+  CAUSTICA_HDI static Neighbour larger_of(const NeighbourPair& children, bool& second) {
 #if defined(__CUDA_ARCH__)
     const NeighbourPair both = children;
     second = both.entry[1].distance_squared > both.entry[0].distance_squared;
