@@ -37,7 +37,7 @@ struct alignas(16) NeighbourPair {
 // candidate is measured against) is kept in a register and whose entries 2i+1 and 2i+2, node i's
 // children, share pairs[i]. A step down the heap then reads both children in one load and
 // compares them without reading the winner again: three dependent shared-memory reads per level
-// became one on a GPU, where the gather spends half its instructions in these steps.
+// became one on a GPU, where these steps are the largest part of the gather's instructions.
 // `pairs` (a NeighbourPair* or anything indexed like one, such as a Scratch<NeighbourPair>)
 // holds pairs_for(k) pairs.
 template <typename Pairs>
@@ -69,16 +69,16 @@ struct NeighbourHeap {
       i = parent;
     }
     put(i, x);
-    if (size < k) return INFINITY;
-    if (k % 2 == 0 && k > 1) slot(k) = {-1.0f, 0u};
 #else
     // On the CPU candidates are appended until there are k, then one heap construction (Floyd's,
-    // O(k)): they arrive nearest first, so that climbing took most of them all the way up (the
-    // render pass 0.79 against 0.71 s). The two backends' heaps then hold the same neighbours in
-    // different orders.
+    // O(k), below): they arrive nearest first, so that climbing took most of them all the way up
+    // (the render pass 0.79 against 0.71 s). The two backends' heaps then hold the same
+    // neighbours in different orders.
     put(size++, x);
+#endif
     if (size < k) return INFINITY;
     if (k % 2 == 0 && k > 1) slot(k) = {-1.0f, 0u};
+#if !defined(__CUDA_ARCH__)
     for (uint32_t i = k / 2; i-- > 0;) sift_down(i, (*this)[i]);
 #endif
     return top.distance_squared;
@@ -94,7 +94,7 @@ struct NeighbourHeap {
       return top.distance_squared;
     }
     bool second;
-    Neighbour larger = larger_child(0, second);
+    Neighbour larger = larger_of(pairs[0], second);
     if (larger.distance_squared <= x.distance_squared) {
       top = x;
       return top.distance_squared;
@@ -112,12 +112,9 @@ struct NeighbourHeap {
     return top.distance_squared;
   }
 
-  // The larger of node i's two children (of a pair), and whether it is the second. On a GPU, by selects on
+  // The larger of a node's two children, and whether it is the second. On a GPU, by selects on
   // the pair as loaded; on the CPU, by indexing memory with the comparison, since a select between
   // two 8-byte values compiled to a branch there that mispredicted half the time.
-  CAUSTICA_HDI Neighbour larger_child(uint32_t i, bool& second) const {
-    return larger_of(pairs[i], second);
-  }
   CAUSTICA_HDI static Neighbour larger_of(const NeighbourPair& children, bool& second) {
 #if defined(__CUDA_ARCH__)
     const NeighbourPair both = children;
@@ -132,7 +129,7 @@ struct NeighbourHeap {
   CAUSTICA_HDI void sift_down(uint32_t i, Neighbour x) {
     while (2 * i + 1 < size) {
       bool second;
-      const Neighbour larger = larger_child(i, second);
+      const Neighbour larger = larger_of(pairs[i], second);
       if (larger.distance_squared <= x.distance_squared) break;
       put(i, larger);
       i = 2 * i + 1 + uint32_t(second);
@@ -244,13 +241,14 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
   }
 }
 
+#if defined(__CUDA_ARCH__)
+// The GPU search's batches of photons (find_nearest).
 constexpr uint32_t kPhotonBatch = 8;
 
-// positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads on a GPU when they are
-// 16-byte aligned (a leaf of 8 photons always is, in an aligned buffer).
-CAUSTICA_HDI void load_positions(const Vec3f* positions, uint32_t first, Vec3f at[kPhotonBatch]) {
+// positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads when they are 16-byte
+// aligned (a leaf of 8 photons always is, in an aligned buffer).
+__device__ inline void load_positions(const Vec3f* positions, uint32_t first, Vec3f at[kPhotonBatch]) {
   static_assert(kPhotonBatch % 4 == 0, "four positions make three 16-byte words");
-#if defined(__CUDA_ARCH__)
   if (first % 4 == 0 && reinterpret_cast<uintptr_t>(positions) % 16 == 0) {
     const float4* from = reinterpret_cast<const float4*>(positions + first);
     for (uint32_t w = 0; w < kPhotonBatch / 4; ++w) {
@@ -262,28 +260,18 @@ CAUSTICA_HDI void load_positions(const Vec3f* positions, uint32_t first, Vec3f a
     }
     return;
   }
-#endif
   for (uint32_t j = 0; j < kPhotonBatch; ++j) at[j] = positions[first + j];
 }
 
-// The index of the lowest set bit of x != 0.
-CAUSTICA_HDI uint32_t lowest_bit(uint32_t x) {
-#if defined(__CUDA_ARCH__)
-  return uint32_t(__ffs(int(x)) - 1);
-#else
-  return uint32_t(__builtin_ctz(x));
-#endif
-}
-
-// v[j] by selects on the bits of j: indexing the array at run time would put it in local memory on
-// a GPU.
-CAUSTICA_HDI float pick(const float v[kPhotonBatch], uint32_t j) {
+// v[j] by selects on the bits of j: indexing the array at run time would put it in local memory.
+__device__ inline float pick(const float v[kPhotonBatch], uint32_t j) {
   static_assert(kPhotonBatch == 8, "three levels of selects");
   const float a0 = j & 1 ? v[1] : v[0], a1 = j & 1 ? v[3] : v[2];
   const float a2 = j & 1 ? v[5] : v[4], a3 = j & 1 ? v[7] : v[6];
   const float b0 = j & 2 ? a1 : a0, b1 = j & 2 ? a3 : a2;
   return j & 4 ? b1 : b0;
 }
+#endif
 
 // Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared and
 // leaves them in `heap` (heap.size of them). Every member of `group` must make this call with the
@@ -315,7 +303,7 @@ CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k
       // take this loop together, each at its own next photon, so the warp steps through as many
       // insertions as its busiest lane makes, not one round per photon that any lane takes.
       while (nearer != 0) {
-        const uint32_t j = lowest_bit(nearer);
+        const uint32_t j = uint32_t(__ffs(int(nearer)) - 1);
         nearer &= nearer - 1;
         const float d = pick(d2, j);
         if (d < limit) limit = min_f(limit, heap.offer({d, i + j}, k));
