@@ -114,9 +114,10 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
     trace_primary();
   }
   if (wanted(o, "shadow_rays")) {
-    // From every primary hit towards a point light above the box: any-hit rays. The rays are made
-    // first, in the order the renderer would launch them (image blocks of 8x4, misses left out),
-    // so that only their tracing is timed.
+    // Between every primary hit and a point light above the box: any-hit rays, made as the
+    // renderer makes them (from the light's end, shadow_ray) and first, in the order the renderer
+    // would launch them (image blocks of 8x4, misses left out), so that only their tracing is
+    // timed.
     const Vec3f light = bvh.bounds.center() + Vec3f(0, length(bvh.bounds.extent()), 0);
     const std::vector<Ray> shadow_list = [&] {
       std::vector<Hit> h = hits.download();
@@ -128,9 +129,7 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
         Ray primary = camera.ray_through(float(pixel % camera.width) + 0.5f,
                                          float(pixel / camera.width) + 0.5f);
         Vec3f p = primary.origin + primary.direction * h[pixel].t;
-        Vec3f d = light - p;
-        float dist = length(d);
-        rays.push_back(Ray{p, d / dist, 1e-4f * dist, dist});
+        rays.push_back(shadow_ray(p + (light - p) * 1e-4f, light, 0.0f));
       }
       return rays;
     }();

@@ -133,4 +133,24 @@ CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
   return blocked;
 }
 
+// The shadow ray for the open segment from `surface` (a lit point, already moved off its surface)
+// to `light` (a point on a light), leaving out the `light_gap` fraction of its length next to the
+// light, where an area light's own triangle lies. It starts at the light's end: a ray leaving a
+// surface first opens every box around its origin, whose triangles never block it, while one
+// arriving from the light meets an occluder first and stops there (dragon with a light above,
+// 59% of rays blocked: 1111 -> 1520 Mrays/s on an H200, 3.4 -> 5.2 on two CPU cores).
+CAUSTICA_HDI Ray shadow_ray(Vec3f surface, Vec3f light, float light_gap) {
+  const Vec3f d = surface - light;
+  const float length_d = length(d);
+  // A segment of no length blocks nothing: (0, 0) is empty.
+  return Ray{light, length_d > 0.0f ? d / length_d : Vec3f(0.0f, 0.0f, 1.0f), length_d * light_gap,
+             length_d};
+}
+
+// True when anything blocks that segment.
+CAUSTICA_HDI bool segment_blocked(const TriangleBvhView& bvh, Vec3f surface, Vec3f light,
+                                  float light_gap) {
+  return any_hit(bvh, shadow_ray(surface, light, light_gap));
+}
+
 }  // namespace caustica

@@ -43,32 +43,29 @@ CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, Vec3f p, Vec3f n
   Vec3f sum(0.0f);
   const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
-  auto visible = [&](Vec3f to, float distance) {
-    Ray shadow;
-    shadow.direction = to;
-    shadow.origin = offset_origin(p, geometric_normal, to);
-    shadow.t_max = distance * (1.0f - 1e-3f);
-    return !any_hit(scene.bvh, shadow);
+  auto visible = [&](Vec3f light_point, Vec3f wi) {
+    return !segment_blocked(scene.bvh, offset_origin(p, geometric_normal, wi), light_point, 1e-3f);
   };
   for (uint32_t i = 0; i < scene.light_count; ++i) {
     const DeviceLight& l = scene.lights[i];
     if (l.type == DeviceLightType::kArea) continue;
-    Vec3f wi;
-    float dist, scale;
+    Vec3f wi, light_point;
+    float scale;
     if (l.type == DeviceLightType::kDirectional) {
       wi = -l.direction;
-      dist = 4.0f * scene_radius;
+      light_point = p + wi * (4.0f * scene_radius);  // outside the scene, towards the light
       scale = 1.0f;
     } else {
       Vec3f d = l.position - p;
-      dist = length(d);
+      float dist = length(d);
+      light_point = l.position;
       wi = d / dist;
       scale = 1.0f / (dist * dist);
       if (l.type == DeviceLightType::kSpot) scale *= spot_falloff(l, -wi);
     }
     float cos_theta = dot(normal, wi);
     if (cos_theta <= 0.0f || scale <= 0.0f) continue;
-    if (visible(wi, dist)) sum += f * l.color * (cos_theta * scale);
+    if (visible(light_point, wi)) sum += f * l.color * (cos_theta * scale);
   }
   if (scene.area_light_count > 0 && area_samples > 0) {
     Vec3f area_sum(0.0f);
@@ -85,7 +82,7 @@ CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, Vec3f p, Vec3f n
       Vec3f wi = d / dist;
       float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
       if (cos_x <= 0.0f || cos_y <= 0.0f || choice_pdf <= 0.0f) continue;
-      if (!visible(wi, dist)) continue;
+      if (!visible(y, wi)) continue;
       area_sum += f * l.color * (cos_x * cos_y * l.area / (dist2 * choice_pdf));
     }
     sum += area_sum / float(area_samples);

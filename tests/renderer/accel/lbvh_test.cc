@@ -309,6 +309,16 @@ void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, u
       Ray shadow = ray;
       shadow.t_max = expected.t * 0.999f;
       ASSERT_EQ(any_hit(view, shadow), brute_force(tris, shadow).valid()) << "ray " << i;
+      // The same from the light's end (segment_blocked): a segment past the nearest hit is
+      // blocked, one stopping short of it is not. Only from outside the box: an inside ray may
+      // start on a triangle, which a shadow ray's end never does (offset_origin).
+      if (inside) continue;
+      const Vec3f beyond = ray.origin + ray.direction * (expected.t * 1.5f);
+      const Vec3f short_of = ray.origin + ray.direction * (expected.t * 0.999f);
+      ASSERT_TRUE(segment_blocked(view, ray.origin, beyond, 1e-3f)) << "ray " << i;
+      ASSERT_FALSE(segment_blocked(view, ray.origin, short_of, 0.0f)) << "ray " << i;
+      const Ray reversed = shadow_ray(ray.origin, beyond, 1e-3f);
+      ASSERT_EQ(any_hit(view, reversed), brute_force(tris, reversed).valid()) << "ray " << i;
     }
   }
   EXPECT_GT(hits, ray_count / 10);
