@@ -128,30 +128,109 @@ absl::Status upload_benchmark(const BenchOptions& o, client::Connection& connect
   return absl::OkStatus();
 }
 
-// UpdateLights (photons re-traced, maps rebuilt), then RenderFrame of one pass, as a client
-// animating a light sees it. Rebuild and render come from the server's own stage timings; the
-// rest of the client's wall time is transport (RPCs, tone mapping excluded, bytes on the wire).
-absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection& connection,
-                                       Reporter& report) {
+// The scene's lights for step i of a light animation: moved 10 units along x and back, so that
+// every step is a real change.
+void add_moved_lights(const Scene& scene, int i,
+                      google::protobuf::RepeatedPtrField<v1::Light>& lights) {
+  for (const Light& light : scene.lights) {
+    Light moved = light;
+    moved.position.x += (i % 2 == 0) ? 10.0f : -10.0f;
+    *lights.Add() = wire::encode_light(moved);
+  }
+}
+
+// The benchmark's photon scene at its size, photons and k, uploaded.
+absl::StatusOr<std::pair<Scene, std::string>> upload_photon_scene(const BenchOptions& o,
+                                                                  client::Connection& connection,
+                                                                  const std::string& name) {
   absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
   if (!scene.ok()) return scene.status();
   scene->camera.width = o.width;
   scene->camera.height = o.height;
   scene->settings.photons_per_pass = o.photons;
   scene->settings.k_nearest = o.k;
-  absl::StatusOr<std::string> id = upload(connection, *scene, "latency benchmark");
+  absl::StatusOr<std::string> id = upload(connection, *scene, name);
   if (!id.ok()) return id.status();
+  return std::make_pair(*std::move(scene), *std::move(id));
+}
+
+std::string photon_scene_label(const BenchOptions& o) {
+  return o.photon_scene.parent_path().filename().string() +
+         absl::StrFormat(" %dx%d %d photons k=%d", o.width, o.height, o.photons, o.k);
+}
+
+// A light script played by the server (PlayAnimation, one stream): every keyframe moves the
+// lights and renders one pass. Reports the interval between consecutive frames as the client
+// receives them, and the server's own stage timings per keyframe: the rebuild (photons and maps),
+// the render and the resolve (tone mapping, the copy back and encoding); the rest of an interval
+// is transport.
+absl::Status animation_benchmark(const BenchOptions& o, client::Connection& connection,
+                                 Reporter& report) {
+  absl::StatusOr<std::pair<Scene, std::string>> uploaded =
+      upload_photon_scene(o, connection, "animation benchmark");
+  if (!uploaded.ok()) return uploaded.status();
+  const auto& [scene, id] = *uploaded;
+  constexpr int kKeyframes = 24;
+  v1::PlayAnimationRequest request;
+  request.set_scene_id(id);
+  request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
+  request.set_max_chunk_bytes(4u << 20);
+  for (int i = 0; i < kKeyframes; ++i) {
+    v1::Keyframe* keyframe = request.add_keyframes();
+    keyframe->set_passes(1);
+    add_moved_lights(scene, i, *keyframe->mutable_lights());
+  }
+  std::vector<double> intervals, rebuild, render, resolve;
+  for (int run = 0; run < o.warmup + o.runs; ++run) {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
+        connection.stub().PlayAnimation(&context, request);
+    std::vector<Clock::time_point> arrivals;
+    std::vector<v1::StageTimings> timings;
+    absl::Status status = client::receive_frames(context, *reader, [&](v1::Frame& frame) {
+      arrivals.push_back(Clock::now());
+      timings.push_back(frame.timings());
+      return absl::OkStatus();
+    });
+    if (!status.ok()) return status;
+    if (arrivals.size() != kKeyframes) {
+      return absl::DataLossError(absl::StrCat(arrivals.size(), " frames of ", kKeyframes, " arrived"));
+    }
+    if (run < o.warmup) continue;
+    // From the second frame on: the first also waits for the call to start.
+    for (int i = 1; i < kKeyframes; ++i) {
+      intervals.push_back(ms_between(arrivals[i - 1], arrivals[i]));
+      const v1::StageTimings& t = timings[i];
+      rebuild.push_back(t.structure_build_ms() + t.photon_trace_ms() + t.photon_map_build_ms());
+      render.push_back(t.render_ms());
+      resolve.push_back(t.resolve_ms());
+    }
+  }
+  const std::string name = photon_scene_label(o) + absl::StrFormat(" %d keyframes", kKeyframes);
+  Measurement m = summarize(intervals);
+  report.line("animation_frame_interval", name, m.median, "ms", &m, int(intervals.size()));
+  report.line("animation_frame_rebuild", name, summarize(rebuild).median, "ms");
+  report.line("animation_frame_render", name, summarize(render).median, "ms");
+  report.line("animation_frame_resolve", name, summarize(resolve).median, "ms");
+  return delete_scene(connection, id);
+}
+
+// UpdateLights (photons re-traced, maps rebuilt), then RenderFrame of one pass, as a client
+// animating a light sees it. Rebuild and render come from the server's own stage timings; the
+// rest of the client's wall time is transport (RPCs, tone mapping excluded, bytes on the wire).
+absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection& connection,
+                                       Reporter& report) {
+  absl::StatusOr<std::pair<Scene, std::string>> uploaded =
+      upload_photon_scene(o, connection, "latency benchmark");
+  if (!uploaded.ok()) return uploaded.status();
+  const auto& [scene, id] = *uploaded;
   std::vector<double> total, rebuild, render, transport;
   for (int i = 0; i < o.warmup + o.runs; ++i) {
     v1::UpdateLightsRequest update;
-    update.set_scene_id(*id);
-    for (const Light& light : scene->lights) {
-      Light moved = light;
-      moved.position.x += (i % 2 == 0) ? 10.0f : -10.0f;  // a real change every time
-      *update.add_lights() = wire::encode_light(moved);
-    }
+    update.set_scene_id(id);
+    add_moved_lights(scene, i, *update.mutable_lights());
     v1::RenderFrameRequest render_request;
-    render_request.set_scene_id(*id);
+    render_request.set_scene_id(id);
     render_request.set_target_passes(1);
     render_request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
 
@@ -177,20 +256,19 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     render.push_back(render_ms);
     transport.push_back(ms - rebuild_ms - render_ms);
   }
-  const std::string name = o.photon_scene.parent_path().filename().string() +
-                           absl::StrFormat(" %dx%d %d photons k=%d", o.width, o.height, o.photons, o.k);
+  const std::string name = photon_scene_label(o);
   Measurement m = summarize(total);
   report.line("update_to_frame", name, m.median, "ms", &m, o.runs);
   report.line("update_to_frame_rebuild", name, summarize(rebuild).median, "ms");
   report.line("update_to_frame_render", name, summarize(render).median, "ms");
   report.line("update_to_frame_transport", name, summarize(transport).median, "ms");
-  return delete_scene(connection, *id);
+  return delete_scene(connection, id);
 }
 
 }  // namespace
 
 std::vector<std::string> serving_benchmark_names() {
-  return {"stream_rgba8", "stream_rgba32f", "upload", "update_to_frame"};
+  return {"stream_rgba8", "stream_rgba32f", "upload", "update_to_frame", "animation"};
 }
 
 absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_report) {
@@ -224,6 +302,9 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_repo
   }
   if (wanted(o, "update_to_frame") && !o.photon_scene.empty()) {
     if (absl::Status s = update_to_frame_benchmark(o, **connection, report); !s.ok()) return s;
+  }
+  if (wanted(o, "animation") && !o.photon_scene.empty()) {
+    if (absl::Status s = animation_benchmark(o, **connection, report); !s.ok()) return s;
   }
   return absl::OkStatus();
 }
