@@ -296,8 +296,8 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
   return report;
 }
 
-std::vector<float> Engine::image_linear() { return state_->film->resolve_linear(); }
-std::vector<Rgba8> Engine::image_srgb8(float exposure_stops) {
+std::span<const float> Engine::image_linear() { return state_->film->resolve_linear(); }
+std::span<const Rgba8> Engine::image_srgb8(float exposure_stops) {
   return state_->film->resolve_srgb8(exposure_stops);
 }
 const Scene& Engine::scene() const { return state_->scene; }

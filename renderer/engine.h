@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -102,8 +103,10 @@ class Engine {
   // Adds `passes` progressive passes to the film.
   absl::StatusOr<PassReport> render(uint32_t passes, const Progress& progress = {});
 
-  std::vector<float> image_linear();                // RGBA float, top row first
-  std::vector<Rgba8> image_srgb8(float exposure_stops = 0.0f);
+  // The film resolved into host memory the engine keeps (page-locked on a GPU, so that a frame
+  // comes back by one direct copy), valid until the next image call or film change.
+  std::span<const float> image_linear();  // RGBA float, top row first
+  std::span<const Rgba8> image_srgb8(float exposure_stops = 0.0f);
 
   const Scene& scene() const;
   const Epochs& epochs() const;

@@ -134,7 +134,7 @@ size_t bytes_per_pixel(v1::PixelFormat format) {
   }
 }
 
-absl::StatusOr<std::string> encode_png(int width, int height, const std::vector<Rgba8>& pixels) {
+absl::StatusOr<std::string> encode_png(int width, int height, std::span<const Rgba8> pixels) {
   png_image image;
   std::memset(&image, 0, sizeof(image));
   image.version = PNG_IMAGE_VERSION;
@@ -154,7 +154,7 @@ absl::StatusOr<std::string> encode_png(int width, int height, const std::vector<
   return png;
 }
 
-absl::StatusOr<std::string> encode_exr(int width, int height, const std::vector<float>& rgba,
+absl::StatusOr<std::string> encode_exr(int width, int height, std::span<const float> rgba,
                                        bool half) {
   const size_t pixel_count = static_cast<size_t>(width) * height;
   std::vector<uint16_t> halves;
@@ -194,8 +194,8 @@ absl::StatusOr<std::string> encode_exr(int width, int height, const std::vector<
 }
 
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
-                                         const std::vector<Rgba8>& srgb8,
-                                         const std::vector<float>& linear) {
+                                         std::span<const Rgba8> srgb8,
+                                         std::span<const float> linear) {
   const bool half = spec.pixel_format == v1::RGBA16F_LINEAR;
   switch (spec.encoding) {
     case v1::PNG:
@@ -219,20 +219,22 @@ absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int h
   return raw;
 }
 
-std::vector<v1::Frame> split_frame(const v1::Frame& header, const std::string& data,
+std::vector<v1::Frame> split_frame(const v1::Frame& header, std::string data,
                                    size_t max_chunk_bytes) {
   const size_t chunk = std::max<size_t>(max_chunk_bytes, 1);
+  const size_t total = data.size();
   std::vector<v1::Frame> pieces;
   size_t offset = 0;
   do {
-    const size_t size = std::min(chunk, data.size() - offset);
+    const size_t size = std::min(chunk, total - offset);
     v1::Frame& piece = pieces.emplace_back(header);
-    piece.set_data_size(data.size());
+    piece.set_data_size(total);
     piece.set_data_offset(offset);
-    piece.set_data(data.substr(offset, size));
+    // A frame in one message takes the bytes without a copy.
+    piece.set_data(size == total ? std::move(data) : data.substr(offset, size));
     offset += size;
-    piece.set_last_chunk(offset == data.size());
-  } while (offset < data.size());
+    piece.set_last_chunk(offset == total);
+  } while (offset < total);
   return pieces;
 }
 

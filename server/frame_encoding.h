@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,6 +24,8 @@ struct FrameSpec {
 
   // Whether the film is resolved to 8-bit sRGB (else to linear float).
   bool wants_srgb8() const { return pixel_format == v1::RGBA8_SRGB; }
+  // Whether the frame is the pixels themselves, not an image file (PNG, EXR).
+  bool raw() const { return encoding == v1::RAW; }
 };
 
 // INVALID_ARGUMENT naming `<field>.pixel_format`, `<field>.encoding` or `<field>.exposure_stops`
@@ -39,17 +42,17 @@ size_t bytes_per_pixel(v1::PixelFormat format);
 // Encodes a resolved film. `srgb8` is used when spec.wants_srgb8(), else `linear` (RGBA float,
 // top row first); both hold width * height pixels.
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
-                                         const std::vector<Rgba8>& srgb8,
-                                         const std::vector<float>& linear);
+                                         std::span<const Rgba8> srgb8,
+                                         std::span<const float> linear);
 
-absl::StatusOr<std::string> encode_png(int width, int height, const std::vector<Rgba8>& pixels);
-absl::StatusOr<std::string> encode_exr(int width, int height, const std::vector<float>& rgba,
+absl::StatusOr<std::string> encode_png(int width, int height, std::span<const Rgba8> pixels);
+absl::StatusOr<std::string> encode_exr(int width, int height, std::span<const float> rgba,
                                        bool half);
 
 // The messages that carry `data` under the header fields of `header`: pieces of at most
 // `max_chunk_bytes` (>= 1) of data, each with data_size, data_offset and last_chunk set. An empty
 // frame is one message.
-std::vector<v1::Frame> split_frame(const v1::Frame& header, const std::string& data,
+std::vector<v1::Frame> split_frame(const v1::Frame& header, std::string data,
                                    size_t max_chunk_bytes);
 
 }  // namespace caustica::server

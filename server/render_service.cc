@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
+#include <span>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -140,6 +142,10 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   double queue_ms = 0;
   uint64_t photons = 0;
   uint32_t rendered = 0;
+  // Raw pixels are copied straight from the film's host image into the frame, under the lease;
+  // an image file (PNG, EXR) is encoded from a copy after the lease is given back, so that other
+  // clients' passes need not wait for the encoder.
+  std::optional<absl::StatusOr<std::string>> data;
   std::vector<Rgba8> srgb8;
   std::vector<float> linear;
   int width = 0, height = 0;
@@ -165,22 +171,30 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
     }
     // Resolve under the same lease: the film must not change while it is read.
     const auto resolve_start = Clock::now();
-    if (spec.wants_srgb8()) {
-      srgb8 = engine.image_srgb8(spec.exposure_stops);
-    } else {
-      linear = engine.image_linear();
-    }
     width = engine.scene().camera.width;
     height = engine.scene().camera.height;
+    std::span<const Rgba8> srgb8_image;
+    std::span<const float> linear_image;
+    if (spec.wants_srgb8()) {
+      srgb8_image = engine.image_srgb8(spec.exposure_stops);
+    } else {
+      linear_image = engine.image_linear();
+    }
+    if (spec.raw()) {
+      data = encode_frame(spec, width, height, srgb8_image, linear_image);
+    } else {
+      srgb8.assign(srgb8_image.begin(), srgb8_image.end());
+      linear.assign(linear_image.begin(), linear_image.end());
+    }
     frame.header.set_passes(entry.film_passes);
     *frame.header.mutable_epochs() = encode_epochs(engine.epochs());
     resolve_ms = ms_since(resolve_start);
     break;
   }
   const auto encode_start = Clock::now();
-  absl::StatusOr<std::string> data = encode_frame(spec, width, height, srgb8, linear);
-  if (!data.ok()) return data.status();
-  frame.data = *std::move(data);
+  if (!data) data = encode_frame(spec, width, height, srgb8, linear);
+  if (!data->ok()) return data->status();
+  frame.data = **std::move(data);
   timings->set_resolve_ms(resolve_ms + ms_since(encode_start));
   timings->set_queue_ms(queue_ms);
   latencies_.record("stage/resolve", timings->resolve_ms());
@@ -456,7 +470,7 @@ grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
       // Delivery alone: one resolve, then the same bytes again and again.
       absl::StatusOr<EncodedFrame> frame = produce_frame(context, entry, target, kAllPasses, spec);
       if (!frame.ok()) return frame.status();
-      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
       for (uint32_t i = 0; i < request->repeat_frames(); ++i) {
         if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
         if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
@@ -470,7 +484,7 @@ grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
       absl::StatusOr<EncodedFrame> frame =
           produce_frame(context, entry, target, passes_per_frame, spec);
       if (!frame.ok()) return frame.status();
-      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
       if (absl::Status sent = send_frame(writer, pieces, frame_number); !sent.ok()) return sent;
       if (frame->header.passes() >= target) return absl::OkStatus();
     }
@@ -507,7 +521,7 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
       frame->header.set_photons_emitted(frame->header.photons_emitted() +
                                         report->photons_emitted());
       frame->header.set_keyframe(static_cast<uint32_t>(i));
-      std::vector<v1::Frame> pieces = split_frame(frame->header, frame->data, chunk);
+      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
       if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
     }
     return absl::OkStatus();

@@ -70,6 +70,13 @@ class Backend {
   }
   size_t budget() const { return budget_; }
 
+  // Host memory for what comes back from the device every frame (the image): page-locked on a
+  // GPU, so that copies into it run at the bus's rate without the driver staging them through
+  // its own buffer; ordinary memory on the CPU. Not counted against the budget, which is the
+  // device's. Freeing may wait for the device.
+  virtual void* allocate_host(size_t bytes) = 0;
+  virtual void deallocate_host(void* p) noexcept = 0;
+
   virtual void copy_to_device(void* dst, const void* src, size_t bytes) = 0;
   virtual void copy_to_host(void* dst, const void* src, size_t bytes) = 0;
   virtual void copy_on_device(void* dst, const void* src, size_t bytes) = 0;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "renderer/parallel/backend.h"
+#include "renderer/parallel/host_buffer.h"
 
 namespace caustica {
 
@@ -56,6 +57,12 @@ class Buffer {
     std::vector<T> host(size_);
     if (size_ > 0) backend_->copy_to_host(host.data(), data_, size_ * sizeof(T));
     return host;
+  }
+  // Into `host`, resized to match: for what comes back every frame (host_buffer.h).
+  std::span<const T> download(HostBuffer<T>& host) const {
+    host.resize_discard(size_);
+    if (size_ > 0) backend_->copy_to_host(host.data(), data_, size_ * sizeof(T));
+    return host.span();
   }
   void fill_zero() {
     if (size_ > 0) backend_->fill_bytes(data_, 0, size_ * sizeof(T));

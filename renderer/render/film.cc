@@ -10,6 +10,8 @@ Film::Film(Backend& backend, int width, int height)
     : sum_(backend, size_t(width) * height),
       resolved_(backend, 0),
       resolved8_(backend, 0),
+      resolved_host_(backend),
+      resolved8_host_(backend),
       width_(width),
       height_(height) {
   clear();
@@ -20,7 +22,7 @@ void Film::clear() {
   passes_ = 0;
 }
 
-std::vector<float> Film::resolve_linear() {
+std::span<const float> Film::resolve_linear() {
   const size_t n = sum_.size();
   resolved_.resize_discard(4 * n);
   const Vec3f* sum = sum_.data();
@@ -33,10 +35,10 @@ std::vector<float> Film::resolve_linear() {
     out[4 * i + 2] = c.z;
     out[4 * i + 3] = 1.0f;
   });
-  return resolved_.download();
+  return resolved_.download(resolved_host_);
 }
 
-std::vector<Rgba8> Film::resolve_srgb8(float exposure_stops) {
+std::span<const Rgba8> Film::resolve_srgb8(float exposure_stops) {
   const size_t n = sum_.size();
   resolved8_.resize_discard(n);
   const Vec3f* sum = sum_.data();
@@ -47,7 +49,7 @@ std::vector<Rgba8> Film::resolve_srgb8(float exposure_stops) {
     auto q = [](float v) { return uint8_t(linear_to_srgb(v) * 255.0f + 0.5f); };
     out[i] = Rgba8{q(c.x), q(c.y), q(c.z), 255};
   });
-  return resolved8_.download();
+  return resolved8_.download(resolved8_host_);
 }
 
 }  // namespace caustica

@@ -3,7 +3,7 @@
 #pragma once
 
 #include <cstdint>
-#include <vector>
+#include <span>
 
 #include "renderer/base/vec.h"
 #include "renderer/parallel/buffer.h"
@@ -27,15 +27,19 @@ class Film {
   int height() const { return height_; }
   size_t bytes() const { return sum_.bytes() + resolved_.bytes(); }
 
-  // Mean radiance per pixel as linear RGBA float (alpha 1), row-major from the top-left.
-  std::vector<float> resolve_linear();
+  // The resolved image in host memory the film keeps (page-locked on a GPU) and overwrites at its
+  // next resolve. Mean radiance per pixel as linear RGBA float (alpha 1), row-major from the
+  // top-left.
+  std::span<const float> resolve_linear();
   // Exposure in stops, then sRGB encoding to 8 bits.
-  std::vector<Rgba8> resolve_srgb8(float exposure_stops = 0.0f);
+  std::span<const Rgba8> resolve_srgb8(float exposure_stops = 0.0f);
 
  private:
   Buffer<Vec3f> sum_;
   Buffer<float> resolved_;
   Buffer<Rgba8> resolved8_;
+  HostBuffer<float> resolved_host_;
+  HostBuffer<Rgba8> resolved8_host_;
   int width_ = 0, height_ = 0;
   uint32_t passes_ = 0;
 };

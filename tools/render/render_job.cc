@@ -39,7 +39,8 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   if (!report.ok()) return report.status();
   summary.report = *report;
 
-  LinearImage image{cam.width, cam.height, (*engine)->image_linear()};
+  const std::span<const float> pixels = (*engine)->image_linear();
+  LinearImage image{cam.width, cam.height, {pixels.begin(), pixels.end()}};
   if (absl::Status s = write_image(job.output, image, job.exposure_stops); !s.ok()) return s;
 
   const StageTimings& t = report->timings;

@@ -174,6 +174,9 @@ class CpuBackend final : public Backend {
     return {"CPU (oneTBB)", tbb::info::default_concurrency(), physical_memory_bytes()};
   }
 
+  void* allocate_host(size_t bytes) override { return ::operator new(bytes, std::align_val_t(64)); }
+  void deallocate_host(void* p) noexcept override { ::operator delete(p, std::align_val_t(64)); }
+
   void copy_to_device(void* dst, const void* src, size_t bytes) override { std::memcpy(dst, src, bytes); }
   void copy_to_host(void* dst, const void* src, size_t bytes) override { std::memcpy(dst, src, bytes); }
   void copy_on_device(void* dst, const void* src, size_t bytes) override { std::memmove(dst, src, bytes); }

@@ -127,6 +127,13 @@ class CudaBackend final : public Backend {
   DeviceKind kind() const override { return DeviceKind::kCuda; }
   DeviceInfo info() const override { return info_; }
 
+  void* allocate_host(size_t bytes) override {
+    void* p = nullptr;
+    CAUSTICA_CUDA_CHECK(cudaMallocHost(&p, bytes));
+    return p;
+  }
+  void deallocate_host(void* p) noexcept override { CAUSTICA_CUDA_LOG(cudaFreeHost(p)); }
+
   // Returns once `src` may be reused: callers upload from temporaries.
   void copy_to_device(void* dst, const void* src, size_t bytes) override {
     CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream_));

@@ -26,6 +26,7 @@
 #include "renderer/photon/density.h"
 #include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/triangle_soup.h"
+#include "tests/renderer/parallel/host_download_check.h"
 #include "tests/renderer/parallel/scratch_check.h"
 
 namespace caustica {
@@ -231,6 +232,11 @@ TEST_P(GpuParityTest, ParallelForWithScratchGivesEachThreadItsOwn) {
   Buffer<uint32_t> unused(gpu(), 1);
   EXPECT_FALSE(parallel_for_with_scratch<uint32_t>(gpu(), 64, 1024, ScratchCheck{1024, unused.data()}))
       << "32 threads x 1024 x 4 bytes is over 48 KiB";
+}
+
+// The page-locked host memory frames come back into (HostBuffer).
+TEST_P(GpuParityTest, DownloadIntoPageLockedHostBuffer) {
+  expect_download_into_host_buffer(gpu(), random_u32(GetParam()));
 }
 
 TEST_P(GpuParityTest, ParallelForMortonCodes) {
@@ -449,7 +455,9 @@ std::vector<float> render_image(const Scene& scene, DeviceKind device, uint32_t 
   EXPECT_TRUE(loaded.ok()) << loaded.status();
   absl::StatusOr<PassReport> rendered = loaded.ok() ? (*engine)->render(passes) : loaded.status();
   EXPECT_TRUE(rendered.ok()) << rendered.status();
-  return rendered.ok() ? (*engine)->image_linear() : std::vector<float>{};
+  if (!rendered.ok()) return {};
+  const std::span<const float> image = (*engine)->image_linear();
+  return {image.begin(), image.end()};
 }
 
 // Whole images of every bundled scene on both backends, same seed. Photon paths may part where

@@ -8,6 +8,7 @@
 
 #include "renderer/parallel/buffer.h"
 #include "renderer/parallel/parallel_for.h"
+#include "tests/renderer/parallel/host_download_check.h"
 #include "tests/renderer/parallel/scratch_check.h"
 
 namespace caustica {
@@ -210,6 +211,12 @@ TEST_P(PrimitivesTest, ParallelForWithScratchGivesEachElementItsOwn) {
     auto got = sums.download();
     for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
   }
+}
+
+TEST_P(PrimitivesTest, DownloadIntoHostBuffer) {
+  std::vector<uint32_t> values(GetParam());
+  for (uint32_t& v : values) v = rng();
+  expect_download_into_host_buffer(*backend, values);
 }
 
 TEST(BackendBudget, AllocationBeyondBudgetThrowsBudgetExceeded) {

@@ -33,7 +33,8 @@ std::vector<float> render_with_room(uint32_t requests_per_pixel) {
     settings.pass = pass;
     render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings, film);
   }
-  return film.resolve_linear();
+  const std::span<const float> image = film.resolve_linear();
+  return {image.begin(), image.end()};
 }
 
 TEST(RenderPass, TooLittleRoomForGatherRequestsChangesNothing) {
