@@ -245,7 +245,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
   if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {
     parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
-      NeighbourPair heap[kMaxNearest / 2];
+      NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)];
       gather(thread, heap);
     });
   }

@@ -317,7 +317,7 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const s
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
     const uint32_t k = 1 + uint32_t(i % kNnMaxK);
     const float max_radius = i % 3 == 0 ? 0.02f : 1.0f;
-    NeighbourPair storage[kNnMaxK / 2];
+    NeighbourPair storage[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
     NeighbourHeap<NeighbourPair*> heap{storage};
     count[i] = find_nearest(view, q[i], k, max_radius * max_radius, heap);
     for (uint32_t j = 0; j < kNnMaxK; ++j) out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
@@ -402,7 +402,7 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
   const PhotonMapView view = map.view();
   const SearchGroup group{backend.kind() == DeviceKind::kCuda ? 0xffffffffu : 0u};
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    NeighbourPair heap[kNnMaxK / 2];
+    NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
     e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), kNnMaxK, 0.2f,
                                     Kernel(i / 32 % 3), heap, b[i], group);
   });

@@ -38,12 +38,13 @@ void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPho
   ASSERT_EQ(sorted.size(), n);
   std::mt19937 rng(9);
   std::uniform_real_distribution<float> u(-0.1f, 1.1f);
-  std::vector<NeighbourPair> storage(kMaxNearest / 2);
+  std::vector<NeighbourPair> storage(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
   NeighbourHeap<NeighbourPair*> heap{storage.data()};
   for (int q = 0; q < 2000; ++q) {
     Vec3f x(u(rng), u(rng), clustered ? 0.01f * u(rng) : u(rng));
-    // Odd and even k: an even k's heap ends in a half-used pair.
-    uint32_t k = std::vector<uint32_t>{1, 2, 7, 64, 201}[q % 5];
+    // Every k modulo 4: the heap's last group of four children is whole only for k = 4n + 1,
+    // and otherwise ends in sentinels.
+    uint32_t k = std::vector<uint32_t>{1, 2, 3, 4, 5, 6, 7, 64, 201}[q % 9];
     float max_r = q % 3 == 0 ? 0.05f : 10.0f;
     uint32_t found = find_nearest(p->map.view(), x, k, max_r * max_r, heap);
 
@@ -151,7 +152,7 @@ TEST(Density, RecoversUniformIrradiance) {
   Buffer<Photon> buf(*backend, n);
   buf.upload(photons);
   PhotonMap map = build_photon_map(*backend, buf);
-  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
   for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
     double mean = 0;
     const int queries = 400;
@@ -177,7 +178,7 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
   const PhotonMapView map = p->map.view();
   std::mt19937 rng(4);
   std::uniform_real_distribution<float> step(-0.004f, 0.004f);
-  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
   Vec3f x(0.3f, 0.3f, 0.0f), previous = x;
   float previous_r2 = INFINITY;
   int bounded = 0;
@@ -220,7 +221,7 @@ TEST(Density, EstimateMatchesBruteForce) {
   buf.upload(photons);
   const PhotonMap map = build_photon_map(*backend, buf);
   const std::vector<Photon> stored = map.download();  // directions as decoded
-  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
   for (int q = 0; q < 600; ++q) {
     const Vec3f x(u(rng), u(rng), 0.1f);
     const Vec3f normal = normalize(Vec3f(g(rng), g(rng), 2.0f));
@@ -270,7 +271,7 @@ TEST(Density, TakesExactlyKWhenPhotonsTieAtTheKthDistance) {
   Buffer<Photon> buf(*backend, photons.size());
   buf.upload(photons);
   const PhotonMap map = build_photon_map(*backend, buf);
-  std::vector<NeighbourPair> heap(kMaxNearest / 2);
+  std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
   for (int q = 0; q < 300; ++q) {
     const Vec3f x(u(rng), u(rng), 0.0f);
     const uint32_t k = std::vector<uint32_t>{10, 33, 64}[q % 3];
