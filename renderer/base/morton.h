@@ -1,5 +1,6 @@
 // Morton (Z-order) codes: 10 bits per axis in 30 bits, the key the LBVH builders sort by
-// (Karras 2012; Zeidan 2011 sec. 4.2).
+// (Karras 2012; Zeidan 2011 sec. 4.2); and Hilbert codes on the same grid, for orders whose runs
+// should stay compact.
 #pragma once
 
 #include <cstdint>
@@ -33,14 +34,63 @@ CAUSTICA_HDI uint32_t morton3_30(uint32_t x, uint32_t y, uint32_t z) {
   return expand_bits_10(x) | (expand_bits_10(y) << 1) | (expand_bits_10(z) << 2);
 }
 
-// Code of point `p` quantised on a 1024^3 grid over `bounds`; points outside are clamped.
-CAUSTICA_HDI uint32_t morton_code(Vec3f p, const Aabb& bounds) {
+// Index of cell (x, y, z) (each < 1024) along a 3D Hilbert curve, after Skilling, "Programming
+// the Hilbert curve" (AIP Conf. Proc. 707, 2004): the coordinates are turned into the curve's
+// "transposed" index, whose bits then interleave like a Morton code's. Unlike Z-order, cells
+// consecutive on the curve always share a face, so a run of consecutive codes never jumps across
+// the grid.
+CAUSTICA_HDI uint32_t hilbert3_30(uint32_t x, uint32_t y, uint32_t z) {
+  for (uint32_t q = 512; q > 1; q >>= 1) {
+    const uint32_t low = q - 1;
+    if (x & q) x ^= low;
+    // For y and z: invert x's low bits where the coordinate's bit q is set, else swap them.
+    if (y & q) {
+      x ^= low;
+    } else {
+      const uint32_t t = (x ^ y) & low;
+      x ^= t;
+      y ^= t;
+    }
+    if (z & q) {
+      x ^= low;
+    } else {
+      const uint32_t t = (x ^ z) & low;
+      x ^= t;
+      z ^= t;
+    }
+  }
+  y ^= x;  // Gray encoding
+  z ^= y;
+  uint32_t flip = 0;
+  for (uint32_t q = 512; q > 1; q >>= 1) {
+    if (z & q) flip ^= q - 1;
+  }
+  return morton3_30(z ^ flip, y ^ flip, x ^ flip);  // x's bit leads each triple
+}
+
+// The cell of point `p` on a 1024^3 grid over `bounds`; points outside are clamped.
+struct GridCell {
+  uint32_t x, y, z;
+};
+CAUSTICA_HDI GridCell grid_cell(Vec3f p, const Aabb& bounds) {
   Vec3f e = bounds.extent();
   Vec3f scale(e.x > 0 ? 1024.0f / e.x : 0.0f, e.y > 0 ? 1024.0f / e.y : 0.0f,
               e.z > 0 ? 1024.0f / e.z : 0.0f);
   Vec3f q = (p - bounds.lower) * scale;
   auto cell = [](float f) -> uint32_t { return f <= 0.0f ? 0u : (f >= 1023.0f ? 1023u : uint32_t(f)); };
-  return morton3_30(cell(q.x), cell(q.y), cell(q.z));
+  return {cell(q.x), cell(q.y), cell(q.z)};
+}
+
+// Morton code of point `p` on that grid.
+CAUSTICA_HDI uint32_t morton_code(Vec3f p, const Aabb& bounds) {
+  const GridCell c = grid_cell(p, bounds);
+  return morton3_30(c.x, c.y, c.z);
+}
+
+// Hilbert code of point `p` on that grid.
+CAUSTICA_HDI uint32_t hilbert_code(Vec3f p, const Aabb& bounds) {
+  const GridCell c = grid_cell(p, bounds);
+  return hilbert3_30(c.x, c.y, c.z);
 }
 
 // A bit that sorts a box before the Morton code of its centre: 0 for boxes whose diagonal is over

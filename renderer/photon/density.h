@@ -4,7 +4,7 @@
 // (Jensen 2001 sec. 7.2; Fabianowski 2011 sec. 5.3 for the kernels).
 //
 // Two things make a renderer's many searches cheaper without changing what they find:
-// - a search group: threads whose points lie close together (a GPU warp of requests in Morton
+// - a search group: threads whose points lie close together (a GPU warp of requests in Hilbert
 //   order) walk the tree as one, each node visited when any of them needs it, so they read the
 //   same nodes and photons in step instead of diverging;
 // - a carried bound: the k-th distance at a nearby point q bounds it at p by r_k(q) + |p - q|

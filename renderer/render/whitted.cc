@@ -96,7 +96,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
 // 1, 9.65 at 2, 10.0 at 4): a warp that searches as a group already shares its nodes.
 constexpr uint32_t kGatherChain = 8;
 
-// Stage 4 of the pass: the caustic and global estimates of the requests in Morton order. A group
+// Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
 // of `lanes` threads (a GPU warp; one thread on the CPU) takes lanes x chain consecutive
 // requests, `lanes` at a time, and searches each batch together; each thread carries its
 // previous request's two radii as bounds for its next one.
@@ -225,16 +225,18 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   }
   const GatherRequest* request = requests.data();
 
-  // Stage 3: the requests in Morton order of their positions, so that the threads of a warp
-  // search the same nodes and photons.
+  // Stage 3: the requests in Hilbert order of their positions, so that the threads of a warp
+  // search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
+  // 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
+  // 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
   const MortonOrder request_order = sort_by_code(
       backend, request_total, 30,
-      [=] CAUSTICA_HD(uint32_t i) { return morton_code(request[i].position, scene_bounds); });
+      [=] CAUSTICA_HD(uint32_t i) { return hilbert_code(request[i].position, scene_bounds); });
   const uint32_t* by_code = request_order.order.data();
 
   // Stage 4: both photon-map estimates per request, stored in pixel and path order, with the
   // neighbour heap in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a
-  // private array. A GPU warp's requests are Morton neighbours, so its lanes search together.
+  // private array. A GPU warp's requests are Hilbert neighbours, so its lanes search together.
   Buffer<Vec3f> gathered(backend, request_total);
   const bool gpu = backend.kind() == DeviceKind::kCuda;
   const uint32_t lanes = gpu ? 32 : 1;

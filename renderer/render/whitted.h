@@ -29,7 +29,7 @@ struct ShadingSettings {
 
 // Renders one pass (one jittered sample per pixel) and adds it to the film, as a wavefront:
 // camera rays (accel/camera_tiles.h); per pixel the specular tree with emitted and direct light,
-// which leaves one gather request per diffuse hit; the requests' photon-map estimates in Morton
+// which leaves one gather request per diffuse hit; the requests' photon-map estimates in Hilbert
 // order; and per pixel the sum of its requests' estimates.
 void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,

@@ -1,6 +1,9 @@
 // Morton codes against a bit-by-bit reference, and the counter-based sampler's contract.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <vector>
+
 #include <random>
 #include <set>
 
@@ -31,6 +34,34 @@ TEST(Morton, MatchesBitwiseInterleaving) {
     ASSERT_EQ(compact_bits_10(code >> 2), z);
   }
   EXPECT_EQ(morton3_30(1023, 1023, 1023), 0x3fffffffu);
+}
+
+// The first side^3 codes of a Hilbert curve fill the cube [0, side)^3 at its start, each cell
+// taking its own code, and consecutive codes are face neighbours: the property that keeps a run
+// of requests in Hilbert order compact (a Morton order jumps, also inside such a cube).
+TEST(Hilbert, CellsTakeOneCodeEachAndConsecutiveCodesShareAFace) {
+  for (uint32_t side : {2u, 8u, 32u}) {
+    const uint32_t n = side * side * side;
+    std::vector<int64_t> cell_of(n, -1);
+    for (uint32_t z = 0; z < side; ++z)
+      for (uint32_t y = 0; y < side; ++y)
+        for (uint32_t x = 0; x < side; ++x) {
+          const uint32_t code = hilbert3_30(x, y, z);
+          ASSERT_LT(code, n) << x << " " << y << " " << z;
+          ASSERT_EQ(cell_of[code], -1) << "code " << code << " twice";
+          cell_of[code] = x + int64_t(side) * (y + int64_t(side) * z);
+        }
+    for (uint32_t c = 1; c < n; ++c) {
+      const int64_t a = cell_of[c - 1], b = cell_of[c];
+      const int64_t dx = a % side - b % side, dy = a / side % side - b / side % side,
+                    dz = a / side / side - b / side / side;
+      ASSERT_EQ(std::abs(dx) + std::abs(dy) + std::abs(dz), 1) << "codes " << c - 1 << ", " << c;
+    }
+  }
+  EXPECT_EQ(hilbert3_30(0, 0, 0), 0u);
+  const Aabb b{Vec3f(-1, 0, 1), Vec3f(1, 4, 21)};
+  EXPECT_EQ(hilbert_code(Vec3f(0, 2, 11), b), hilbert3_30(512, 512, 512));
+  EXPECT_EQ(hilbert_code(Vec3f(-5, -5, -5), b), 0u);
 }
 
 TEST(Morton, QuantisesPointsInBoundsAndClampsOutside) {
