@@ -1,6 +1,7 @@
 // Binary BVH shared by the triangle structure and the photon map. Leaves are primitives (or runs
-// of them) in sorted (Morton) order; each internal node stores its two children's boxes, so a
-// traversal step tests both children with one node fetch and leaves need no node of their own.
+// of them) in the order of their codes along a space-filling curve (curve_order.h); each internal
+// node stores its two children's boxes, so a traversal step tests both children with one node
+// fetch and leaves need no node of their own.
 #pragma once
 
 #include <cstdint>

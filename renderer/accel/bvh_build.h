@@ -1,4 +1,4 @@
-// The binary radix tree over sorted Morton codes (Karras 2012), built bottom-up in one pass after
+// The binary radix tree over sorted Morton or Hilbert codes (Karras 2012), built bottom-up in one pass after
 // Apetrei, "Fast and Simple Agglomerative LBVH Construction" (CGVC 2014): internal node k sits
 // between leaves k and k+1; a node covering leaves [l, r] becomes a child of whichever neighbour
 // split, l-1 or r, has the longer common prefix. Each leaf's thread climbs until it is the first
@@ -36,7 +36,7 @@ struct BvhSummary {
   uint32_t root;
 };
 
-// Builds the binary radix tree over `n` primitives whose Morton codes are sorted ascending, with
+// Builds the binary radix tree over `n` primitives whose codes are sorted ascending, with
 // `summary` (in the backend's memory) holding their bounds; the root is written there and both
 // come back in the Bvh with one wait for the device;
 // `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order; it is

@@ -1,13 +1,22 @@
 #include "renderer/accel/triangle_bvh.h"
 
 #include "renderer/accel/bvh_build.h"
-#include "renderer/accel/morton_order.h"
+#include "renderer/accel/curve_order.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
 
+Curve triangle_curve(const Backend& backend) {
+  return backend.kind() == DeviceKind::kCuda ? Curve::kHilbert : Curve::kMorton;
+}
+
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                 uint32_t count) {
+  return build_triangle_lbvh(backend, triangles, count, triangle_curve(backend));
+}
+
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                uint32_t count, Curve curve) {
   TriangleLbvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
@@ -24,8 +33,8 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
   backend.reduce_bounds_to(box, count, &summary.data()->bounds);
 
-  // Pass 2: Morton codes, sorted with the triangle indices.
-  MortonOrder sorted_order = sort_by_morton(backend, box, count, &summary.data()->bounds);
+  // Pass 2: the curve's codes, sorted with the triangle indices.
+  CurveOrder sorted_order = sort_by_curve(backend, box, count, &summary.data()->bounds, curve);
   out.triangle_ids = std::move(sorted_order.order);
   const uint32_t* ids = out.triangle_ids.data();
 
@@ -43,7 +52,12 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
 }
 
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count) {
-  TriangleLbvh lbvh = build_triangle_lbvh(backend, triangles, count);
+  return build_triangle_bvh(backend, triangles, count, triangle_curve(backend));
+}
+
+TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
+                               Curve curve) {
+  TriangleLbvh lbvh = build_triangle_lbvh(backend, triangles, count, curve);
   TriangleBvh out;
   out.bvh = collapse_to_bvh4(backend, lbvh.bvh);
   out.triangles = std::move(lbvh.triangles);

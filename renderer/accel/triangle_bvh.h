@@ -1,11 +1,12 @@
 // The ray-tracing structure over a scene's triangles: the binary LBVH (Karras 2012) over the
-// triangles in Morton order, collapsed into a 4-wide tree for traversal whose leaves are runs of
+// triangles in Hilbert or Morton order (curve_order.h), collapsed into a 4-wide tree for traversal whose leaves are runs of
 // up to kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex triples in that sorted
 // order, so a leaf names them by range, next to their original indices.
 #pragma once
 
 #include "renderer/accel/bvh.h"
 #include "renderer/accel/bvh4.h"
+#include "renderer/accel/curve_order.h"
 #include "renderer/accel/triangle.h"
 
 namespace caustica {
@@ -38,10 +39,21 @@ struct TriangleBvh {
   size_t bytes() const { return bvh.nodes.bytes() + triangles.bytes() + triangle_ids.bytes(); }
 };
 
-// Builds the binary LBVH from triangles already in the backend's memory (`count` of them).
+// The curve a backend's triangle structure follows (curve_order.h). Hilbert on a GPU. Morton on
+// the CPU, where a Hilbert code costs about 40 ns (a chain of dependent bit operations that the
+// compiler does not vectorise): the dragon's LBVH build went from 32 to 19 Mtris/s on two cores,
+// for rays 1 to 4% faster.
+Curve triangle_curve(const Backend& backend);
+
+// Builds the binary LBVH from triangles already in the backend's memory (`count` of them), along
+// `curve`, by default the backend's.
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
+                                 Curve curve);
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count);
 
 // The LBVH collapsed to 4-wide nodes: what traversal uses.
+TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
+                               Curve curve);
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count);
 
 }  // namespace caustica

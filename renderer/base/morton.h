@@ -40,31 +40,28 @@ CAUSTICA_HDI uint32_t morton3_30(uint32_t x, uint32_t y, uint32_t z) {
 // consecutive on the curve always share a face, so a run of consecutive codes never jumps across
 // the grid.
 CAUSTICA_HDI uint32_t hilbert3_30(uint32_t x, uint32_t y, uint32_t z) {
+  // Masks instead of branches: the branches on coordinate bits mispredicted on the CPU, where
+  // they made the dragon's LBVH build 1.6x slower.
+  auto all_if = [](uint32_t v, uint32_t q) { return 0u - uint32_t((v & q) != 0); };
   for (uint32_t q = 512; q > 1; q >>= 1) {
     const uint32_t low = q - 1;
-    if (x & q) x ^= low;
+    x ^= low & all_if(x, q);
     // For y and z: invert x's low bits where the coordinate's bit q is set, else swap them.
-    if (y & q) {
-      x ^= low;
-    } else {
-      const uint32_t t = (x ^ y) & low;
-      x ^= t;
-      y ^= t;
-    }
-    if (z & q) {
-      x ^= low;
-    } else {
-      const uint32_t t = (x ^ z) & low;
-      x ^= t;
-      z ^= t;
-    }
+    const uint32_t y_set = all_if(y, q);
+    x ^= low & y_set;
+    const uint32_t ty = (x ^ y) & low & ~y_set;
+    x ^= ty;
+    y ^= ty;
+    const uint32_t z_set = all_if(z, q);
+    x ^= low & z_set;
+    const uint32_t tz = (x ^ z) & low & ~z_set;
+    x ^= tz;
+    z ^= tz;
   }
   y ^= x;  // Gray encoding
   z ^= y;
   uint32_t flip = 0;
-  for (uint32_t q = 512; q > 1; q >>= 1) {
-    if (z & q) flip ^= q - 1;
-  }
+  for (uint32_t q = 512; q > 1; q >>= 1) flip ^= (q - 1) & all_if(z, q);
   return morton3_30(z ^ flip, y ^ flip, x ^ flip);  // x's bit leads each triple
 }
 
@@ -106,9 +103,12 @@ CAUSTICA_HDI uint32_t size_class(const Aabb& box, const Aabb& bounds) {
   return ratio_squared <= 1.0f / 16.0f ? 1u : 0u;  // NaN (a zero-size scene) counts as huge
 }
 
-// The sort key of an LBVH leaf: size class in bit 30, Morton code of the centre below.
+// The sort key of an LBVH leaf: size class in bit 30, the curve's code of the centre below.
 CAUSTICA_HDI uint32_t extended_morton_code(const Aabb& box, const Aabb& bounds) {
   return (size_class(box, bounds) << 30) | morton_code(box.center(), bounds);
+}
+CAUSTICA_HDI uint32_t extended_hilbert_code(const Aabb& box, const Aabb& bounds) {
+  return (size_class(box, bounds) << 30) | hilbert_code(box.center(), bounds);
 }
 
 }  // namespace caustica

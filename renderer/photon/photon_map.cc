@@ -1,7 +1,7 @@
 #include "renderer/photon/photon_map.h"
 
 #include "renderer/accel/bvh_build.h"
-#include "renderer/accel/morton_order.h"
+#include "renderer/accel/curve_order.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -31,7 +31,8 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { point[i] = Aabb{in[i].position, in[i].position}; });
   Buffer<BvhSummary> summary(backend, 1);
   backend.reduce_bounds_to(point, n, &summary.data()->bounds);
-  MortonOrder sorted_order = sort_by_morton(backend, point, n, &summary.data()->bounds);
+  CurveOrder sorted_order =
+      sort_by_curve(backend, point, n, &summary.data()->bounds, Curve::kMorton);
 
   // The photons in Morton order, split into positions and flux, and the code of each leaf's
   // first photon: ascending, so the radix tree over leaves is built like the one over photons.

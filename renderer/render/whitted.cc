@@ -1,7 +1,7 @@
 #include "renderer/render/whitted.h"
 
 #include "renderer/accel/camera_tiles.h"
-#include "renderer/accel/morton_order.h"
+#include "renderer/accel/curve_order.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/morton.h"
 #include "renderer/base/pixel_blocks.h"
@@ -229,7 +229,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   // search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
   // 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
   // 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
-  const MortonOrder request_order = sort_by_code(
+  const CurveOrder request_order = sort_by_code(
       backend, request_total, 30,
       [=] CAUSTICA_HD(uint32_t i) { return hilbert_code(request[i].position, scene_bounds); });
   const uint32_t* by_code = request_order.order.data();

@@ -40,10 +40,11 @@ struct Built {
   Buffer<TriangleVertices> input;
   TriangleLbvh lbvh;
   TriangleBvh bvh;
-  explicit Built(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
+  explicit Built(const std::vector<TriangleVertices>& tris, Curve curve = Curve::kMorton)
+      : input(*backend, tris.size()) {
     input.upload(tris);
-    lbvh = build_triangle_lbvh(*backend, input.data(), uint32_t(tris.size()));
-    bvh = build_triangle_bvh(*backend, input.data(), uint32_t(tris.size()));
+    lbvh = build_triangle_lbvh(*backend, input.data(), uint32_t(tris.size()), curve);
+    bvh = build_triangle_bvh(*backend, input.data(), uint32_t(tris.size()), curve);
   }
 };
 
@@ -267,8 +268,8 @@ Hit brute_force(const std::vector<TriangleVertices>& tris, const Ray& ray) {
 // Rays from a sphere around the mesh towards random points inside its box (or, with
 // `aim_at_triangles`, towards random triangles' centroids): most hit something.
 void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, uint32_t seed,
-                     bool aim_at_triangles = false) {
-  Built b(tris);
+                     bool aim_at_triangles = false, Curve curve = Curve::kMorton) {
+  Built b(tris, curve);
   TriangleBvhView view = b.bvh.view();
   Aabb bounds = view.bounds;
   Vec3f c = bounds.center();
@@ -325,6 +326,12 @@ void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, u
 }
 
 TEST(Traversal, MatchesBruteForceOnRandomSoup) { check_traversal(random_soup(4000, 99), 10000, 1); }
+
+// The tree a GPU builds, along the Hilbert curve, on the CPU backend.
+TEST(Traversal, MatchesBruteForceAlongTheHilbertCurve) {
+  check_traversal(random_soup(4000, 98), 10000, 11, false, Curve::kHilbert);
+  check_traversal(scene_triangles("cornell-caustics"), 4000, 12, false, Curve::kHilbert);
+}
 
 // Trees whose root holds only leaves, and sizes around the leaf limit: every leaf range and the
 // any-hit exit in the middle of a leaf.

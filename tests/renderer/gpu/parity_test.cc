@@ -279,18 +279,22 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
   BothBackends both;
   const std::vector<TriangleVertices> soup = random_soup(50000, 7);
   Buffer<TriangleVertices> c_soup = upload(*both.cpu, soup), g_soup = upload(*both.gpu, soup);
-  TriangleLbvh c_lbvh = build_triangle_lbvh(*both.cpu, c_soup.data(), uint32_t(soup.size()));
-  TriangleLbvh g_lbvh = build_triangle_lbvh(*both.gpu, g_soup.data(), uint32_t(soup.size()));
-  EXPECT_EQ(c_lbvh.bvh.root, g_lbvh.bvh.root);
-  EXPECT_TRUE(same_bytes(c_lbvh.bvh.nodes.download(), g_lbvh.bvh.nodes.download()));
-  EXPECT_EQ(c_lbvh.triangle_ids.download(), g_lbvh.triangle_ids.download());
+  const uint32_t n = uint32_t(soup.size());
+  for (Curve curve : {Curve::kMorton, Curve::kHilbert}) {
+    SCOPED_TRACE(curve == Curve::kMorton ? "Morton" : "Hilbert");
+    TriangleLbvh c_lbvh = build_triangle_lbvh(*both.cpu, c_soup.data(), n, curve);
+    TriangleLbvh g_lbvh = build_triangle_lbvh(*both.gpu, g_soup.data(), n, curve);
+    EXPECT_EQ(c_lbvh.bvh.root, g_lbvh.bvh.root);
+    EXPECT_TRUE(same_bytes(c_lbvh.bvh.nodes.download(), g_lbvh.bvh.nodes.download()));
+    EXPECT_EQ(c_lbvh.triangle_ids.download(), g_lbvh.triangle_ids.download());
 
-  TriangleBvh c_bvh = build_triangle_bvh(*both.cpu, c_soup.data(), uint32_t(soup.size()));
-  TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), uint32_t(soup.size()));
-  EXPECT_TRUE(same_bytes(c_bvh.bvh.nodes.download(), g_bvh.bvh.nodes.download()));
-  const Vec3f eye(0.0f, 0.0f, -30.0f);
-  EXPECT_TRUE(
-      same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256), camera_hits(*both.gpu, g_bvh, eye, 256)));
+    TriangleBvh c_bvh = build_triangle_bvh(*both.cpu, c_soup.data(), n, curve);
+    TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), n, curve);
+    EXPECT_TRUE(same_bytes(c_bvh.bvh.nodes.download(), g_bvh.bvh.nodes.download()));
+    const Vec3f eye(0.0f, 0.0f, -30.0f);
+    EXPECT_TRUE(same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256),
+                           camera_hits(*both.gpu, g_bvh, eye, 256)));
+  }
 }
 
 constexpr uint32_t kNnQueries = 4096, kNnMaxK = 64;

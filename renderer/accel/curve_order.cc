@@ -1,0 +1,15 @@
+#include "renderer/accel/curve_order.h"
+
+#include "renderer/base/morton.h"
+
+namespace caustica {
+
+CurveOrder sort_by_curve(Backend& backend, const Aabb* boxes, uint32_t n, const Aabb* bounds,
+                         Curve curve) {
+  return sort_by_code(backend, n, 31, [=] CAUSTICA_HD(uint32_t i) {
+    return curve == Curve::kHilbert ? extended_hilbert_code(boxes[i], *bounds)
+                                    : extended_morton_code(boxes[i], *bounds);
+  });
+}
+
+}  // namespace caustica
