@@ -76,6 +76,18 @@ absl::StatusOr<LinearImage> frame_to_image(const v1::Frame& frame) {
 }
 
 absl::Status write_frame(const v1::Frame& frame, const std::filesystem::path& path) {
+  // 8-bit frames for 8-bit files go out byte for byte. Through float and back, 24 animation
+  // frames of 256x256 took 1.73..1.75 s as PNG and 0.91..0.94 s as JPEG on a 16-core GPU host,
+  // and 0.65..0.78 s and 0.08 s written directly (PFM: 0.1 s).
+  const bool srgb8 = frame.pixel_format() == v1::RGBA8_SRGB ||
+                     frame.pixel_format() == v1::PIXEL_FORMAT_UNSPECIFIED;
+  const bool raw = frame.encoding() == v1::RAW || frame.encoding() == v1::ENCODING_UNSPECIFIED;
+  if (srgb8 && raw && !is_float_format(path) &&
+      frame.data().size() == size_t{frame.width()} * frame.height() * 4) {
+    const std::string& data = frame.data();
+    return write_srgb8_image(path, int(frame.width()), int(frame.height()),
+                             {reinterpret_cast<const uint8_t*>(data.data()), data.size()});
+  }
   absl::StatusOr<LinearImage> image = frame_to_image(frame);
   if (!image.ok()) return image.status();
   // The exposure is already in 8-bit frames; float files take none.

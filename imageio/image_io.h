@@ -3,7 +3,9 @@
 // which stays out of the renderer, the server and the benchmark (it pulls ~300 shared libraries).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <span>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -22,6 +24,12 @@ bool is_float_format(const std::filesystem::path& path);
 // 2^exposure_stops and sRGB-encoded; float formats ignore the exposure.
 absl::Status write_image(const std::filesystem::path& path, const LinearImage& image,
                          float exposure_stops = 0.0f);
+
+// Writes 8-bit sRGB RGBA pixels (width * height * 4 bytes, top row first) to `path` as they are,
+// in an 8-bit format chosen by extension (PNG, JPEG, ...): no conversion, so a frame that arrived
+// as sRGB bytes is written without going through float.
+absl::Status write_srgb8_image(const std::filesystem::path& path, int width, int height,
+                               std::span<const uint8_t> rgba);
 
 // Reads any format OpenImageIO knows into linear RGBA float (8-bit files are decoded from sRGB).
 absl::StatusOr<LinearImage> read_image(const std::filesystem::path& path);

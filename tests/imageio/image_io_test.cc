@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
+#include <vector>
 
 #include "imageio/image_io.h"
 
@@ -63,6 +65,28 @@ TEST(ImageIo, UnknownExtensionAndEmptyImageAreErrors) {
   EXPECT_FALSE(write_image(temp_file("x.notaformat"), gradient(4, 4)).ok());
   EXPECT_EQ(write_image(temp_file("x.png"), LinearImage{}).code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(read_image(temp_file("missing.exr")).status().code(), absl::StatusCode::kNotFound);
+}
+
+// sRGB bytes go into an 8-bit file unchanged; a float format or a wrong size is refused.
+TEST(ImageIo, Srgb8PixelsAreWrittenAsTheyAre) {
+  const int w = 16, h = 16;
+  std::vector<uint8_t> bytes(size_t(w) * h * 4);
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = uint8_t(i % 4 == 3 ? 255 : (i * 7) % 256);
+  const std::filesystem::path path = temp_file("bytes.png");
+  ASSERT_TRUE(write_srgb8_image(path, w, h, bytes).ok());
+  absl::StatusOr<LinearImage> read = read_image(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(read.ok()) << read.status();
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    const float v = bytes[i] / 255.0f;
+    const float expected =
+        i % 4 == 3 ? v : (v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f));
+    ASSERT_NEAR(read->rgba[i], expected, 1e-6f) << "value " << i;
+  }
+  EXPECT_EQ(write_srgb8_image(temp_file("bytes.exr"), w, h, bytes).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(write_srgb8_image(temp_file("short.png"), w, h + 1, bytes).code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace
