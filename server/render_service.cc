@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <limits>
-#include <optional>
 #include <span>
 #include <utility>
 
@@ -145,7 +144,7 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   // Raw pixels are copied straight from the film's host image into the frame, under the lease;
   // an image file (PNG, EXR) is encoded from a copy after the lease is given back, so that other
   // clients' passes need not wait for the encoder.
-  std::optional<absl::StatusOr<std::string>> data;
+  absl::StatusOr<std::string> data;
   std::vector<Rgba8> srgb8;
   std::vector<float> linear;
   int width = 0, height = 0;
@@ -192,9 +191,9 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
     break;
   }
   const auto encode_start = Clock::now();
-  if (!data) data = encode_frame(spec, width, height, srgb8, linear);
-  if (!data->ok()) return data->status();
-  frame.data = **std::move(data);
+  if (!spec.raw()) data = encode_frame(spec, width, height, srgb8, linear);
+  if (!data.ok()) return data.status();
+  frame.data = *std::move(data);
   timings->set_resolve_ms(resolve_ms + ms_since(encode_start));
   timings->set_queue_ms(queue_ms);
   latencies_.record("stage/resolve", timings->resolve_ms());
