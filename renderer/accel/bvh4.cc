@@ -1,5 +1,6 @@
 #include "renderer/accel/bvh4.h"
 
+#include "renderer/base/morton.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -11,11 +12,32 @@ namespace {
 struct Subtree {
   uint32_t node;  // binary child field: internal node index or kLeafFlag | sorted leaf
   uint32_t first, last;
+  bool leaf;  // whether it ends the collapse as one leaf child
 
   CAUSTICA_HDI uint32_t size() const { return last - first + 1; }
-  // Small subtrees (single leaves included) end the collapse as one leaf child.
-  CAUSTICA_HDI bool becomes_leaf() const { return size() <= kMaxLeafTriangles; }
 };
+
+// A single triangle is a leaf; so is a subtree of up to kMaxLeafTriangles whose box is not huge
+// by the measure that sorts huge triangles apart (size_class, base/morton.h), or whose box is no
+// larger than one of its two halves' (the two triangles of a wall). Grouped by the curve alone,
+// a leaf of huge triangles spanned two or three walls, the whole room, and every ray in the room
+// entered it and tested its triangles (cornell-caustics: 7 of a shadow ray's 7.1 triangle tests
+// were walls). `child` is the subtree's binary child field.
+CAUSTICA_HDI bool becomes_leaf(const BvhNode* nodes, uint32_t child, uint32_t size, const Aabb& box,
+                               const Aabb& bounds) {
+  if (size == 1) return true;
+  if (size > kMaxLeafTriangles) return false;
+  if (size_class(box, bounds) == 1u) return true;
+  const BvhNode& n = nodes[child];
+  const float half = box.half_area();
+  return half <= n.child[0].bounds().half_area() || half <= n.child[1].bounds().half_area();
+}
+
+// The subtree under binary child field `child`, covering sorted leaves [first, last] in `box`.
+CAUSTICA_HDI Subtree subtree(const BvhNode* nodes, uint32_t child, uint32_t first, uint32_t last,
+                             const Aabb& box, const Aabb& bounds) {
+  return {child, first, last, becomes_leaf(nodes, child, last - first + 1, box, bounds)};
+}
 
 // The up-to-four children a binary node's 4-wide node takes: start with its two children and
 // repeatedly open the one of largest surface area that is not to become a leaf.
@@ -25,16 +47,16 @@ struct Opened {
   int count;
 };
 
-CAUSTICA_HDI Opened open_children(const BvhNode* nodes, Subtree parent) {
+CAUSTICA_HDI Opened open_children(const BvhNode* nodes, Subtree parent, const Aabb& bounds) {
   Opened o;
   // Opening slot i puts the left child of its subtree in its place and appends the right child.
   auto open = [&](int i) {
     const Subtree s = o.child[i];
     const BvhNode& n = nodes[s.node];
-    o.child[i] = {n.child[0].index, s.first, s.node};
     o.box[i] = n.child[0].bounds();
-    o.child[o.count] = {n.child[1].index, s.node + 1, s.last};
     o.box[o.count] = n.child[1].bounds();
+    o.child[i] = subtree(nodes, n.child[0].index, s.first, s.node, o.box[i], bounds);
+    o.child[o.count] = subtree(nodes, n.child[1].index, s.node + 1, s.last, o.box[o.count], bounds);
     ++o.count;
   };
   o.child[0] = parent;
@@ -44,7 +66,7 @@ CAUSTICA_HDI Opened open_children(const BvhNode* nodes, Subtree parent) {
     int best = -1;
     float best_area = -1.0f;
     for (int i = 0; i < o.count; ++i) {
-      if (!o.child[i].becomes_leaf() && o.box[i].half_area() > best_area) {
+      if (!o.child[i].leaf && o.box[i].half_area() > best_area) {
         best_area = o.box[i].half_area();
         best = i;
       }
@@ -68,8 +90,9 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
   out.nodes.resize_discard(binary.leaf_count - 1);
   Buffer<Subtree> frontier(backend, 1), next_frontier(backend, 0);
   Buffer<uint32_t> counts(backend, 0);
-  frontier.upload(std::vector<Subtree>{{binary.root, 0, binary.leaf_count - 1}});
+  frontier.upload(std::vector<Subtree>{{binary.root, 0, binary.leaf_count - 1, false}});
   const BvhNode* nodes = binary.nodes.data();
+  const Aabb bounds = binary.bounds;
   Bvh4Node* wide = out.nodes.data();
   uint32_t level_base = 0, level_size = 1;
   while (level_size > 0) {
@@ -77,9 +100,9 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
     const Subtree* front = frontier.data();
     uint32_t* count = counts.data();
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
-      Opened o = open_children(nodes, front[i]);
+      Opened o = open_children(nodes, front[i], bounds);
       uint32_t internal = 0;
-      for (int c = 0; c < o.count; ++c) internal += !o.child[c].becomes_leaf();
+      for (int c = 0; c < o.count; ++c) internal += !o.child[c].leaf;
       count[i] = internal;
     });
     const uint32_t next_size = backend.exclusive_scan(count, count, level_size);
@@ -88,7 +111,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
     const uint32_t next_base = level_base + level_size;
     const uint32_t base = level_base;
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
-      Opened o = open_children(nodes, front[i]);
+      Opened o = open_children(nodes, front[i], bounds);
       Bvh4Node& w = wide[base + i];
       uint32_t slot = count[i];
       for (int c = 0; c < 4; ++c) {
@@ -101,7 +124,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
         w.upper_z[c] = b.upper.z;
         if (c >= o.count) {
           w.child[c] = kEmptyChild;
-        } else if (o.child[c].becomes_leaf()) {
+        } else if (o.child[c].leaf) {
           w.child[c] = make_leaf_child(o.child[c].first, o.child[c].size());
         } else {
           next[slot] = o.child[c];

@@ -81,8 +81,9 @@ struct Bvh4 {
 // Collapses `binary` (a radix tree: internal node k splits its range between sorted leaves k and
 // k + 1) into a 4-wide tree over the same sorted leaves, level by level from the root (two passes
 // and a scan per level, so it runs on any backend). The root is always a node; below it, every
-// binary subtree of at most kMaxLeafTriangles leaves becomes one leaf child. At most
-// kMaxBvh4Triangles leaves.
+// binary subtree of at most kMaxLeafTriangles leaves becomes one leaf child, unless its box is
+// huge and larger than either half's (a room's walls: each keeps a leaf of its own, bvh4.cc). At
+// most kMaxBvh4Triangles leaves.
 Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary);
 
 }  // namespace caustica
