@@ -13,19 +13,27 @@ struct CurveOrder {
   Buffer<uint32_t> order;  // order[i]: the primitive with the i-th code
 };
 
-// Codes `code_of(i)` (a CAUSTICA_HD functor giving a code below 2^end_bit) for i in [0, n),
-// radix-sorted with the indices.
-template <typename CodeOf>
-CurveOrder sort_by_code(Backend& backend, uint32_t n, int end_bit, CodeOf code_of) {
+// Codes `code_of(id)` (a CAUSTICA_HD functor giving a code below 2^end_bit) of the ids
+// `id_of(0)`, ..., `id_of(n - 1)`, a permutation of [0, n), radix-sorted with them. The sort is
+// stable: equal codes keep the order id_of gives them.
+template <typename CodeOf, typename IdOf>
+CurveOrder sort_by_code(Backend& backend, uint32_t n, int end_bit, CodeOf code_of, IdOf id_of) {
   CurveOrder out{Buffer<uint32_t>(backend, n), Buffer<uint32_t>(backend, n)};
   uint32_t* code = out.codes.data();
   uint32_t* id = out.order.data();
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
-    code[i] = code_of(uint32_t(i));
-    id[i] = uint32_t(i);
+    const uint32_t which = id_of(uint32_t(i));
+    code[i] = code_of(which);
+    id[i] = which;
   });
   backend.sort_pairs(code, id, n, end_bit);
   return out;
+}
+
+// The same for the ids 0, ..., n - 1 in order.
+template <typename CodeOf>
+CurveOrder sort_by_code(Backend& backend, uint32_t n, int end_bit, CodeOf code_of) {
+  return sort_by_code(backend, n, end_bit, code_of, [] CAUSTICA_HD(uint32_t i) { return i; });
 }
 
 // Which curve a radix tree's leaves follow. Both give a tree of the same octree cells, split in

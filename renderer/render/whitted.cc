@@ -229,9 +229,20 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   // search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
   // 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
   // 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
+  // The sort keeps equal codes in the order it is given them, and stage 2 appended the requests
+  // in whatever order the walks ended. So they go to the sort in pixel and path order: taken in
+  // append order, requests on one grid cell (pixels that a curved mirror shrinks onto one spot)
+  // met their neighbours in an order that changed from run to run, and with it the order each
+  // estimate summed its photons, the last bit of a few pixels.
+  Buffer<uint32_t> requests_in_pixel_order(backend, request_total);
+  uint32_t* in_pixel_order = requests_in_pixel_order.data();
+  parallel_for(backend, request_total, [=] CAUSTICA_HD(size_t slot) {
+    in_pixel_order[offset[request[slot].pixel] + request[slot].order] = uint32_t(slot);
+  });
   const CurveOrder request_order = sort_by_code(
       backend, request_total, 30,
-      [=] CAUSTICA_HD(uint32_t i) { return hilbert_code(request[i].position, scene_bounds); });
+      [=] CAUSTICA_HD(uint32_t i) { return hilbert_code(request[i].position, scene_bounds); },
+      [=] CAUSTICA_HD(uint32_t rank) { return in_pixel_order[rank]; });
   const uint32_t* by_code = request_order.order.data();
 
   // Stage 4: both photon-map estimates per request, stored in pixel and path order, with the
