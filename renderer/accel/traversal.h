@@ -84,8 +84,10 @@ template <bool kShrinks, typename Test>
 CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const float& t_max,
                               Test test) {
   if (bvh.count == 0) return;
-  const Vec3f inv_dir = safe_reciprocal(ray.direction);
-  if (intersect_slabs(bvh.bounds, ray.origin, inv_dir, ray.t_min, t_max) > t_max) return;
+  // In registers: `ray` may be a reference into global memory, read again at every node.
+  const Vec3f origin = ray.origin, inv_dir = safe_reciprocal(ray.direction);
+  const float t_min = ray.t_min;
+  if (intersect_slabs(bvh.bounds, origin, inv_dir, t_min, t_max) > t_max) return;
   if (bvh.count == 1) {
     test(0u);
     return;
@@ -110,7 +112,7 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
       const Bvh4Node n = load_node(bvh.nodes + node);
       float t[4], key[4];
       uint32_t child[4];
-      intersect_children(n, ray.origin, inv_dir, ray.t_min, t_max, t);
+      intersect_children(n, origin, inv_dir, t_min, t_max, t);
       sort_near_first(n, t, t_max, key, child);
       for (int c = 3; c >= 1; --c) {
         if (key[c] != INFINITY) {
@@ -138,10 +140,11 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
 CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
   Hit hit;
   WatertightRay wray(ray);
+  const float t_min = ray.t_min;
   float t_max = ray.t_max;
   detail::walk_leaves<true>(bvh, ray, t_max, [&](uint32_t sorted) {
     float t, u, v;
-    if (intersect_triangle(wray, bvh.triangles[sorted], ray.t_min, t_max, t, u, v)) {
+    if (intersect_triangle(wray, bvh.triangles[sorted], t_min, t_max, t, u, v)) {
       t_max = t;
       hit.t = t;
       hit.u = u;
@@ -156,10 +159,11 @@ CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
 // True when anything blocks the open segment (t_min, t_max) of the ray: shadow rays.
 CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
   WatertightRay wray(ray);
+  const float t_min = ray.t_min, t_max = ray.t_max;
   bool blocked = false;
-  detail::walk_leaves<false>(bvh, ray, ray.t_max, [&](uint32_t sorted) {
+  detail::walk_leaves<false>(bvh, ray, t_max, [&](uint32_t sorted) {
     float t, u, v;
-    blocked = intersect_triangle(wray, bvh.triangles[sorted], ray.t_min, ray.t_max, t, u, v);
+    blocked = intersect_triangle(wray, bvh.triangles[sorted], t_min, t_max, t, u, v);
     return blocked;
   });
   return blocked;
