@@ -51,10 +51,11 @@ struct Built {
 
 // The 4-wide collapse: every triangle in exactly one leaf; leaves are runs of 1 to
 // kMaxLeafTriangles sorted triangles whose box is exactly theirs, and a leaf of several has a box
-// of the small size class or no larger than a part of it; child boxes lie inside their parents; every node has at least two
-// children, empty slots last; and the collapse stopped exactly at the small subtrees: each node
-// covers a contiguous range, an internal child covers more than kMaxLeafTriangles triangles or
-// has a huge box, and a node with a free slot has only leaves. Reports the node and leaf counts.
+// of the small size class or no larger than a part of it; child boxes lie inside their parents;
+// every node has at least two children, empty slots last; and the collapse stopped exactly at the
+// small subtrees: each node covers a contiguous range, an internal child covers more than
+// kMaxLeafTriangles triangles or has a huge box, and a node with a free slot has only leaves.
+// Reports the node and leaf counts.
 void check_wide_invariants(const Built& b, const std::vector<TriangleVertices>& tris) {
   const size_t n = tris.size();
   ASSERT_EQ(b.bvh.bvh.triangle_count, n);
@@ -100,7 +101,9 @@ void check_wide_invariants(const Built& b, const std::vector<TriangleVertices>& 
           bool spanned = false;
           for (uint32_t split = first + 1; split < first + count; ++split) {
             Aabb low, high;
-            for (uint32_t i = first; i < first + count; ++i) (i < split ? low : high).extend(box_of(sorted[i]));
+            for (uint32_t i = first; i < first + count; ++i) {
+              (i < split ? low : high).extend(box_of(sorted[i]));
+            }
             spanned = spanned || low.half_area() >= child_box.half_area() ||
                       high.half_area() >= child_box.half_area();
           }
