@@ -56,22 +56,6 @@ struct alignas(16) Bvh4Node {
   }
 };
 
-// A node's 112 bytes as seven 16-byte loads on a GPU. Read field by field, the compiler emitted
-// 28 four-byte loads in the order the box tests use them, and loaded a child's index behind a
-// branch on whether its box was hit.
-CAUSTICA_HDI Bvh4Node load_node(const Bvh4Node* node) {
-#if defined(__CUDA_ARCH__)
-  Bvh4Node n;
-  const float4* from = reinterpret_cast<const float4*>(node);
-  float4* to = reinterpret_cast<float4*>(&n);
-#pragma unroll
-  for (int i = 0; i < int(sizeof(Bvh4Node) / sizeof(float4)); ++i) to[i] = __ldg(from + i);
-  return n;
-#else
-  return *node;
-#endif
-}
-
 struct Bvh4 {
   Buffer<Bvh4Node> nodes;  // node 0 is the root (when there are >= 2 triangles)
   Aabb bounds;

@@ -105,7 +105,8 @@ CAUSTICA_HDI void intersect_packet_triangle(const PacketFrame& f, const RayPacke
 }  // namespace detail
 
 // Writes hits[i] for each ray i of the packet.
-CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket& packet, Hit* hits) {
+CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket& packet,
+                                     Hit* hits) {
   const int n = packet.count;
   for (int i = 0; i < n; ++i) hits[i] = Hit{};
   if (bvh.count == 0 || n == 0) return;
@@ -160,7 +161,7 @@ CAUSTICA_HDI void closest_hit_packet(const TriangleBvhView& bvh, const RayPacket
       for (int i = 0; i < kPacketRays; ++i) packet_t_max = max_f(packet_t_max, t_max[i]);
       t[c] = INFINITY;
     }
-    if (!detail::descend_near_first(nd, t, packet_t_max, stack, top, node)) break;
+    if (!detail::descend_near_first(nd.child, t, packet_t_max, stack, top, node)) break;
   }
   // Barycentrics of the winning triangle, recomputed once per ray with the scalar test (keeping
   // them in the loop above costs more: the extra selects stop it from vectorising).

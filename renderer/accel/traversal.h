@@ -2,6 +2,7 @@
 // nearest first. One function body serves both backends.
 #pragma once
 
+#include "renderer/accel/ray_slabs.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
@@ -13,16 +14,13 @@ constexpr int kTraversalStackSize = 96;
 namespace detail {
 
 // Entry distances of the ray into the four child boxes of `n`; +infinity for a miss or an empty
-// slot. Written as one loop over the structure-of-arrays fields so it vectorises.
-CAUSTICA_HDI void intersect_children(const Bvh4Node& n, Vec3f origin, Vec3f inv_dir, float t_min,
+// slot. One loop over the structure-of-arrays rows, so that it vectorises on the CPU.
+CAUSTICA_HDI void intersect_children(const OrderedNode& n, const RaySlabs& s, float t_min,
                                      float t_max, float t_out[4]) {
   for (int c = 0; c < 4; ++c) {
-    float tx0 = (n.lower_x[c] - origin.x) * inv_dir.x, tx1 = (n.upper_x[c] - origin.x) * inv_dir.x;
-    float ty0 = (n.lower_y[c] - origin.y) * inv_dir.y, ty1 = (n.upper_y[c] - origin.y) * inv_dir.y;
-    float tz0 = (n.lower_z[c] - origin.z) * inv_dir.z, tz1 = (n.upper_z[c] - origin.z) * inv_dir.z;
-    float t_near = max_f(max_f(min_f(tx0, tx1), min_f(ty0, ty1)), max_f(min_f(tz0, tz1), t_min));
-    float t_far = min_f(min_f(max_f(tx0, tx1), max_f(ty0, ty1)), min_f(max_f(tz0, tz1), t_max));
-    t_out[c] = (t_near <= t_far * 1.00000024f && n.child[c] != kEmptyChild) ? t_near : INFINITY;
+    const float t = slab_entry(s, n.enter[0][c], n.enter[1][c], n.enter[2][c], n.leave[0][c],
+                               n.leave[1][c], n.leave[2][c], t_min, t_max);
+    t_out[c] = n.child[c] != kEmptyChild ? t : INFINITY;
   }
 }
 
@@ -30,11 +28,11 @@ CAUSTICA_HDI void intersect_children(const Bvh4Node& n, Vec3f origin, Vec3f inv_
 // +infinity, by a fixed sorting network: every index is known at compile time, so the pairs stay
 // in registers on a GPU (an insertion sort indexed by a running count put them in local memory),
 // and the swaps are selects, not branches, which would mispredict.
-CAUSTICA_HDI void sort_near_first(const Bvh4Node& n, const float t[4], float t_limit, float key[4],
-                                  uint32_t child[4]) {
+CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], float t_limit,
+                                  float key[4], uint32_t child[4]) {
   for (int c = 0; c < 4; ++c) {
     key[c] = t[c] <= t_limit ? t[c] : INFINITY;
-    child[c] = n.child[c];
+    child[c] = children[c];
   }
   auto order = [&](int a, int b) {
     const bool swap = key[b] < key[a];
@@ -52,14 +50,15 @@ CAUSTICA_HDI void sort_near_first(const Bvh4Node& n, const float t[4], float t_l
   order(1, 2);
 }
 
-// Chooses the next node for a traversal that has already tested the leaf children of `n` (their
-// t set to +infinity): the children with t[c] <= t_limit, nearest first, the rest pushed on the
-// stack; with none, the top of the stack. Returns false when the traversal is over.
-CAUSTICA_HDI bool descend_near_first(const Bvh4Node& n, const float t[4], float t_limit,
+// Chooses the next node for a traversal that has already tested the leaf children among
+// `children` (their t set to +infinity): the children with t[c] <= t_limit, nearest first, the
+// rest pushed on the stack; with none, the top of the stack. Returns false when the traversal is
+// over.
+CAUSTICA_HDI bool descend_near_first(const uint32_t children[4], const float t[4], float t_limit,
                                      uint32_t* stack, int& top, uint32_t& node) {
   float key[4];
   uint32_t child[4];
-  sort_near_first(n, t, t_limit, key, child);
+  sort_near_first(children, t, t_limit, key, child);
   if (key[3] != INFINITY) stack[top++] = child[3];
   if (key[2] != INFINITY) stack[top++] = child[2];
   if (key[1] != INFINITY) stack[top++] = child[1];
@@ -85,9 +84,9 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
                               Test test) {
   if (bvh.count == 0) return;
   // In registers: `ray` may be a reference into global memory, read again at every node.
-  const Vec3f origin = ray.origin, inv_dir = safe_reciprocal(ray.direction);
+  const RaySlabs slabs = ray_slabs(ray.origin, ray.direction);
   const float t_min = ray.t_min;
-  if (intersect_slabs(bvh.bounds, origin, inv_dir, t_min, t_max) > t_max) return;
+  if (slab_entry(slabs, bvh.bounds, t_min, t_max) > t_max) return;
   if (bvh.count == 1) {
     test(0u);
     return;
@@ -109,11 +108,11 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
   };
   while (true) {
     while (!is_leaf(node)) {
-      const Bvh4Node n = load_node(bvh.nodes + node);
+      const OrderedNode n = load_ordered_node(bvh.nodes + node, slabs);
       float t[4], key[4];
       uint32_t child[4];
-      intersect_children(n, origin, inv_dir, t_min, t_max, t);
-      sort_near_first(n, t, t_max, key, child);
+      intersect_children(n, slabs, t_min, t_max, t);
+      sort_near_first(n.child, t, t_max, key, child);
       for (int c = 3; c >= 1; --c) {
         if (key[c] != INFINITY) {
           stack[top] = child[c];

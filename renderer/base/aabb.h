@@ -47,25 +47,11 @@ CAUSTICA_HDI float distance_squared(const Aabb& b, Vec3f p) {
 }
 
 // Reciprocal direction for slab tests, with zero components replaced by a tiny value of the same
-// sign: the products in intersect_slabs then stay finite (no 0 * inf NaN for a ray lying in a
-// slab plane), so the plain compares below are exact.
+// sign: slab distances (accel/ray_slabs.h) then stay finite (no 0 * inf NaN for a ray lying in a
+// slab plane).
 CAUSTICA_HDI Vec3f safe_reciprocal(Vec3f d) {
   auto r = [](float x) { return 1.0f / (fabsf(x) > 1e-30f ? x : copysignf(1e-30f, x)); };
   return {r(d.x), r(d.y), r(d.z)};
-}
-
-// Slab test with a reciprocal direction from safe_reciprocal. Returns the entry distance, or
-// +infinity when the ray misses [t_min, t_max] (never <= any t_max, even FLT_MAX).
-CAUSTICA_HDI float intersect_slabs(const Aabb& b, Vec3f origin, Vec3f inv_dir, float t_min,
-                                   float t_max) {
-  float tx0 = (b.lower.x - origin.x) * inv_dir.x, tx1 = (b.upper.x - origin.x) * inv_dir.x;
-  float ty0 = (b.lower.y - origin.y) * inv_dir.y, ty1 = (b.upper.y - origin.y) * inv_dir.y;
-  float tz0 = (b.lower.z - origin.z) * inv_dir.z, tz1 = (b.upper.z - origin.z) * inv_dir.z;
-  float t_near = max_f(max_f(min_f(tx0, tx1), min_f(ty0, ty1)), max_f(min_f(tz0, tz1), t_min));
-  float t_far = min_f(min_f(max_f(tx0, tx1), max_f(ty0, ty1)), min_f(max_f(tz0, tz1), t_max));
-  // Robust slab test (Ize 2013): widen the far distance by 2 ulp-ish so grazing rays are not lost.
-  t_far *= 1.00000024f;
-  return t_near <= t_far ? t_near : INFINITY;
 }
 
 }  // namespace caustica
