@@ -55,8 +55,8 @@ absl::StatusOr<double> stream_repeated(client::Connection& connection, const std
   uint32_t received = 0;
   absl::Status status = client::receive_frames(context, *reader, [&](v1::Frame& frame) {
     if (frame.data().size() != expected_bytes) {
-      return absl::DataLossError(absl::StrCat("frame of ", frame.data().size(), " bytes, expected ",
-                                              expected_bytes));
+      return absl::DataLossError(
+          absl::StrCat("frame of ", frame.data().size(), " bytes, expected ", expected_bytes));
     }
     ++received;
     return absl::OkStatus();
@@ -73,7 +73,8 @@ absl::Status stream_benchmarks(const BenchOptions& o, client::Connection& connec
                                Reporter& report) {
   // The bundled Cornell box at the benchmark's size with almost no photons: the one pass rendered
   // before streaming is cheap, and the stream itself only re-sends the film.
-  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-box/scene.json");
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-box/scene.json");
   if (!scene.ok()) return scene.status();
   scene->camera.width = o.width;
   scene->camera.height = o.height;
@@ -122,8 +123,8 @@ absl::Status upload_benchmark(const BenchOptions& o, client::Connection& connect
     transfer_ms.push_back(ms - info.last_rebuild().timings().structure_build_ms());
   }
   Measurement transfer = summarize(transfer_ms), total = summarize(total_ms);
-  report.line("upload", name + absl::StrFormat(" %.1f MB", megabytes), megabytes / (transfer.median * 1e-3),
-              "MB/s", &transfer, o.runs);
+  report.line("upload", name + absl::StrFormat(" %.1f MB", megabytes),
+              megabytes / (transfer.median * 1e-3), "MB/s", &transfer, o.runs);
   report.line("upload_with_build", name, megabytes / (total.median * 1e-3), "MB/s", &total, o.runs);
   return absl::OkStatus();
 }
@@ -194,7 +195,8 @@ absl::Status animation_benchmark(const BenchOptions& o, client::Connection& conn
     });
     if (!status.ok()) return status;
     if (arrivals.size() != kKeyframes) {
-      return absl::DataLossError(absl::StrCat(arrivals.size(), " frames of ", kKeyframes, " arrived"));
+      return absl::DataLossError(
+          absl::StrCat(arrivals.size(), " frames of ", kKeyframes, " arrived"));
     }
     if (run < o.warmup) continue;
     // From the second frame on: the first also waits for the call to start.
@@ -248,8 +250,9 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     if (i < o.warmup) continue;
     const v1::StageTimings& r = rebuilt->timings();
     const v1::StageTimings& f = frame->timings();
-    const double rebuild_ms = r.photon_trace_ms() + r.photon_map_build_ms() + r.structure_build_ms() +
-                              f.photon_trace_ms() + f.photon_map_build_ms();
+    const double rebuild_ms = r.photon_trace_ms() + r.photon_map_build_ms() +
+                              r.structure_build_ms() + f.photon_trace_ms() +
+                              f.photon_map_build_ms();
     const double render_ms = f.render_ms() + f.resolve_ms();
     total.push_back(ms);
     rebuild.push_back(rebuild_ms);
@@ -274,21 +277,24 @@ std::vector<std::string> serving_benchmark_names() {
 absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_report) {
   client::ConnectOptions connect;
   // Always a server of our own: a figure must not depend on whatever else listens on 50051.
+  client::EmbeddedServerOptions options;  // (designated initializers would leave one out and warn)
+  options.extra_args = {"--device", o.device, "--log-level", "warning"};
   absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server =
-      client::EmbeddedServer::start({.extra_args = {"--device", o.device, "--log-level", "warning"}});
+      client::EmbeddedServer::start(options);
   if (!server.ok()) return server.status();
   connect.server = (*server)->address();
   connect.max_message_mb = 256;
-  absl::StatusOr<std::unique_ptr<client::Connection>> connection = client::Connection::open(connect);
+  absl::StatusOr<std::unique_ptr<client::Connection>> connection =
+      client::Connection::open(connect);
   if (!connection.ok()) return connection.status();
 
   // Figures are labelled with the device the server renders on, not the benchmark's own CPU.
   absl::StatusOr<v1::Stats> stats =
       (*connection)->call(&v1::RenderService::Stub::GetStats, v1::GetStatsRequest());
   if (!stats.ok()) return stats.status();
-  Reporter report = server_report.for_device(absl::StrFormat(
-      "server %s: %s x%d", stats->device().kind(), stats->device().name(),
-      stats->device().compute_units()));
+  Reporter report = server_report.for_device(
+      absl::StrFormat("server %s: %s x%d", stats->device().kind(), stats->device().name(),
+                      stats->device().compute_units()));
 
   if (wanted(o, "stream_rgba8") || wanted(o, "stream_rgba32f")) {
     if (absl::Status s = stream_benchmarks(o, **connection, report); !s.ok()) return s;
@@ -296,7 +302,8 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_repo
   if (wanted(o, "upload") && !o.mesh.empty()) {
     absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
     if (!scene.ok()) return scene.status();
-    if (absl::Status s = upload_benchmark(o, **connection, *scene, o.mesh.filename().string(), report);
+    if (absl::Status s =
+            upload_benchmark(o, **connection, *scene, o.mesh.filename().string(), report);
         !s.ok())
       return s;
   }

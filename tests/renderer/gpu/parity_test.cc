@@ -12,8 +12,8 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
-#include <tuple>
 #include <random>
+#include <tuple>
 #include <vector>
 
 #include "renderer/accel/camera_tiles.h"
@@ -225,12 +225,14 @@ TEST_P(GpuParityTest, ParallelForWithScratchGivesEachThreadItsOwn) {
   const size_t n = GetParam();
   for (uint32_t count : {1u, 5u, 64u, 384u}) {
     Buffer<uint32_t> sums(gpu(), n);
-    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(gpu(), n, count, ScratchCheck{count, sums.data()}));
+    ASSERT_TRUE(
+        parallel_for_with_scratch<uint32_t>(gpu(), n, count, ScratchCheck{count, sums.data()}));
     auto got = sums.download();
     for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
   }
   Buffer<uint32_t> unused(gpu(), 1);
-  EXPECT_FALSE(parallel_for_with_scratch<uint32_t>(gpu(), 64, 1024, ScratchCheck{1024, unused.data()}))
+  EXPECT_FALSE(
+      parallel_for_with_scratch<uint32_t>(gpu(), 64, 1024, ScratchCheck{1024, unused.data()}))
       << "32 threads x 1024 x 4 bytes is over 48 KiB";
 }
 
@@ -307,7 +309,8 @@ struct NearestResults {
 
 // k-nearest searches (k = 1..64 in turn, two maximum radii) and radiance estimates (the three
 // kernels in turn) at `points` on `backend`.
-NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const std::vector<Vec3f>& points) {
+NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
+                                 const std::vector<Vec3f>& points) {
   const uint32_t n = uint32_t(points.size());
   Buffer<Vec3f> at = upload(backend, points);
   Buffer<Neighbour> found(backend, size_t(n) * kNnMaxK);
@@ -324,8 +327,10 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map, const s
     NeighbourPair storage[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
     NeighbourHeap<NeighbourPair*> heap{storage};
     count[i] = find_nearest(view, q[i], k, max_radius * max_radius, heap);
-    for (uint32_t j = 0; j < kNnMaxK; ++j) out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
-    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3), storage);
+    for (uint32_t j = 0; j < kNnMaxK; ++j)
+      out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
+    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3),
+                             storage);
   });
   return {counts.download(), found.download(), radiance.download()};
 }
@@ -346,7 +351,8 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
     // Half on a plane, with repeated points, half in the volume: equal codes and ties included.
     Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
     if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
-    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)), normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
+    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)),
+                  normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
   }
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   PhotonMap c_map = build_photon_map(*both.cpu, c_in), g_map = build_photon_map(*both.gpu, g_in);
@@ -382,7 +388,8 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
     if (size_t(std::count(c_d2.begin(), c_d2.end(), r2)) != at_r) continue;
     ++compared;
     for (int c = 0; c < 3; ++c) {
-      ASSERT_NEAR(g_radiance[i][c], c_radiance[i][c], 1e-5f * std::max(1.0f, c_radiance[i][c])) << "query " << i;
+      ASSERT_NEAR(g_radiance[i][c], c_radiance[i][c], 1e-5f * std::max(1.0f, c_radiance[i][c]))
+          << "query " << i;
     }
   }
   EXPECT_GT(compared, kNnQueries * 9 / 10);
@@ -441,18 +448,23 @@ TEST(GpuParity, GroupSearchesWithCarriedBoundsFindWhatLoneSearchesFind) {
   std::vector<float> bounds(points.size(), INFINITY);
   for (size_t i = 32; i < points.size(); ++i)
     bounds[i] = i / 32 % 5 == 0 ? 0.25f * lone[i].radius_squared
-                                : carried_radius_squared(lone[i - 32].radius_squared, points[i - 32], points[i]);
+                                : carried_radius_squared(lone[i - 32].radius_squared,
+                                                         points[i - 32], points[i]);
   const std::vector<RadianceEstimate> grouped = grouped_estimates(*both.gpu, g_map, points, bounds);
   for (size_t i = 0; i < points.size(); ++i) {
     ASSERT_EQ(grouped[i].radius_squared, lone[i].radius_squared) << "point " << i;
     for (int c = 0; c < 3; ++c)
-      ASSERT_NEAR(grouped[i].radiance[c], lone[i].radiance[c], 1e-5f * lone[i].radiance[c]) << "point " << i;
+      ASSERT_NEAR(grouped[i].radiance[c], lone[i].radiance[c], 1e-5f * lone[i].radiance[c])
+          << "point " << i;
   }
 }
 
 // `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.
 std::vector<float> render_image(const Scene& scene, DeviceKind device, uint32_t passes) {
-  auto engine = Engine::create({.device = device, .memory_budget_bytes = kBudget});
+  EngineOptions options;  // (designated initializers would leave `backend` out and warn)
+  options.device = device;
+  options.memory_budget_bytes = kBudget;
+  auto engine = Engine::create(options);
   EXPECT_TRUE(engine.ok()) << engine.status();
   if (!engine.ok()) return {};
   absl::StatusOr<RebuildReport> loaded = (*engine)->load(scene);
@@ -509,7 +521,8 @@ TEST(GpuParity, BundledScenesRenderAlike) {
 // the Hilbert sort.
 TEST(GpuParity, SameSeedGivesBitIdenticalImageOnTheGpu) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
-  absl::StatusOr<Scene> scene = load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-caustics" / "scene.json");
+  absl::StatusOr<Scene> scene =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-caustics" / "scene.json");
   ASSERT_TRUE(scene.ok()) << scene.status();
   for (const int width : {160, 640}) {
     SCOPED_TRACE(width);

@@ -42,7 +42,9 @@ TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
     "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [%f, %f, %f]}],
     "shapes": [{"type": "quad", "material": "grey",
                 "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
-  })", rho, rho, rho, light.x, light.y, light.z, intensity, intensity, intensity));
+  })",
+                                             rho, rho, rho, light.x, light.y, light.z, intensity,
+                                             intensity, intensity));
   auto engine = engine_with(scene);
   // 32 jittered passes average each pixel over its area, which matches the value at its centre
   // to second order.
@@ -68,7 +70,8 @@ TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
   EXPECT_GT(checked, 150);
   EXPECT_LT(worst, 0.01) << "largest relative error";
   RecordProperty("max_relative_error", absl::StrFormat("%.5f", worst));
-  std::printf("plane under point light: max relative error %.4f%% over %d pixels\n", 100 * worst, checked);
+  std::printf("plane under point light: max relative error %.4f%% over %d pixels\n", 100 * worst,
+              checked);
 }
 
 // Inside a closed diffuse sphere of albedo rho with a point light of power Phi at its centre, the
@@ -76,7 +79,8 @@ TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
 TEST(Analytic, InsideDiffuseSphereMatchesInterreflectionSeries) {
   const float rho = 0.5f, radius = 1.0f, intensity = 2.0f;
   const float phi = 4.0f * kPi * intensity;
-  Scene scene = parse_or_die(absl::StrFormat(R"({
+  Scene scene =
+      parse_or_die(absl::StrFormat(R"({
     "camera": {"position": [0.1, 0.05, 0.0], "look_at": [0.1, 0.05, 1], "up": [0, 1, 0],
                "fov": 90, "width": 64, "height": 64},
     "settings": {"photons": 200000, "k": 64, "max_radius": 0.2, "max_photon_bounces": 40,
@@ -85,7 +89,8 @@ TEST(Analytic, InsideDiffuseSphereMatchesInterreflectionSeries) {
     "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [%f, %f, %f]}],
     "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": %f, "rings": 96,
                 "segments": 192, "material": "wall"}]
-  })", rho, rho, rho, intensity, intensity, intensity, radius));
+  })",
+                                   rho, rho, rho, intensity, intensity, intensity, radius));
   auto engine = engine_with(scene);
   auto report = engine->render(4);
   ASSERT_TRUE(report.ok()) << report.status();
@@ -146,7 +151,8 @@ TEST(Determinism, SameImageOnOneThreadAsOnEvery) {
   for (int run = 0; run < 2; ++run) {
     const std::vector<float> every = render_on(tbb::task_arena::automatic);
     ASSERT_EQ(one.size(), every.size());
-    EXPECT_EQ(0, std::memcmp(one.data(), every.data(), one.size() * sizeof(float))) << "run " << run;
+    EXPECT_EQ(0, std::memcmp(one.data(), every.data(), one.size() * sizeof(float)))
+        << "run " << run;
   }
 }
 
@@ -178,8 +184,8 @@ TEST(Engine, LightChangeRestartsAccumulationAndBumpsEpoch) {
   auto engine = engine_with(*scene);
   ASSERT_TRUE(engine->render(2).ok());
   uint64_t lights_epoch = engine->epochs().lights;
-  std::vector<Light> lights = {Light{"key", LightType::kPoint, Vec3f(278, 400, 279), Vec3f(0, -1, 0),
-                                     Vec3f(1e5f, 1e5f, 1e5f)}};
+  std::vector<Light> lights = {Light{"key", LightType::kPoint, Vec3f(278, 400, 279),
+                                     Vec3f(0, -1, 0), Vec3f(1e5f, 1e5f, 1e5f)}};
   ASSERT_TRUE(engine->set_lights(lights).ok());
   EXPECT_EQ(engine->epochs().lights, lights_epoch + 1);
   auto report = engine->render(1);
@@ -271,7 +277,10 @@ TEST(Engine, EnginesSharingABackendShareOneBudget) {
 TEST(Engine, MemoryBudgetOverrunIsResourceExhausted) {
   absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
   ASSERT_TRUE(scene.ok());
-  auto engine = Engine::create({.device = DeviceKind::kCpu, .memory_budget_bytes = 4096});
+  EngineOptions options;  // (designated initializers would leave `backend` out and warn)
+  options.device = DeviceKind::kCpu;
+  options.memory_budget_bytes = 4096;
+  auto engine = Engine::create(options);
   ASSERT_TRUE(engine.ok());
   auto loaded = (*engine)->load(*scene);
   EXPECT_EQ(loaded.status().code(), absl::StatusCode::kResourceExhausted) << loaded.status();
