@@ -27,7 +27,11 @@ CAUSTICA_HDI void intersect_children(const OrderedNode& n, const RaySlabs& s, fl
 // The four (distance, child) pairs of `n` nearest first, those with t[c] > t_limit last as
 // +infinity, by a fixed sorting network: every index is known at compile time, so the pairs stay
 // in registers on a GPU (an insertion sort indexed by a running count put them in local memory),
-// and the swaps are selects, not branches, which would mispredict.
+// and the swaps are selects, not branches, which would mispredict. With kWhole false only the
+// nearest is sure to come first, by three exchanges of the five: enough for a walk that ends at
+// any hit, where what matters is to meet a blocker soon (H200, dragon shadow rays, alternated
+// runs: 2080..2144 -> 2140..2193 Mrays/s, the same answers).
+template <bool kWhole = true>
 CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], float t_limit,
                                   float key[4], uint32_t child[4]) {
   for (int c = 0; c < 4; ++c) {
@@ -46,8 +50,10 @@ CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], 
   order(0, 1);
   order(2, 3);
   order(0, 2);
-  order(1, 3);
-  order(1, 2);
+  if constexpr (kWhole) {
+    order(1, 3);
+    order(1, 2);
+  }
 }
 
 // Chooses the next node for a traversal that has already tested the leaf children among
@@ -112,7 +118,7 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
       float t[4], key[4];
       uint32_t child[4];
       intersect_children(n, slabs, t_min, t_max, t);
-      sort_near_first(n.child, t, t_max, key, child);
+      sort_near_first<kShrinks>(n.child, t, t_max, key, child);
       for (int c = 3; c >= 1; --c) {
         if (key[c] != INFINITY) {
           stack[top] = child[c];
