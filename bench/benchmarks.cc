@@ -36,7 +36,8 @@ absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& o) {
     "camera": {"position": [0, 0, 1], "look_at": [0, 0, 0], "fov": 45, "width": %d, "height": %d},
     "materials": {"white": {"type": "diffuse", "albedo": [0.8, 0.8, 0.8]}},
     "lights": [{"type": "point", "position": [0, 100, 0], "intensity": [1, 1, 1]}],
-    "shapes": [%s]})", o.width, o.height, absl::StrJoin(shapes, ", ")),
+    "shapes": [%s]})",
+                                     o.width, o.height, absl::StrJoin(shapes, ", ")),
                      ".", "benchmark mesh scene");
 }
 
@@ -66,7 +67,8 @@ absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& 
 absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();
-  const std::string name = o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
+  const std::string name =
+      o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
   absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
   if (!made.ok()) return made.status();
   Backend* backend = made->get();
@@ -82,8 +84,8 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
     Measurement s = measure(o, *backend, [&] { build_triangle_bvh(*backend, input, tris); });
     report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
   }
-  report.line("triangle_structure_bytes_per_triangle", name,
-              double(resident.bvh().bytes()) / tris, "B/tri");
+  report.line("triangle_structure_bytes_per_triangle", name, double(resident.bvh().bytes()) / tris,
+              "B/tri");
 
   const TriangleBvhView bvh = resident.view().bvh;
   const PinholeCamera camera = PinholeCamera::from(framing_camera(bvh.bounds, o.width, o.height));
@@ -92,24 +94,27 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
   Hit* hit = hits.data();
   auto trace_primary = [&] {
     parallel_for(*backend, pixels, [=] CAUSTICA_HD(size_t i) {
-      hit[i] = closest_hit(bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
+      hit[i] = closest_hit(
+          bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
     });
   };
   if (wanted(o, "primary_rays")) {
     // Camera rays in square tiles traced as packets (what the renderer does for primary rays), and
     // the same rays one at a time.
     Measurement m = measure(o, *backend, [&] {
-      trace_camera_tiles(*backend, bvh, camera.origin, camera.width, camera.height,
-                         [=] CAUSTICA_HD(size_t i) {
-                           return camera.ray_through(float(i % camera.width) + 0.5f,
-                                                     float(i / camera.width) + 0.5f)
-                               .direction;
-                         },
-                         hit);
+      trace_camera_tiles(
+          *backend, bvh, camera.origin, camera.width, camera.height,
+          [=] CAUSTICA_HD(size_t i) {
+            return camera
+                .ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f)
+                .direction;
+          },
+          hit);
     });
     report.line("primary_rays", name, pixels / (m.median * 1e3), "Mrays/s", &m, o.runs);
     Measurement single = measure(o, *backend, trace_primary);
-    report.line("primary_rays_single", name, pixels / (single.median * 1e3), "Mrays/s", &single, o.runs);
+    report.line("primary_rays_single", name, pixels / (single.median * 1e3), "Mrays/s", &single,
+                o.runs);
   } else if (wanted(o, "shadow_rays")) {
     trace_primary();
   }
@@ -187,16 +192,18 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     });
     const std::string label = name + absl::StrFormat(" %d photons", o.photons);
     report.line("photon_pass", label, m.median, "ms", &m, o.runs);
-    Measurement traced_only = measure(o, *backend, [&] { (void)trace_photons(*backend, resident, trace); });
+    Measurement traced_only =
+        measure(o, *backend, [&] { (void)trace_photons(*backend, resident, trace); });
     report.line("photon_trace", label, traced_only.median, "ms", &traced_only, o.runs);
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     Measurement maps = measure(o, *backend, [&] {
       (void)build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
       (void)build_photon_map(*backend, traced.global, o.photons_per_leaf);
     });
-    report.line("photon_maps_build", label + absl::StrFormat(" %zu stored", stored), maps.median, "ms",
-                &maps, o.runs);
-    report.line("photon_map_bytes_per_photon", name, stored ? double(map_bytes) / stored : 0.0, "B/photon");
+    report.line("photon_maps_build", label + absl::StrFormat(" %zu stored", stored), maps.median,
+                "ms", &maps, o.runs);
+    report.line("photon_map_bytes_per_photon", name, stored ? double(map_bytes) / stored : 0.0,
+                "B/photon");
   }
   if (wanted(o, "frame")) {
     scene->camera.width = o.width;
@@ -207,7 +214,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
-    report.line("frame", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k), m.median, "ms", &m, o.runs);
+    report.line("frame", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k), m.median,
+                "ms", &m, o.runs);
     // Light change to finished frame: new lights, then one pass (photons, maps, render).
     std::vector<Light> lights = scene->lights;
     Measurement change = measure(o, (*engine)->backend(), [&] {
@@ -219,7 +227,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     // The render pass alone on maps already built: camera rays, specular chains, shadow rays and
     // both k-nearest gathers, as the frame target counts it.
     const RenderSettings& rs = scene->settings;
-    TracedPhotons traced = trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
+    TracedPhotons traced =
+        trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
     PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
     PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
     Film film(*backend, o.width, o.height);
@@ -267,7 +276,8 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   probe->reset();
   Reporter report(out, absl::StrFormat("%s x%d", info.name, info.compute_units));
   auto any_of = [&](const std::vector<std::string>& names) {
-    return std::any_of(names.begin(), names.end(), [&](const std::string& n) { return wanted(o, n); });
+    return std::any_of(names.begin(), names.end(),
+                       [&](const std::string& n) { return wanted(o, n); });
   };
   if (o.mesh.empty() && o.photon_scene.empty() && !any_of({"stream_rgba8", "stream_rgba32f"}))
     return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");

@@ -15,17 +15,17 @@
 namespace caustica {
 
 struct BenchOptions {
-  std::filesystem::path mesh;           // triangle mesh for the structure and ray benchmarks
-  int copies = 1;                       // copy i translated by i * (0.25, 0.15, 0)
-  std::filesystem::path photon_scene;   // scene for the photon and frame benchmarks
-  std::vector<std::string> only;        // benchmark names to run; empty = all
+  std::filesystem::path mesh;          // triangle mesh for the structure and ray benchmarks
+  int copies = 1;                      // copy i translated by i * (0.25, 0.15, 0)
+  std::filesystem::path photon_scene;  // scene for the photon and frame benchmarks
+  std::vector<std::string> only;       // benchmark names to run; empty = all
   int runs = 5;
   int warmup = 1;
   int width = 1024, height = 1024;
   uint32_t photons = 1000000;
   uint32_t k = 64;
   uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
-  std::string device = "cpu";           // serving benchmarks: the server's --device
+  std::string device = "cpu";  // serving benchmarks: the server's --device
 };
 
 // The names run_benchmarks knows, in the order it runs them.

@@ -1,7 +1,6 @@
 // caustica-bench: prints one JSON line per measured figure.
-#include <iostream>
-
 #include <CLI/CLI.hpp>
+#include <iostream>
 
 #include "absl/strings/str_join.h"
 #include "bench/benchmarks.h"
@@ -9,14 +8,22 @@
 int main(int argc, char** argv) {
   caustica::BenchOptions options;
   CLI::App app{"Benchmarks of the Caustica renderer stages; one JSON line per figure."};
-  app.add_option("--mesh", options.mesh, "triangle mesh (.ply, .ply.gz, .obj, .gltf, .glb) for the structure and ray benchmarks");
-  app.add_option("--copies", options.copies, "instances of the mesh, copy i shifted by i*(0.25,0.15,0)")->check(CLI::Range(1, 64));
+  app.add_option(
+      "--mesh", options.mesh,
+      "triangle mesh (.ply, .ply.gz, .obj, .gltf, .glb) for the structure and ray benchmarks");
+  app.add_option("--copies", options.copies,
+                 "instances of the mesh, copy i shifted by i*(0.25,0.15,0)")
+      ->check(CLI::Range(1, 64));
   app.add_option("--scene", options.photon_scene, "scene file for the photon and frame benchmarks");
-  app.add_option("--only", options.only, "run only these benchmarks: " + absl::StrJoin(caustica::benchmark_names(), ", "));
-  app.add_option("--runs", options.runs, "measured runs per figure (median reported)")->check(CLI::Range(1, 1000));
+  app.add_option("--only", options.only,
+                 "run only these benchmarks: " + absl::StrJoin(caustica::benchmark_names(), ", "));
+  app.add_option("--runs", options.runs, "measured runs per figure (median reported)")
+      ->check(CLI::Range(1, 1000));
   app.add_option("--warmup", options.warmup, "unmeasured runs first")->check(CLI::Range(0, 100));
-  app.add_option("--width", options.width, "image width for ray and frame benchmarks")->check(CLI::Range(1, 16384));
-  app.add_option("--height", options.height, "image height for ray and frame benchmarks")->check(CLI::Range(1, 16384));
+  app.add_option("--width", options.width, "image width for ray and frame benchmarks")
+      ->check(CLI::Range(1, 16384));
+  app.add_option("--height", options.height, "image height for ray and frame benchmarks")
+      ->check(CLI::Range(1, 16384));
   app.add_option("--photons", options.photons, "photons per photon pass");
   app.add_option("--k", options.k, "photons per radiance estimate in the frame benchmark");
   app.add_option("--photons-per-leaf", options.photons_per_leaf,
@@ -26,7 +33,8 @@ int main(int argc, char** argv) {
                  "backend to measure; the serving benchmarks pass it to the server they start")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   bool print_camera = false;
-  app.add_flag("--print-camera", print_camera, "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");
+  app.add_flag("--print-camera", print_camera,
+               "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");
   CLI11_PARSE(app, argc, argv);
 
   absl::Status status = print_camera ? caustica::print_ray_camera(options, std::cout)

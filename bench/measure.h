@@ -37,14 +37,16 @@ inline Measurement measure(const BenchOptions& o, const std::function<void()>& f
   for (int i = 0; i < o.runs; ++i) {
     auto start = std::chrono::steady_clock::now();
     fn();
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                     .count());
   }
   return summarize(std::move(ms));
 }
 
 // Device work is timed by the backend: CUDA events on the GPU, the host clock around
 // synchronisations on the CPU.
-inline Measurement measure(const BenchOptions& o, Backend& backend, const std::function<void()>& fn) {
+inline Measurement measure(const BenchOptions& o, Backend& backend,
+                           const std::function<void()>& fn) {
   for (int i = 0; i < o.warmup; ++i) fn();
   std::vector<double> ms;
   for (int i = 0; i < o.runs; ++i) ms.push_back(backend.time_ms(fn));
@@ -56,10 +58,11 @@ class Reporter {
   Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
   // The same output, labelled with another device (the server's, for the serving figures).
   Reporter for_device(std::string device) const { return Reporter(out_, std::move(device)); }
-  void line(const std::string& name, const std::string& scene, double value, const std::string& unit,
-            const Measurement* m = nullptr, int runs = 0) {
-    out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")",
-                            name, scene, device_, value, unit);
+  void line(const std::string& name, const std::string& scene, double value,
+            const std::string& unit, const Measurement* m = nullptr, int runs = 0) {
+    out_ << absl::StrFormat(
+        R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")", name, scene,
+        device_, value, unit);
     if (m != nullptr)
       out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
                               m->median, m->min, m->max, runs);

@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
       "started for the command)."};
   app.require_subcommand(1);
   app.option_defaults()->always_capture_default();  // --help shows the defaults
-  app.fallthrough();  // global flags may follow the subcommand
+  app.fallthrough();                                // global flags may follow the subcommand
   GlobalOptions global;
   app.add_option("--server", global.connect.server, "server address HOST:PORT");
   app.add_option("--timeout", global.connect.timeout_s, "deadline of every call in seconds")

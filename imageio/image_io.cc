@@ -27,13 +27,15 @@ float srgb_encode(float v) {
 // from the bottom up. Written here because OpenImageIO 2.4's PNM writer only writes 8/16-bit.
 absl::Status write_pfm(const std::filesystem::path& path, const LinearImage& image) {
   std::FILE* f = std::fopen(path.string().c_str(), "wb");
-  if (f == nullptr) return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot open for writing"));
+  if (f == nullptr)
+    return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot open for writing"));
   std::string header = absl::StrCat("PF\n", image.width, " ", image.height, "\n-1.0\n");
   bool ok = std::fwrite(header.data(), 1, header.size(), f) == header.size();
   std::vector<float> row(size_t(image.width) * 3);
   for (int y = image.height - 1; ok && y >= 0; --y) {
     for (int x = 0; x < image.width; ++x)
-      for (int c = 0; c < 3; ++c) row[3 * x + c] = image.rgba[4 * (size_t(y) * image.width + x) + c];
+      for (int c = 0; c < 3; ++c)
+        row[3 * x + c] = image.rgba[4 * (size_t(y) * image.width + x) + c];
     ok = std::fwrite(row.data(), sizeof(float), row.size(), f) == row.size();
   }
   ok = std::fclose(f) == 0 && ok;
@@ -47,8 +49,8 @@ absl::Status write_with_oiio(const std::filesystem::path& path, int width, int h
                              OIIO::TypeDesc stored, OIIO::TypeDesc given, const void* pixels) {
   auto out = OIIO::ImageOutput::create(path.string());
   if (!out)
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": no image writer for this extension (", OIIO::geterror(), ")"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        path.string(), ": no image writer for this extension (", OIIO::geterror(), ")"));
   OIIO::ImageSpec spec(width, height, 4, stored);
   spec.attribute("oiio:ColorSpace", stored == OIIO::TypeDesc::FLOAT ? "linear" : "sRGB");
   // zlib level 3 instead of OpenImageIO's 6: the client writes a PNG per animation frame, and on
@@ -85,8 +87,8 @@ absl::Status write_image(const std::filesystem::path& path, const LinearImage& i
     }
   }
   return write_with_oiio(path, image.width, image.height,
-                         linear ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8, OIIO::TypeDesc::FLOAT,
-                         pixels.data());
+                         linear ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::UINT8,
+                         OIIO::TypeDesc::FLOAT, pixels.data());
 }
 
 absl::Status write_srgb8_image(const std::filesystem::path& path, int width, int height,
@@ -108,7 +110,8 @@ absl::StatusOr<LinearImage> read_image(const std::filesystem::path& path) {
   std::vector<float> pixels(size_t(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, pixels.data()))
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": ", in->geterror()));
-  const bool encoded = !(spec.format == OIIO::TypeDesc::FLOAT || spec.format == OIIO::TypeDesc::HALF);
+  const bool encoded =
+      !(spec.format == OIIO::TypeDesc::FLOAT || spec.format == OIIO::TypeDesc::HALF);
   image.rgba.assign(size_t(spec.width) * spec.height * 4, 1.0f);
   for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i) {
     for (int c = 0; c < std::min(spec.nchannels, 4); ++c) {

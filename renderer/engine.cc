@@ -20,7 +20,8 @@ namespace caustica {
 namespace {
 
 double elapsed_ms(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since)
+      .count();
 }
 
 // Runs `fn`, turning a budget overrun anywhere below into RESOURCE_EXHAUSTED and a device failure
@@ -74,8 +75,8 @@ struct Engine::State {
                                      uint64_t& caustic_count, uint64_t& global_count) {
     const RenderSettings& rs = scene.settings;
     auto t0 = std::chrono::steady_clock::now();
-    TracedPhotons traced =
-        trace_photons(*backend, *resident, {rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass});
+    TracedPhotons traced = trace_photons(
+        *backend, *resident, {rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass});
     backend->synchronize();
     timings.photon_trace_ms += elapsed_ms(t0);
     emitted += traced.emitted;
@@ -114,9 +115,7 @@ absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name) {
       absl::StrCat("unknown device '", std::string(name), "' (expected auto, cpu or cuda)"));
 }
 
-const char* device_kind_name(DeviceKind kind) {
-  return kind == DeviceKind::kCuda ? "cuda" : "cpu";
-}
+const char* device_kind_name(DeviceKind kind) { return kind == DeviceKind::kCuda ? "cuda" : "cpu"; }
 
 absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
                                                       size_t memory_budget_bytes) {
@@ -191,8 +190,7 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
 absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_lights(lights, st.resident->view().area_light_count);
-      !s.ok())
+  if (absl::Status s = validate_lights(lights, st.resident->view().area_light_count); !s.ok())
     return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
@@ -259,7 +257,8 @@ ShadingSettings Engine::shading(uint32_t pass) const {
   const RenderSettings& rs = st.scene.settings;
   // The gather radius cap: the setting, or 5% of the scene's diagonal when it is 0.
   float max_radius = rs.max_radius;
-  if (max_radius <= 0) max_radius = st.resident ? 0.05f * length(st.resident->bounds().extent()) : 0.0f;
+  if (max_radius <= 0)
+    max_radius = st.resident ? 0.05f * length(st.resident->bounds().extent()) : 0.0f;
   return {rs.k_nearest, max_radius, rs.kernel, rs.max_depth, rs.area_light_samples, rs.seed, pass};
 }
 
@@ -283,7 +282,8 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
       st.prepared.reset();
 
       auto t0 = std::chrono::steady_clock::now();
-      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass), *st.film);
+      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass),
+                  *st.film);
       backend.synchronize();
       report.timings.render_ms += elapsed_ms(t0);
       ++report.passes_rendered;

@@ -51,11 +51,13 @@ struct StageTimings {
   double photon_trace_ms = 0;
   double photon_map_build_ms = 0;
   double render_ms = 0;
-  double total() const { return structure_build_ms + photon_trace_ms + photon_map_build_ms + render_ms; }
+  double total() const {
+    return structure_build_ms + photon_trace_ms + photon_map_build_ms + render_ms;
+  }
 };
 
 struct PassReport {
-  StageTimings timings;       // summed over the passes rendered by this call
+  StageTimings timings;  // summed over the passes rendered by this call
   uint32_t passes_rendered = 0;
   uint32_t total_passes = 0;  // in the film since the last change
   uint64_t photons_emitted = 0;

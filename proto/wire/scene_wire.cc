@@ -15,8 +15,8 @@ namespace caustica::wire {
 namespace {
 
 // Element sizes of the MeshChunk arrays, indexed by MeshChunk::Array.
-constexpr size_t kElementBytes[5] = {0, 3 * sizeof(float), 3 * sizeof(float),
-                                     3 * sizeof(uint32_t), sizeof(uint32_t)};
+constexpr size_t kElementBytes[5] = {0, 3 * sizeof(float), 3 * sizeof(float), 3 * sizeof(uint32_t),
+                                     sizeof(uint32_t)};
 constexpr const char* kArrayNames[5] = {"unspecified", "positions", "normals", "indices",
                                         "material_ids"};
 
@@ -38,9 +38,12 @@ bool all_finite(const Vec3f& v) {
 // Bytes one (mesh, array) must deliver according to the header.
 size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
   switch (array) {
-    case v1::MeshChunk::POSITIONS: return counts.vertices * kElementBytes[array];
-    case v1::MeshChunk::NORMALS: return counts.has_normals ? counts.vertices * kElementBytes[array] : 0;
-    case v1::MeshChunk::INDICES: return counts.triangles * kElementBytes[array];
+    case v1::MeshChunk::POSITIONS:
+      return counts.vertices * kElementBytes[array];
+    case v1::MeshChunk::NORMALS:
+      return counts.has_normals ? counts.vertices * kElementBytes[array] : 0;
+    case v1::MeshChunk::INDICES:
+      return counts.triangles * kElementBytes[array];
     case v1::MeshChunk::MATERIAL_IDS:
       return counts.per_triangle_materials ? counts.triangles * kElementBytes[array] : 0;
   }
@@ -80,10 +83,18 @@ v1::Material encode_material(const Material& m) {
   v1::Material out;
   out.set_name(m.name);
   switch (m.type) {
-    case MaterialType::kDiffuse: out.set_type(v1::Material::DIFFUSE); break;
-    case MaterialType::kMirror: out.set_type(v1::Material::MIRROR); break;
-    case MaterialType::kDielectric: out.set_type(v1::Material::DIELECTRIC); break;
-    case MaterialType::kEmissive: out.set_type(v1::Material::EMISSIVE); break;
+    case MaterialType::kDiffuse:
+      out.set_type(v1::Material::DIFFUSE);
+      break;
+    case MaterialType::kMirror:
+      out.set_type(v1::Material::MIRROR);
+      break;
+    case MaterialType::kDielectric:
+      out.set_type(v1::Material::DIELECTRIC);
+      break;
+    case MaterialType::kEmissive:
+      out.set_type(v1::Material::EMISSIVE);
+      break;
   }
   *out.mutable_color() = encode_vec3(m.color);
   out.set_ior(m.ior);
@@ -95,9 +106,15 @@ v1::Light encode_light(const Light& light) {
   v1::Light out;
   out.set_name(light.name);
   switch (light.type) {
-    case LightType::kPoint: out.set_type(v1::Light::POINT); break;
-    case LightType::kSpot: out.set_type(v1::Light::SPOT); break;
-    case LightType::kDirectional: out.set_type(v1::Light::DIRECTIONAL); break;
+    case LightType::kPoint:
+      out.set_type(v1::Light::POINT);
+      break;
+    case LightType::kSpot:
+      out.set_type(v1::Light::SPOT);
+      break;
+    case LightType::kDirectional:
+      out.set_type(v1::Light::DIRECTIONAL);
+      break;
   }
   *out.mutable_position() = encode_vec3(light.position);
   *out.mutable_direction() = encode_vec3(light.direction);
@@ -124,9 +141,15 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_k_nearest(s.k_nearest);
   out.set_max_radius(s.max_radius);
   switch (s.kernel) {
-    case Kernel::kUniform: out.set_kernel(v1::UNIFORM); break;
-    case Kernel::kCone: out.set_kernel(v1::CONE); break;
-    case Kernel::kEpanechnikov: out.set_kernel(v1::EPANECHNIKOV); break;
+    case Kernel::kUniform:
+      out.set_kernel(v1::UNIFORM);
+      break;
+    case Kernel::kCone:
+      out.set_kernel(v1::CONE);
+      break;
+    case Kernel::kEpanechnikov:
+      out.set_kernel(v1::EPANECHNIKOV);
+      break;
   }
   out.set_max_depth(s.max_depth);
   out.set_max_photon_bounces(s.max_photon_bounces);
@@ -159,8 +182,7 @@ namespace {
 // The arrays of one mesh in wire order, with the bytes each sends (empty when not sent).
 std::array<std::string_view, 5> mesh_arrays(const Mesh& mesh) {
   auto bytes_of = [](const auto& v) {
-    return std::string_view(reinterpret_cast<const char*>(v.data()),
-                            v.size() * sizeof(v.front()));
+    return std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v.front()));
   };
   return {std::string_view(), bytes_of(mesh.positions), bytes_of(mesh.normals),
           bytes_of(mesh.indices),
@@ -215,9 +237,15 @@ absl::StatusOr<Light> decode_light(const v1::Light& in, std::string_view field) 
   Light light;
   light.name = in.name();
   switch (in.type()) {
-    case v1::Light::POINT: light.type = LightType::kPoint; break;
-    case v1::Light::SPOT: light.type = LightType::kSpot; break;
-    case v1::Light::DIRECTIONAL: light.type = LightType::kDirectional; break;
+    case v1::Light::POINT:
+      light.type = LightType::kPoint;
+      break;
+    case v1::Light::SPOT:
+      light.type = LightType::kSpot;
+      break;
+    case v1::Light::DIRECTIONAL:
+      light.type = LightType::kDirectional;
+      break;
     default:
       return invalid(join_field(field, "type"),
                      absl::StrCat(in.type(), " is not a light type (POINT, SPOT or DIRECTIONAL)"));
@@ -242,7 +270,8 @@ absl::StatusOr<std::vector<Light>> decode_lights(
   std::vector<Light> out;
   out.reserve(lights.size());
   for (int i = 0; i < lights.size(); ++i) {
-    absl::StatusOr<Light> light = decode_light(lights[i], absl::StrCat(as_absl(field), "[", i, "]"));
+    absl::StatusOr<Light> light =
+        decode_light(lights[i], absl::StrCat(as_absl(field), "[", i, "]"));
     if (!light.ok()) return light.status();
     out.push_back(*std::move(light));
   }
@@ -281,10 +310,17 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
   if (in.has_k_nearest()) s.k_nearest = in.k_nearest();
   if (in.has_max_radius()) s.max_radius = in.max_radius();
   switch (in.kernel()) {
-    case v1::KERNEL_UNSPECIFIED: break;
-    case v1::UNIFORM: s.kernel = Kernel::kUniform; break;
-    case v1::CONE: s.kernel = Kernel::kCone; break;
-    case v1::EPANECHNIKOV: s.kernel = Kernel::kEpanechnikov; break;
+    case v1::KERNEL_UNSPECIFIED:
+      break;
+    case v1::UNIFORM:
+      s.kernel = Kernel::kUniform;
+      break;
+    case v1::CONE:
+      s.kernel = Kernel::kCone;
+      break;
+    case v1::EPANECHNIKOV:
+      s.kernel = Kernel::kEpanechnikov;
+      break;
     default:
       return invalid(join_field(field, "kernel"), absl::StrCat(in.kernel(), " is not a kernel"));
   }
@@ -323,10 +359,18 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     Material m;
     m.name = in.name().empty() ? absl::StrCat("material", i) : in.name();
     switch (in.type()) {
-      case v1::Material::DIFFUSE: m.type = MaterialType::kDiffuse; break;
-      case v1::Material::MIRROR: m.type = MaterialType::kMirror; break;
-      case v1::Material::DIELECTRIC: m.type = MaterialType::kDielectric; break;
-      case v1::Material::EMISSIVE: m.type = MaterialType::kEmissive; break;
+      case v1::Material::DIFFUSE:
+        m.type = MaterialType::kDiffuse;
+        break;
+      case v1::Material::MIRROR:
+        m.type = MaterialType::kMirror;
+        break;
+      case v1::Material::DIELECTRIC:
+        m.type = MaterialType::kDielectric;
+        break;
+      case v1::Material::EMISSIVE:
+        m.type = MaterialType::kEmissive;
+        break;
       default:
         return invalid(join_field(field, "type"),
                        absl::StrCat(in.type(), " is not a material type"));
@@ -359,28 +403,30 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     const std::string field = absl::StrCat("meshes[", i, "] '", h.name(), "'");
     // Limits first: nothing is allocated for a header that asks for absurd sizes.
     if (h.vertex_count() > kMaxVerticesPerMesh) {
-      return absl::ResourceExhaustedError(absl::StrCat(
-          field, ".vertex_count: ", h.vertex_count(), " exceeds the limit of ", kMaxVerticesPerMesh));
+      return absl::ResourceExhaustedError(absl::StrCat(field, ".vertex_count: ", h.vertex_count(),
+                                                       " exceeds the limit of ",
+                                                       kMaxVerticesPerMesh));
     }
     if (h.triangle_count() > kMaxTrianglesPerMesh) {
-      return absl::ResourceExhaustedError(absl::StrCat(field, ".triangle_count: ", h.triangle_count(),
-                                                       " exceeds the limit of ", kMaxTrianglesPerMesh));
+      return absl::ResourceExhaustedError(
+          absl::StrCat(field, ".triangle_count: ", h.triangle_count(), " exceeds the limit of ",
+                       kMaxTrianglesPerMesh));
     }
     if (h.triangle_count() == 0) return invalid(join_field(field, "triangle_count"), "is 0");
     // Each mesh is within its limit here, so the sum cannot overflow.
     scene_triangles += h.triangle_count();
     if (scene_triangles > kMaxSceneTriangles) {
-      return absl::ResourceExhaustedError(absl::StrCat(
-          "meshes: the header declares ", scene_triangles, " triangles in meshes[0..", i,
-          "] alone, more than the limit of ", kMaxSceneTriangles, " per scene"));
+      return absl::ResourceExhaustedError(
+          absl::StrCat("meshes: the header declares ", scene_triangles, " triangles in meshes[0..",
+                       i, "] alone, more than the limit of ", kMaxSceneTriangles, " per scene"));
     }
     if (!h.per_triangle_materials() && h.material() >= scene_.materials.size()) {
       return invalid(join_field(field, "material"),
                      absl::StrCat(h.material(), " is out of range (the scene has ",
                                   scene_.materials.size(), " materials)"));
     }
-    counts_[i] = {h.vertex_count(), h.triangle_count(), h.has_normals(),
-                  h.per_triangle_materials(), h.material()};
+    counts_[i] = {h.vertex_count(), h.triangle_count(), h.has_normals(), h.per_triangle_materials(),
+                  h.material()};
     for (int a = 1; a < 5; ++a) bytes_declared_ += expected_bytes(counts_[i], a);
     // Arrays are allocated as their data arrives, after the server has checked the declared
     // bytes against its memory budget; a one-material mesh's ids are filled in by finish().
@@ -410,9 +456,9 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
   }
   if (data.empty()) return invalid("mesh.data", absl::StrCat(where, ": is empty"));
   if (data.size() % kElementBytes[a] != 0) {
-    return invalid("mesh.data", absl::StrCat(where, ": ", data.size(),
-                                             " bytes are not a whole number of ",
-                                             kElementBytes[a], "-byte elements"));
+    return invalid("mesh.data",
+                   absl::StrCat(where, ": ", data.size(), " bytes are not a whole number of ",
+                                kElementBytes[a], "-byte elements"));
   }
   if (chunk_crc32(data) != chunk.crc32()) {
     return invalid("mesh.crc32", absl::StrFormat("%s: checksum %08x does not match the data (%08x)",
@@ -420,14 +466,14 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
   }
   size_t& received = progress_[chunk.mesh()].received[a];
   if (chunk.offset() != received) {
-    return invalid("mesh.offset", absl::StrCat(where, ": offset ", chunk.offset(),
-                                               " but ", received, " bytes arrived so far"));
+    return invalid("mesh.offset", absl::StrCat(where, ": offset ", chunk.offset(), " but ",
+                                               received, " bytes arrived so far"));
   }
   const size_t expected = expected_bytes(counts, a);
   if (received + data.size() > expected) {
-    return invalid("mesh.data", absl::StrCat(where, ": ", received + data.size(),
-                                             " bytes exceed the ", expected,
-                                             " the header declares"));
+    return invalid("mesh.data",
+                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ", expected,
+                                " the header declares"));
   }
   const size_t first = received / kElementBytes[a];
   const size_t count = data.size() / kElementBytes[a];
@@ -475,8 +521,9 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
         if (mesh.material_ids[base + i] >= scene_.materials.size()) {
           const uint32_t bad = mesh.material_ids[base + i];
           mesh.material_ids.resize(base);
-          return invalid("mesh.data", absl::StrCat(where, ": triangle ", first + i, " uses material ",
-                                                   bad, " of ", scene_.materials.size()));
+          return invalid("mesh.data",
+                         absl::StrCat(where, ": triangle ", first + i, " uses material ", bad,
+                                      " of ", scene_.materials.size()));
         }
       }
       break;

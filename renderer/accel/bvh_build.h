@@ -1,9 +1,10 @@
-// The binary radix tree over sorted Morton or Hilbert codes (Karras 2012), built bottom-up in one pass after
-// Apetrei, "Fast and Simple Agglomerative LBVH Construction" (CGVC 2014): internal node k sits
-// between leaves k and k+1; a node covering leaves [l, r] becomes a child of whichever neighbour
-// split, l-1 or r, has the longer common prefix. Each leaf's thread climbs until it is the first
-// of two siblings to reach their parent (an atomic exchange decides), merging boxes on the way, so
-// topology and bounds come out of the same pass with O(n) total work and no binary searches.
+// The binary radix tree over sorted Morton or Hilbert codes (Karras 2012), built bottom-up in one
+// pass after Apetrei, "Fast and Simple Agglomerative LBVH Construction" (CGVC 2014): internal node
+// k sits between leaves k and k+1; a node covering leaves [l, r] becomes a child of whichever
+// neighbour split, l-1 or r, has the longer common prefix. Each leaf's thread climbs until it is
+// the first of two siblings to reach their parent (an atomic exchange decides), merging boxes on
+// the way, so topology and bounds come out of the same pass with O(n) total work and no binary
+// searches.
 //
 // A template so that each caller computes its leaf boxes on the fly (from sorted triangles or
 // photons) instead of writing and re-reading an array of them.
@@ -75,8 +76,8 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
     while (true) {
       uint32_t parent, seen;
       int side;  // which child of `parent` we are; the sibling is the other
-      if (l == 0 || (r != last && detail::split_key(sorted_codes, r) <
-                                      detail::split_key(sorted_codes, l - 1))) {
+      if (l == 0 || (r != last &&
+                     detail::split_key(sorted_codes, r) < detail::split_key(sorted_codes, l - 1))) {
         parent = r;  // we are the left child of the split after our range
         side = 0;
       } else {

@@ -11,12 +11,12 @@ Curve triangle_curve(const Backend& backend) {
 }
 
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                uint32_t count) {
+                                 uint32_t count) {
   return build_triangle_lbvh(backend, triangles, count, triangle_curve(backend));
 }
 
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                uint32_t count, Curve curve) {
+                                 uint32_t count, Curve curve) {
   TriangleLbvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
@@ -30,7 +30,8 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   Buffer<Aabb> boxes(backend, count);
   Buffer<BvhSummary> summary(backend, 1);
   Aabb* box = boxes.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
+  parallel_for(backend, count,
+               [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
   backend.reduce_bounds_to(box, count, &summary.data()->bounds);
 
   // Pass 2: the curve's codes, sorted with the triangle indices.
@@ -51,7 +52,8 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   return out;
 }
 
-TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count) {
+TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles,
+                               uint32_t count) {
   return build_triangle_bvh(backend, triangles, count, triangle_curve(backend));
 }
 

@@ -1,7 +1,7 @@
 // The ray-tracing structure over a scene's triangles: the binary LBVH (Karras 2012) over the
-// triangles in Hilbert or Morton order (curve_order.h), collapsed into a 4-wide tree for traversal whose leaves are runs of
-// up to kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex triples in that sorted
-// order, so a leaf names them by range, next to their original indices.
+// triangles in Hilbert or Morton order (curve_order.h), collapsed into a 4-wide tree for traversal
+// whose leaves are runs of up to kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex
+// triples in that sorted order, so a leaf names them by range, next to their original indices.
 #pragma once
 
 #include "renderer/accel/bvh.h"
@@ -33,7 +33,8 @@ struct TriangleBvh {
   Buffer<uint32_t> triangle_ids;
 
   TriangleBvhView view() const {
-    return {bvh.nodes.data(), triangles.data(), triangle_ids.data(), bvh.triangle_count, bvh.bounds};
+    return {bvh.nodes.data(), triangles.data(), triangle_ids.data(), bvh.triangle_count,
+            bvh.bounds};
   }
   size_t node_count() const { return bvh.nodes.size(); }
   size_t bytes() const { return bvh.nodes.bytes() + triangles.bytes() + triangle_ids.bytes(); }
@@ -47,9 +48,10 @@ Curve triangle_curve(const Backend& backend);
 
 // Builds the binary LBVH from triangles already in the backend's memory (`count` of them), along
 // `curve`, by default the backend's.
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
-                                 Curve curve);
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count);
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                 uint32_t count, Curve curve);
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                 uint32_t count);
 
 // The LBVH collapsed to 4-wide nodes: what traversal uses.
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,

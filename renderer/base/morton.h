@@ -74,7 +74,9 @@ CAUSTICA_HDI GridCell grid_cell(Vec3f p, const Aabb& bounds) {
   Vec3f scale(e.x > 0 ? 1024.0f / e.x : 0.0f, e.y > 0 ? 1024.0f / e.y : 0.0f,
               e.z > 0 ? 1024.0f / e.z : 0.0f);
   Vec3f q = (p - bounds.lower) * scale;
-  auto cell = [](float f) -> uint32_t { return f <= 0.0f ? 0u : (f >= 1023.0f ? 1023u : uint32_t(f)); };
+  auto cell = [](float f) -> uint32_t {
+    return f <= 0.0f ? 0u : (f >= 1023.0f ? 1023u : uint32_t(f));
+  };
   return {cell(q.x), cell(q.y), cell(q.z)};
 }
 

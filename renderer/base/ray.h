@@ -19,8 +19,8 @@ constexpr uint32_t kNoHit = 0xffffffffu;
 
 struct Hit {
   float t = FLT_MAX;
-  float u = 0, v = 0;             // barycentrics of vertices 1 and 2
-  uint32_t triangle = kNoHit;     // index into the scene's original triangle order
+  float u = 0, v = 0;          // barycentrics of vertices 1 and 2
+  uint32_t triangle = kNoHit;  // index into the scene's original triangle order
   CAUSTICA_HD bool valid() const { return triangle != kNoHit; }
 };
 

@@ -13,7 +13,8 @@ struct Frame {
     float sign = copysignf(1.0f, n.z);
     float a = -1.0f / (sign + n.z);
     float b = n.x * n.y * a;
-    return {Vec3f(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3f(b, sign + n.y * n.y * a, -n.y), n};
+    return {Vec3f(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x),
+            Vec3f(b, sign + n.y * n.y * a, -n.y), n};
   }
   CAUSTICA_HDI Vec3f to_world(Vec3f v) const { return s * v.x + t * v.y + n * v.z; }
 };

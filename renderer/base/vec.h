@@ -97,9 +97,7 @@ CAUSTICA_HDI float average(Vec3f a) { return (a.x + a.y + a.z) * (1.0f / 3.0f); 
 CAUSTICA_HDI int max_dimension(Vec3f a) {
   return (a.x > a.y) ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
 }
-CAUSTICA_HDI bool is_finite(Vec3f a) {
-  return isfinite(a.x) && isfinite(a.y) && isfinite(a.z);
-}
+CAUSTICA_HDI bool is_finite(Vec3f a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 CAUSTICA_HDI bool is_black(Vec3f a) { return a.x == 0 && a.y == 0 && a.z == 0; }
 // Mirror direction of `d` (pointing towards the surface) about normal `n`.
 CAUSTICA_HDI Vec3f reflect(Vec3f d, Vec3f n) { return d - n * (2.0f * dot(d, n)); }

@@ -8,9 +8,9 @@
 namespace caustica {
 
 BudgetExceeded::BudgetExceeded(size_t requested, size_t in_use, size_t budget)
-    : message_(absl::StrFormat(
-          "memory budget exceeded: %d bytes requested with %d of %d bytes in use", requested,
-          in_use, budget)) {}
+    : message_(
+          absl::StrFormat("memory budget exceeded: %d bytes requested with %d of %d bytes in use",
+                          requested, in_use, budget)) {}
 
 void* Backend::allocate(size_t bytes) {
   if (bytes == 0) return nullptr;
@@ -34,7 +34,8 @@ double Backend::time_ms(const std::function<void()>& fn) {
   const auto start = std::chrono::steady_clock::now();
   fn();
   synchronize();
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 }  // namespace caustica

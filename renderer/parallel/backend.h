@@ -42,8 +42,8 @@ class DeviceError : public std::runtime_error {
 
 struct DeviceInfo {
   std::string name;
-  int compute_units = 0;     // CPU threads or CUDA SMs
-  size_t memory_bytes = 0;   // physical memory of the device
+  int compute_units = 0;    // CPU threads or CUDA SMs
+  size_t memory_bytes = 0;  // physical memory of the device
 };
 
 class Backend {

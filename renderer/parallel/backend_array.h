@@ -70,7 +70,8 @@ class BackendArray {
 
  private:
   void release() {
-    if (backend_ != nullptr && data_ != nullptr) Memory::release(*backend_, data_, capacity_ * sizeof(T));
+    if (backend_ != nullptr && data_ != nullptr)
+      Memory::release(*backend_, data_, capacity_ * sizeof(T));
     data_ = nullptr;
     size_ = capacity_ = 0;
   }

@@ -20,17 +20,20 @@ class Buffer : public BackendArray<T, DeviceMemory> {
 
   void upload(std::span<const T> host) {
     this->resize_discard(host.size());
-    if (!host.empty()) this->backend()->copy_to_device(this->data(), host.data(), host.size_bytes());
+    if (!host.empty())
+      this->backend()->copy_to_device(this->data(), host.data(), host.size_bytes());
   }
   std::vector<T> download() const {
     std::vector<T> host(this->size());
-    if (!this->empty()) this->backend()->copy_to_host(host.data(), this->data(), this->size() * sizeof(T));
+    if (!this->empty())
+      this->backend()->copy_to_host(host.data(), this->data(), this->size() * sizeof(T));
     return host;
   }
   // Into `host`, resized to match: for what comes back every frame (host_buffer.h).
   std::span<const T> download(HostBuffer<T>& host) const {
     host.resize_discard(this->size());
-    if (!this->empty()) this->backend()->copy_to_host(host.data(), this->data(), this->size() * sizeof(T));
+    if (!this->empty())
+      this->backend()->copy_to_host(host.data(), this->data(), this->size() * sizeof(T));
     return host.span();
   }
   void fill_zero() {

@@ -4,11 +4,10 @@
 // launch on CUDA are compiled by nvcc, which adds the kernel path (cuda/launch.cuh).
 #pragma once
 
-#include <cstddef>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <cstddef>
 #include <vector>
 
 #include "renderer/parallel/backend.h"
@@ -33,9 +32,10 @@ void parallel_for(Backend& backend, size_t n, F f) {
 #endif
   }
   // Grain 256 keeps scheduling overhead small next to the per-element work (rays, photons).
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) f(i);
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i != r.end(); ++i) f(i);
+                    });
 }
 
 // parallel_for with `scratch_count` elements of T of per-thread scratch: runs f(i, Scratch<T>).
@@ -54,10 +54,12 @@ bool parallel_for_with_scratch(Backend& backend, size_t n, uint32_t scratch_coun
     throw DeviceError("parallel_for on the CUDA backend from code not compiled by nvcc");
 #endif
   }
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
-    std::vector<T> scratch(scratch_count);
-    for (size_t i = r.begin(); i != r.end(); ++i) f(i, Scratch<T>{scratch.data(), 1});
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      std::vector<T> scratch(scratch_count);
+                      for (size_t i = r.begin(); i != r.end(); ++i)
+                        f(i, Scratch<T>{scratch.data(), 1});
+                    });
   return true;
 }
 

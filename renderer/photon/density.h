@@ -272,12 +272,14 @@ constexpr uint32_t kPhotonBatch = 8;
 
 // positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads when they are 16-byte
 // aligned (a leaf of 8 photons always is, in an aligned buffer).
-__device__ inline void load_positions(const Vec3f* positions, uint32_t first, Vec3f at[kPhotonBatch]) {
+__device__ inline void load_positions(const Vec3f* positions, uint32_t first,
+                                      Vec3f at[kPhotonBatch]) {
   static_assert(kPhotonBatch % 4 == 0, "four positions make three 16-byte words");
   if (first % 4 == 0 && reinterpret_cast<uintptr_t>(positions) % 16 == 0) {
     const float4* from = reinterpret_cast<const float4*>(positions + first);
     for (uint32_t w = 0; w < kPhotonBatch / 4; ++w) {
-      const float4 a = __ldg(from + 3 * w), b = __ldg(from + 3 * w + 1), c = __ldg(from + 3 * w + 2);
+      const float4 a = __ldg(from + 3 * w), b = __ldg(from + 3 * w + 1),
+                   c = __ldg(from + 3 * w + 2);
       at[4 * w + 0] = Vec3f(a.x, a.y, a.z);
       at[4 * w + 1] = Vec3f(a.w, b.x, b.y);
       at[4 * w + 2] = Vec3f(b.z, b.w, c.x);
@@ -420,7 +422,8 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_within(const PhotonMapView& map,
 template <typename Pairs>
 CAUSTICA_HDI Vec3f estimate_radiance(const PhotonMapView& map, Vec3f p, Vec3f normal, Vec3f albedo,
                                      uint32_t k, float max_radius, Kernel kernel, Pairs pairs) {
-  return estimate_radiance_within(map, p, normal, albedo, k, max_radius, kernel, pairs, INFINITY, {})
+  return estimate_radiance_within(map, p, normal, albedo, k, max_radius, kernel, pairs, INFINITY,
+                                  {})
       .radiance;
 }
 

@@ -7,8 +7,8 @@ namespace caustica {
 
 struct Photon {
   Vec3f position;
-  Vec3f power;      // flux in W per channel
-  Vec3f incoming;   // unit direction back towards where the photon came from
+  Vec3f power;     // flux in W per channel
+  Vec3f incoming;  // unit direction back towards where the photon came from
 };
 
 }  // namespace caustica

@@ -10,7 +10,8 @@ std::vector<Photon> PhotonMap::download() const {
   std::vector<Vec3f> p = positions.download();
   std::vector<PhotonFlux> f = flux.download();
   std::vector<Photon> out(p.size());
-  for (size_t i = 0; i < p.size(); ++i) out[i] = {p[i], f[i].power, decode_octahedral(f[i].incoming)};
+  for (size_t i = 0; i < p.size(); ++i)
+    out[i] = {p[i], f[i].power, decode_octahedral(f[i].incoming)};
   return out;
 }
 
@@ -28,7 +29,9 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   Buffer<Aabb> points(backend, n);
   Aabb* point = points.data();
   const Photon* in = photons.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) { point[i] = Aabb{in[i].position, in[i].position}; });
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    point[i] = Aabb{in[i].position, in[i].position};
+  });
   Buffer<BvhSummary> summary(backend, 1);
   backend.reduce_bounds_to(point, n, &summary.data()->bounds);
   CurveOrder sorted_order =
@@ -55,7 +58,8 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                                         [=] CAUSTICA_HD(uint32_t leaf) {
                                           const uint32_t end = photon_leaf_end(leaf, per_leaf, n);
                                           Aabb box;
-                                          for (uint32_t i = leaf * per_leaf; i < end; ++i) box.extend(position[i]);
+                                          for (uint32_t i = leaf * per_leaf; i < end; ++i)
+                                            box.extend(position[i]);
                                           return box;
                                         });
   return map;

@@ -32,9 +32,9 @@ struct PhotonFlux {
 
 struct PhotonMapView {
   const BvhNode* nodes = nullptr;
-  const Vec3f* positions = nullptr;   // Morton order
-  const PhotonFlux* flux = nullptr;   // same order
-  uint32_t count = 0;                 // photons
+  const Vec3f* positions = nullptr;  // Morton order
+  const PhotonFlux* flux = nullptr;  // same order
+  uint32_t count = 0;                // photons
   uint32_t photons_per_leaf = 1;
   uint32_t leaf_count = 0;
   uint32_t root = 0;
@@ -53,8 +53,8 @@ struct PhotonMap {
   uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
 
   PhotonMapView view() const {
-    return {bvh.nodes.data(), positions.data(), flux.data(),       uint32_t(positions.size()),
-            photons_per_leaf, bvh.leaf_count,   bvh.root,          bvh.bounds};
+    return {bvh.nodes.data(), positions.data(), flux.data(), uint32_t(positions.size()),
+            photons_per_leaf, bvh.leaf_count,   bvh.root,    bvh.bounds};
   }
   size_t size() const { return positions.size(); }
   size_t bytes() const { return bvh.nodes.bytes() + positions.bytes() + flux.bytes(); }

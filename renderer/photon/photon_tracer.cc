@@ -121,7 +121,8 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
     uint32_t bounce = 0;
     auto start_path = [&] {
       s = Sampler(seed, path, pass);
-      uint32_t li = ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
+      uint32_t li =
+          ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
       const DeviceLight& light = scene.lights[li];
       float choice_pdf = light_power(light, radius) / scene.total_power;
       EmittedPhoton e = emit_from(light, s, center, radius);
@@ -149,7 +150,8 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
         if (s.next_float() >= survive) return false;
         power = power * m.color / survive;
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        next_dir = Frame::from_normal(n).to_world(sample_cosine_hemisphere(s.next_float(), s.next_float()));
+        next_dir = Frame::from_normal(n).to_world(
+            sample_cosine_hemisphere(s.next_float(), s.next_float()));
         only_specular = false;
       } else if (m.type == MaterialType::kMirror) {
         float survive = average(m.color);

@@ -13,8 +13,8 @@
 namespace caustica {
 
 struct PhotonTraceSettings {
-  uint32_t photon_count = 0;    // paths emitted
-  uint32_t max_bounces = 8;     // surface interactions per path
+  uint32_t photon_count = 0;  // paths emitted
+  uint32_t max_bounces = 8;   // surface interactions per path
   uint32_t seed = 1;
   uint32_t pass = 0;
 };

@@ -37,8 +37,8 @@ struct DielectricSide {
 
 CAUSTICA_HDI DielectricSide dielectric_side(Vec3f d, Vec3f outward_normal, float ior) {
   float c = dot(d, outward_normal);
-  if (c < 0.0f) return {outward_normal, ior, -c};   // entering
-  return {-outward_normal, 1.0f / ior, c};            // leaving
+  if (c < 0.0f) return {outward_normal, ior, -c};  // entering
+  return {-outward_normal, 1.0f / ior, c};         // leaving
 }
 
 }  // namespace caustica

@@ -41,7 +41,8 @@ struct GatherRequest {
 // called at every diffuse hit in a fixed order; emitted light seen along the tree is returned.
 template <typename OnDiffuse>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray& camera_ray,
-                                      const Hit& first_hit, uint32_t max_depth, OnDiffuse on_diffuse) {
+                                      const Hit& first_hit, uint32_t max_depth,
+                                      OnDiffuse on_diffuse) {
   PendingStack pending;
   PendingRay* stack = pending.entry;
   int top = 0;
@@ -131,8 +132,10 @@ struct GatherEstimates {
       const GatherRequest q = requests[by_code[batch + lane]];
       const size_t in_batch = request_count - batch < lanes ? request_count - batch : lanes;
       const SearchGroup group{lanes == 1 ? 0u : uint32_t((uint64_t(1) << in_batch) - 1)};
-      const float caustic_bound = carried_radius_squared(caustic.radius_squared, previous, q.position);
-      const float indirect_bound = carried_radius_squared(indirect.radius_squared, previous, q.position);
+      const float caustic_bound =
+          carried_radius_squared(caustic.radius_squared, previous, q.position);
+      const float indirect_bound =
+          carried_radius_squared(indirect.radius_squared, previous, q.position);
       caustic = estimate_radiance_within(caustics, q.position, q.normal, q.weight, k, max_radius,
                                          kernel, heap, caustic_bound, group);
       indirect = estimate_radiance_within(global, q.position, q.normal, q.weight, k, max_radius,
@@ -161,7 +164,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const size_t pixels = size_t(width) * height;
   const uint32_t seed = cfg.seed, pass = cfg.pass;
   // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
-  auto camera_ray = [=] CAUSTICA_HD(size_t pixel, Sampler& s) {
+  auto camera_ray = [=] CAUSTICA_HD(size_t pixel, Sampler & s) {
     float x = float(pixel % width) + s.next_float();
     float y = float(pixel / width) + s.next_float();
     return camera.ray_through(x, y);
@@ -171,12 +174,13 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   // Stage 1: primary hits (packets on the CPU, a warp per 8x4 pixels on a GPU).
   Buffer<Hit> primary_hits(backend, pixels);
   Hit* primary = primary_hits.data();
-  trace_camera_tiles(backend, scene.bvh, camera.origin, width, height,
-                     [=] CAUSTICA_HD(size_t pixel) {
-                       Sampler s(seed, uint32_t(pixel), pass);
-                       return camera_ray(pixel, s).direction;
-                     },
-                     primary);
+  trace_camera_tiles(
+      backend, scene.bvh, camera.origin, width, height,
+      [=] CAUSTICA_HD(size_t pixel) {
+        Sampler s(seed, uint32_t(pixel), pass);
+        return camera_ray(pixel, s).direction;
+      },
+      primary);
 
   // The gathers run apart from the paths that need them (a wavefront, as in pbrt-v4): inside one
   // per-pixel kernel, a pixel on the glass sphere made its warp wait through half a dozen
@@ -213,7 +217,8 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
             direct += throughput * direct_light(scene, sh.position, n, sh.geometric_normal, m.color,
                                                 cfg.area_light_samples, scene_radius, s);
             const uint32_t slot = atomic_fetch_add(next_request, 1u);
-            if (slot < room) request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
+            if (slot < room)
+              request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
             ++made;
           });
       direct_out[pixel] = emitted + direct;
@@ -252,8 +257,9 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   const bool gpu = backend.kind() == DeviceKind::kCuda;
   const uint32_t lanes = gpu ? 32 : 1;
   const uint32_t chain = gpu ? 1 : kGatherChain;
-  const GatherEstimates gather{caustics,      global, request, by_code, offset,         gathered.data(),
-                               request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
+  const GatherEstimates gather{caustics,        global,        request, by_code, offset,
+                               gathered.data(), request_total, lanes,   chain,   k,
+                               cfg.max_radius,  cfg.kernel};
   const size_t threads = GatherEstimates::threads(request_total, lanes, chain);
   const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
   if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {

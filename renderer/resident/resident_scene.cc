@@ -39,13 +39,14 @@ float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
   float* cdf = weights_then_cdf.data();
   float total = backend.exclusive_scan(cdf, cdf, n);
   float inv = total > 0 ? 1.0f / total : 0.0f;
-  parallel_for(backend, n + 1, [=] CAUSTICA_HD(size_t i) { cdf[i] = i == n ? 1.0f : cdf[i] * inv; });
+  parallel_for(backend, n + 1,
+               [=] CAUSTICA_HD(size_t i) { cdf[i] = i == n ? 1.0f : cdf[i] * inv; });
   return total;
 }
 
-// weight[i] = the power of light i, or of light subset[i] when a subset is given; area_flag[i], when
-// asked for, marks area lights. (Not in rebuild_light_tables: nvcc admits no extended lambda in a
-// private member function.)
+// weight[i] = the power of light i, or of light subset[i] when a subset is given; area_flag[i],
+// when asked for, marks area lights. (Not in rebuild_light_tables: nvcc admits no extended lambda
+// in a private member function.)
 void write_light_weights(Backend& backend, const DeviceLight* lights, const uint32_t* subset,
                          size_t n, float scene_radius, float* weight, uint8_t* area_flag) {
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
@@ -96,7 +97,8 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
     }
   }
   std::vector<DeviceMaterial> materials;
-  for (const Material& m : scene.materials) materials.push_back({m.type, m.color, m.ior, m.radiance});
+  for (const Material& m : scene.materials)
+    materials.push_back({m.type, m.color, m.ior, m.radiance});
 
   r.triangles_.bind(backend);
   r.triangles_.upload(triangles);
@@ -136,7 +138,8 @@ void ResidentScene::rebuild_light_tables() {
   total_power_ = build_cdf(backend, light_cdf_, n);
 
   area_light_index_.resize_discard(n);
-  const size_t area_count = backend.select_flagged(nullptr, is_area.data(), n, area_light_index_.data());
+  const size_t area_count =
+      backend.select_flagged(nullptr, is_area.data(), n, area_light_index_.data());
   area_light_index_.resize_discard(area_count);
   area_light_cdf_.resize_discard(area_count + 1);
   write_light_weights(backend, lights, area_light_index_.data(), area_count, scene_radius,
@@ -164,8 +167,8 @@ ResidentSceneView ResidentScene::view() const {
 
 size_t ResidentScene::bytes() const {
   return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() + materials_.bytes() +
-         lights_.bytes() + light_cdf_.bytes() + area_light_index_.bytes() + area_light_cdf_.bytes() +
-         bvh_.bytes();
+         lights_.bytes() + light_cdf_.bytes() + area_light_index_.bytes() +
+         area_light_cdf_.bytes() + bvh_.bytes();
 }
 
 }  // namespace caustica

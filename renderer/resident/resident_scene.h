@@ -24,11 +24,11 @@ enum class DeviceLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2,
 // Flat light record. Area lights are one record per emissive triangle (`triangle`, `area`).
 struct DeviceLight {
   DeviceLightType type;
-  Vec3f position;   // point/spot; area: first vertex
-  Vec3f direction;  // spot axis / directional travel direction; area: unit geometric normal
-  Vec3f color;      // intensity (point/spot), irradiance (directional) or radiance (area)
-  float cos_inner;  // spot
-  float cos_outer;  // spot
+  Vec3f position;      // point/spot; area: first vertex
+  Vec3f direction;     // spot axis / directional travel direction; area: unit geometric normal
+  Vec3f color;         // intensity (point/spot), irradiance (directional) or radiance (area)
+  float cos_inner;     // spot
+  float cos_outer;     // spot
   Vec3f edge1, edge2;  // area: triangle edges from `position`
   float area;
 };
@@ -36,24 +36,24 @@ struct DeviceLight {
 // A sampled light position seen from nowhere in particular: what emission and shadow rays need.
 struct LightSample {
   Vec3f position;
-  Vec3f normal;      // area lights: the emitting side
-  float pdf_area;    // area lights: 1 / area
+  Vec3f normal;    // area lights: the emitting side
+  float pdf_area;  // area lights: 1 / area
 };
 
 // Plain pointers for kernels.
 struct ResidentSceneView {
   TriangleBvhView bvh;
-  const TriangleVertices* triangles;   // original order
-  const Vec3f* corner_normals;         // 3 per triangle, or nullptr when no mesh has normals
-  const uint32_t* material_ids;        // per triangle
+  const TriangleVertices* triangles;  // original order
+  const Vec3f* corner_normals;        // 3 per triangle, or nullptr when no mesh has normals
+  const uint32_t* material_ids;       // per triangle
   const DeviceMaterial* materials;
-  const DeviceLight* lights;           // every light, area triangles included
-  const float* light_cdf;              // emission choice by power, size light_count + 1
-  const uint32_t* area_lights;         // indices into `lights` of the area lights
-  const float* area_light_cdf;         // shadow-ray choice among area lights by power
+  const DeviceLight* lights;    // every light, area triangles included
+  const float* light_cdf;       // emission choice by power, size light_count + 1
+  const uint32_t* area_lights;  // indices into `lights` of the area lights
+  const float* area_light_cdf;  // shadow-ray choice among area lights by power
   uint32_t light_count;
   uint32_t area_light_count;
-  float total_power;                   // sum over lights of average-channel power (W)
+  float total_power;  // sum over lights of average-channel power (W)
   float area_light_power;
 
   // Index of the first CDF bucket whose upper edge exceeds u; cdf[0] = 0, cdf[count] = 1.
@@ -61,7 +61,10 @@ struct ResidentSceneView {
     uint32_t lo = 0, hi = count;
     while (lo + 1 < hi) {
       uint32_t mid = (lo + hi) / 2;
-      if (cdf[mid] <= u) lo = mid; else hi = mid;
+      if (cdf[mid] <= u)
+        lo = mid;
+      else
+        hi = mid;
     }
     return lo;
   }

@@ -22,12 +22,12 @@ struct Material {
 
 // One triangle mesh; every triangle refers to a material by index into Scene::materials.
 struct Mesh {
-  std::string name;                     // file name or shape name, for error messages
+  std::string name;  // file name or shape name, for error messages
   std::vector<Vec3f> positions;
-  std::vector<Vec3f> normals;           // optional: per-vertex shading normals
-  std::vector<Vec2f> uvs;               // optional: per-vertex texture coordinates
-  std::vector<uint32_t> indices;        // 3 per triangle
-  std::vector<uint32_t> material_ids;   // 1 per triangle
+  std::vector<Vec3f> normals;          // optional: per-vertex shading normals
+  std::vector<Vec2f> uvs;              // optional: per-vertex texture coordinates
+  std::vector<uint32_t> indices;       // 3 per triangle
+  std::vector<uint32_t> material_ids;  // 1 per triangle
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
@@ -60,10 +60,10 @@ struct RenderSettings {
   uint32_t k_nearest = 64;             // photons per radiance estimate
   float max_radius = 0;                // gather radius cap; 0 = 5% of the scene's diagonal
   Kernel kernel = Kernel::kEpanechnikov;
-  uint32_t max_depth = 6;              // specular bounces of camera rays
+  uint32_t max_depth = 6;  // specular bounces of camera rays
   uint32_t max_photon_bounces = 8;
-  uint32_t area_light_samples = 4;     // shadow rays per diffuse hit for area lights
-  uint32_t passes = 1;                 // progressive passes, fresh photons each
+  uint32_t area_light_samples = 4;  // shadow rays per diffuse hit for area lights
+  uint32_t passes = 1;              // progressive passes, fresh photons each
   uint32_t seed = 1;
 };
 

@@ -1,13 +1,13 @@
 // Image files round-trip through OpenImageIO: float formats exactly, 8-bit formats within one
 // code value of the sRGB encoding.
+#include "imageio/image_io.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
-
-#include "imageio/image_io.h"
 
 namespace caustica {
 namespace {
@@ -40,7 +40,8 @@ TEST(ImageIo, FloatFormatsRoundTripExactly) {
     ASSERT_TRUE(back.ok()) << back.status();
     ASSERT_EQ(back->width, 37);
     ASSERT_EQ(back->height, 21);
-    for (size_t i = 0; i < img.rgba.size(); ++i) ASSERT_EQ(back->rgba[i], img.rgba[i]) << i;  // alpha 1 too
+    for (size_t i = 0; i < img.rgba.size(); ++i)
+      ASSERT_EQ(back->rgba[i], img.rgba[i]) << i;  // alpha 1 too
     std::filesystem::remove(path);
   }
 }
@@ -63,7 +64,8 @@ TEST(ImageIo, PngIsSrgbEncodedAndClipped) {
 
 TEST(ImageIo, UnknownExtensionAndEmptyImageAreErrors) {
   EXPECT_FALSE(write_image(temp_file("x.notaformat"), gradient(4, 4)).ok());
-  EXPECT_EQ(write_image(temp_file("x.png"), LinearImage{}).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(write_image(temp_file("x.png"), LinearImage{}).code(),
+            absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(read_image(temp_file("missing.exr")).status().code(), absl::StatusCode::kNotFound);
 }
 

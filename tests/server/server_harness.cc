@@ -12,10 +12,10 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
-#include "proto/wire/scene_wire.h"
-#include "renderer/scene/load_scene.h"
 #include "client/health_check.h"
 #include "client/subprocess.h"
+#include "proto/wire/scene_wire.h"
+#include "renderer/scene/load_scene.h"
 
 namespace caustica::testing {
 namespace {
@@ -48,7 +48,8 @@ std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::strin
                                    port_file.string()};
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   // CAUSTICA_TEST_DEVICE=cuda runs the whole suite against a server on the GPU.
-  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE"); device != nullptr && *device != '\0') {
+  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE");
+      device != nullptr && *device != '\0') {
     args.push_back("--device");
     args.push_back(device);
   }

@@ -1,12 +1,12 @@
 // The server's life around broken calls: cancelled streams, passed deadlines, clients that vanish
 // mid-upload, and SIGTERM while a stream runs.
+#include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
 #include <thread>
 
-#include <grpcpp/generic/generic_stub.h>
 #include "tests/server/server_harness.h"
 
 namespace caustica::testing {
@@ -90,7 +90,8 @@ TEST_F(ServerTest, ReflectionListsTheRenderService) {
   std::vector<grpc::Slice> slices;
   ASSERT_TRUE(in.Dump(&slices).ok());
   std::string response;
-  for (const grpc::Slice& s : slices) response.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  for (const grpc::Slice& s : slices)
+    response.append(reinterpret_cast<const char*>(s.begin()), s.size());
   EXPECT_NE(response.find("caustica.v1.RenderService"), std::string::npos);
   EXPECT_NE(response.find("grpc.health.v1.Health"), std::string::npos);
   call->WritesDone(reinterpret_cast<void*>(intptr_t{4}));

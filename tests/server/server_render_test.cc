@@ -387,8 +387,8 @@ TEST_F(ServerStatsTest, GetStatsReportsTheServersActivity) {
   // --device auto: the GPU where there is one, else the CPU; or what CAUSTICA_TEST_DEVICE names.
   EXPECT_TRUE(stats.device().kind() == "cpu" || stats.device().kind() == "cuda")
       << stats.device().kind();
-  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE"); device != nullptr && *device != '\0' &&
-                                                                 std::string(device) != "auto") {
+  if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE");
+      device != nullptr && *device != '\0' && std::string(device) != "auto") {
     EXPECT_EQ(stats.device().kind(), device);
   }
   EXPECT_FALSE(stats.device().name().empty());

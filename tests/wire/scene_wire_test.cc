@@ -150,7 +150,8 @@ INSTANTIATE_TEST_SUITE_P(
                   [](auto& c) { first_chunk_of(c, v1::MeshChunk::INDICES).set_offset(12); },
                   absl::StatusCode::kInvalidArgument, "offset 12 but 0 bytes arrived"},
         BadUpload{"chunk before header", [](auto& c) { std::swap(c[0], c[1]); },
-                  absl::StatusCode::kInvalidArgument, "chunk 0: mesh: arrives before the scene header"},
+                  absl::StatusCode::kInvalidArgument,
+                  "chunk 0: mesh: arrives before the scene header"},
         BadUpload{"partial element",
                   [](auto& c) {
                     v1::MeshChunk& m = first_chunk_of(c, v1::MeshChunk::POSITIONS);
@@ -170,7 +171,8 @@ INSTANTIATE_TEST_SUITE_P(
                     v1::MeshHeader* h = c[0].mutable_header()->mutable_meshes(0);
                     h->set_triangle_count(h->triangle_count() + 1);
                   },
-                  absl::StatusCode::kInvalidArgument, "indices has 24 bytes but the header declares 36"},
+                  absl::StatusCode::kInvalidArgument,
+                  "indices has 24 bytes but the header declares 36"},
         BadUpload{"index out of range",
                   [](auto& c) {
                     uint32_t bad = 99;
@@ -210,7 +212,8 @@ INSTANTIATE_TEST_SUITE_P(
                   "alone, more than the limit of 268435456 per scene"},
         BadUpload{"unknown material type",
                   [](auto& c) {
-                    c[0].mutable_header()->mutable_materials(0)->set_type(v1::Material::TYPE_UNSPECIFIED);
+                    c[0].mutable_header()->mutable_materials(0)->set_type(
+                        v1::Material::TYPE_UNSPECIFIED);
                   },
                   absl::StatusCode::kInvalidArgument, "materials[0].type"},
         BadUpload{"material out of range",

@@ -1,17 +1,20 @@
 // caustica-render: renders a scene file locally on the CPU backend and writes an image.
 #include <unistd.h>
 
-#include <iostream>
-
 #include <CLI/CLI.hpp>
+#include <iostream>
 
 #include "tools/render/render_job.h"
 
 int main(int argc, char** argv) {
   caustica::RenderJob job;
   CLI::App app{"Render a Caustica scene file with photon-mapped global illumination."};
-  app.add_option("scene", job.scene, "scene file (JSON, see docs/scene-format.md)")->required()->check(CLI::ExistingFile);
-  app.add_option("-o,--output", job.output, "output image: .png/.jpg (tone-mapped sRGB) or .exr/.pfm (linear)")->required();
+  app.add_option("scene", job.scene, "scene file (JSON, see docs/scene-format.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  app.add_option("-o,--output", job.output,
+                 "output image: .png/.jpg (tone-mapped sRGB) or .exr/.pfm (linear)")
+      ->required();
   app.add_option("--width", job.width, "image width in pixels (default: the scene's camera)");
   app.add_option("--height", job.height, "image height in pixels (default: the scene's camera)");
   app.add_option("--photons", job.photons, "photons emitted per pass");

@@ -15,7 +15,8 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   auto t0 = std::chrono::steady_clock::now();
   absl::StatusOr<Scene> scene = load_scene(job.scene);
   if (!scene.ok()) return scene.status();
-  summary.load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  summary.load_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
   Camera& cam = scene->camera;
   RenderSettings& rs = scene->settings;
@@ -52,12 +53,15 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   log << absl::StrFormat("structure    LBVH %d nodes, %.1f MiB, built in %.2f ms\n",
                          summary.stats.structure_nodes, summary.stats.structure_bytes / 1048576.0,
                          summary.stats.last_structure_build_ms);
-  log << absl::StrFormat("photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
-                         rs.photons_per_pass, report->caustic_photons, report->global_photons);
-  log << absl::StrFormat("passes       %d at %dx%d, k = %d, max radius %.4g\n", report->passes_rendered,
-                         cam.width, cam.height, rs.k_nearest, (*engine)->shading(0).max_radius);
-  log << absl::StrFormat("time (ms)    photon trace %.1f | photon maps %.1f | render %.1f | total %.1f\n",
-                         t.photon_trace_ms, t.photon_map_build_ms, t.render_ms, t.total());
+  log << absl::StrFormat(
+      "photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
+      rs.photons_per_pass, report->caustic_photons, report->global_photons);
+  log << absl::StrFormat("passes       %d at %dx%d, k = %d, max radius %.4g\n",
+                         report->passes_rendered, cam.width, cam.height, rs.k_nearest,
+                         (*engine)->shading(0).max_radius);
+  log << absl::StrFormat(
+      "time (ms)    photon trace %.1f | photon maps %.1f | render %.1f | total %.1f\n",
+      t.photon_trace_ms, t.photon_map_build_ms, t.render_ms, t.total());
   log << absl::StrFormat("wrote        %s\n", job.output.string());
   return summary;
 }

@@ -12,9 +12,9 @@
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <unordered_map>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -114,8 +114,8 @@ void radix_sort_pairs(Key* keys, uint32_t* values, size_t n, int end_bit, Key* k
   tbb::parallel_for(size_t{0}, buckets, [&](size_t d) {
     thread_local std::vector<uint32_t> local_counts;
     size_t begin = d == 0 ? 0 : bucket_end[d - 1], size = bucket_end[d] - begin;
-    lsd_sort_into(keys_tmp + begin, values_tmp + begin, keys + begin, values + begin, size, low_bits,
-                  local_counts);
+    lsd_sort_into(keys_tmp + begin, values_tmp + begin, keys + begin, values + begin, size,
+                  low_bits, local_counts);
   });
 }
 
@@ -177,10 +177,18 @@ class CpuBackend final : public Backend {
   void* allocate_host(size_t bytes) override { return ::operator new(bytes, std::align_val_t(64)); }
   void deallocate_host(void* p) noexcept override { ::operator delete(p, std::align_val_t(64)); }
 
-  void copy_to_device(void* dst, const void* src, size_t bytes) override { std::memcpy(dst, src, bytes); }
-  void copy_to_host(void* dst, const void* src, size_t bytes) override { std::memcpy(dst, src, bytes); }
-  void copy_on_device(void* dst, const void* src, size_t bytes) override { std::memmove(dst, src, bytes); }
-  void fill_bytes(void* dst, uint8_t value, size_t bytes) override { std::memset(dst, value, bytes); }
+  void copy_to_device(void* dst, const void* src, size_t bytes) override {
+    std::memcpy(dst, src, bytes);
+  }
+  void copy_to_host(void* dst, const void* src, size_t bytes) override {
+    std::memcpy(dst, src, bytes);
+  }
+  void copy_on_device(void* dst, const void* src, size_t bytes) override {
+    std::memmove(dst, src, bytes);
+  }
+  void fill_bytes(void* dst, uint8_t value, size_t bytes) override {
+    std::memset(dst, value, bytes);
+  }
   void synchronize() override {}
 
   void sort_pairs(uint32_t* keys, uint32_t* values, size_t n, int end_bit) override {
@@ -207,7 +215,9 @@ class CpuBackend final : public Backend {
   Aabb reduce_bounds(const Aabb* in, size_t n) override {
     return parallel_reduce<Aabb>(in, n, Aabb{}, [](Aabb a, const Aabb& b) { return merge(a, b); });
   }
-  void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override { *out = reduce_bounds(in, n); }
+  void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override {
+    *out = reduce_bounds(in, n);
+  }
 
   template <typename Key>
   void sort_with_scratch(Key* keys, uint32_t* values, size_t n, int end_bit) {
@@ -217,7 +227,8 @@ class CpuBackend final : public Backend {
     radix_sort_pairs(keys, values, n, end_bit, keys_tmp.data(), values_tmp.data());
   }
 
-  size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n, uint32_t* out) override {
+  size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,
+                        uint32_t* out) override {
     if (n == 0) return 0;
     Chunking chunks(n);
     std::vector<size_t> offsets(chunks.count);
@@ -291,7 +302,7 @@ class CpuBackend final : public Backend {
  private:
   static constexpr size_t kMaxPooledBytes = size_t(2) << 30;
   std::mutex pool_mutex_;
-  std::multimap<size_t, void*> pool_;             // free blocks by size
+  std::multimap<size_t, void*> pool_;              // free blocks by size
   std::unordered_map<void*, size_t> block_sizes_;  // blocks in use and their rounded size
   size_t pooled_bytes_ = 0;
 };

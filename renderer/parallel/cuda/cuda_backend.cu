@@ -332,7 +332,8 @@ class CudaBackend final : public Backend {
   template <typename In, typename Op, typename Acc>
   void reduce_to(const In* in, size_t n, Op op, Acc init, Acc* out) {
     if (n == 0) {
-      CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(out, &init, sizeof(Acc), cudaMemcpyHostToDevice, stream_));
+      CAUSTICA_CUDA_CHECK(
+          cudaMemcpyAsync(out, &init, sizeof(Acc), cudaMemcpyHostToDevice, stream_));
       CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));  // `init` is on this frame
       return;
     }

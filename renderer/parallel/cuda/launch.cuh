@@ -7,8 +7,8 @@
 #include <cstddef>
 
 #include "renderer/parallel/backend.h"
-#include "renderer/parallel/scratch.h"
 #include "renderer/parallel/cuda/cuda_check.h"
+#include "renderer/parallel/scratch.h"
 
 namespace caustica {
 
@@ -42,8 +42,10 @@ __global__ void scratch_kernel(size_t n, F f) {
 // Warps per block for `per_thread` bytes of scratch: the count that lets the most warps share a
 // multiprocessor's shared memory (each block also costs the reserved bytes), or 0 when one warp's
 // scratch is more than a block may have without opting in (48 KiB).
-inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm, size_t reserved_per_block) {
-  constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8, kMaxBlocksPerSm = 32, kMaxWarpsPerSm = 64;
+inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm,
+                                    size_t reserved_per_block) {
+  constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8, kMaxBlocksPerSm = 32,
+                   kMaxWarpsPerSm = 64;
   if (per_thread == 0) return kMaxWarps;
   unsigned best = 0;
   size_t best_resident = 0;
@@ -74,8 +76,10 @@ bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_co
   static const SharedMemory shared = [] {
     int device = 0, per_sm = 0, reserved = 0;
     CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
-    CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
-    CAUSTICA_CUDA_CHECK(cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
+    CAUSTICA_CUDA_CHECK(
+        cudaDeviceGetAttribute(&per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
+    CAUSTICA_CUDA_CHECK(
+        cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
     CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(detail::scratch_kernel<T, F>,
                                              cudaFuncAttributePreferredSharedMemoryCarveout,
                                              int(cudaSharedmemCarveoutMaxShared)));
@@ -87,7 +91,8 @@ bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_co
   const unsigned block = 32 * warps;
   const size_t blocks = (n + block - 1) / block;
   if (blocks > 0x7fffffffu) throw DeviceError("parallel_for: too many elements for one launch");
-  detail::scratch_kernel<T><<<unsigned(blocks), block, block * per_thread, cuda_stream(backend)>>>(n, f);
+  detail::scratch_kernel<T>
+      <<<unsigned(blocks), block, block * per_thread, cuda_stream(backend)>>>(n, f);
   CAUSTICA_CUDA_CHECK(cudaGetLastError());
   return true;
 }

@@ -17,7 +17,8 @@ namespace caustica {
 namespace {
 
 std::vector<TriangleVertices> scene_triangles(const std::string& name) {
-  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   std::vector<TriangleVertices> tris;
   if (!scene.ok()) return tris;
@@ -119,7 +120,8 @@ void check_wide_invariants(const Built& b, const std::vector<TriangleVertices>& 
         if (::testing::Test::HasFatalFailure()) return;
         ASSERT_TRUE(r.last - r.first + 1 > kMaxLeafTriangles ||
                     size_class(child_box, b.bvh.bvh.bounds) == 0u)
-            << "node " << child << " covers few enough triangles, in a box small enough, to be a leaf";
+            << "node " << child
+            << " covers few enough triangles, in a box small enough, to be a leaf";
       }
       ranges.push_back(r);
     }
@@ -151,10 +153,11 @@ void check_wide_invariants(const Built& b, const std::vector<TriangleVertices>& 
   }
   ::testing::Test::RecordProperty("bvh4_nodes", int(wide.size()));
   ::testing::Test::RecordProperty("bvh4_leaves", int(leaves));
-  std::printf("%zu triangles: %zu 4-wide nodes (%.1f B/triangle), %zu leaves (%.2f triangles "
-              "each; of 1..%u triangles: %s)\n",
-              n, wide.size(), double(wide.size() * sizeof(Bvh4Node)) / double(n), leaves,
-              double(n) / double(leaves), kMaxLeafTriangles, sizes.c_str());
+  std::printf(
+      "%zu triangles: %zu 4-wide nodes (%.1f B/triangle), %zu leaves (%.2f triangles "
+      "each; of 1..%u triangles: %s)\n",
+      n, wide.size(), double(wide.size() * sizeof(Bvh4Node)) / double(n), leaves,
+      double(n) / double(leaves), kMaxLeafTriangles, sizes.c_str());
 }
 
 // Walks the tree from the root: every leaf reached once, every child box inside its parent's.
@@ -321,7 +324,8 @@ void check_traversal(const std::vector<TriangleVertices>& tris, int ray_count, u
       // at that very distance.
       if (got.triangle != expected.triangle) {
         float t, u, v;
-        ASSERT_TRUE(intersect_triangle(WatertightRay(ray), tris[got.triangle], ray.t_min, FLT_MAX, t, u, v));
+        ASSERT_TRUE(intersect_triangle(WatertightRay(ray), tris[got.triangle], ray.t_min, FLT_MAX,
+                                       t, u, v));
         ASSERT_EQ(t, expected.t) << "ray " << i;
       }
       // A shadow ray stopping just short of the hit sees nothing.

@@ -12,7 +12,8 @@
 
 namespace caustica {
 
-inline void expect_download_into_host_buffer(Backend& backend, const std::vector<uint32_t>& values) {
+inline void expect_download_into_host_buffer(Backend& backend,
+                                             const std::vector<uint32_t>& values) {
   Buffer<uint32_t> device(backend, values.size());
   device.upload(values);
   HostBuffer<uint32_t> host(backend);

@@ -2,10 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
-#include <vector>
-
 #include <random>
 #include <set>
+#include <vector>
 
 #include "renderer/base/morton.h"
 #include "renderer/base/rng.h"

@@ -20,7 +20,8 @@ class PrimitivesTest : public ::testing::TestWithParam<size_t> {
   std::mt19937 rng{1234};
 };
 
-INSTANTIATE_TEST_SUITE_P(Sizes, PrimitivesTest, ::testing::Values(0, 1, 2, 7, 1000, 16384, 100003, 1 << 20));
+INSTANTIATE_TEST_SUITE_P(Sizes, PrimitivesTest,
+                         ::testing::Values(0, 1, 2, 7, 1000, 16384, 100003, 1 << 20));
 
 TEST_P(PrimitivesTest, SortPairs32MatchesStableSort) {
   const size_t n = GetParam();
@@ -32,7 +33,8 @@ TEST_P(PrimitivesTest, SortPairs32MatchesStableSort) {
   }
   std::vector<std::pair<uint32_t, uint32_t>> expected(n);
   for (size_t i = 0; i < n; ++i) expected[i] = {keys[i], values[i]};
-  std::stable_sort(expected.begin(), expected.end(), [](auto a, auto b) { return a.first < b.first; });
+  std::stable_sort(expected.begin(), expected.end(),
+                   [](auto a, auto b) { return a.first < b.first; });
 
   Buffer<uint32_t> k(*backend, n), v(*backend, n);
   k.upload(keys);
@@ -55,7 +57,8 @@ TEST_P(PrimitivesTest, SortPairs64MatchesStableSort) {
   }
   std::vector<std::pair<uint64_t, uint32_t>> expected(n);
   for (size_t i = 0; i < n; ++i) expected[i] = {keys[i], values[i]};
-  std::stable_sort(expected.begin(), expected.end(), [](auto a, auto b) { return a.first < b.first; });
+  std::stable_sort(expected.begin(), expected.end(),
+                   [](auto a, auto b) { return a.first < b.first; });
   Buffer<uint64_t> k(*backend, n);
   Buffer<uint32_t> v(*backend, n);
   k.upload(keys);
@@ -207,7 +210,8 @@ TEST_P(PrimitivesTest, ParallelForWithScratchGivesEachElementItsOwn) {
   const size_t n = GetParam();
   for (uint32_t count : {1u, 5u, 64u}) {
     Buffer<uint32_t> sums(*backend, n);
-    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(*backend, n, count, ScratchCheck{count, sums.data()}));
+    ASSERT_TRUE(
+        parallel_for_with_scratch<uint32_t>(*backend, n, count, ScratchCheck{count, sums.data()}));
     auto got = sums.download();
     for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
   }

@@ -22,7 +22,7 @@ std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered,
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   p->photons.resize(n);
   for (size_t i = 0; i < n; ++i) {
-    Vec3f pos(u(rng), u(rng), clustered ? 0.0f : u(rng));  // clustered: all on a plane
+    Vec3f pos(u(rng), u(rng), clustered ? 0.0f : u(rng));         // clustered: all on a plane
     if (clustered && i % 10 == 0) pos = Vec3f(0.5f, 0.5f, 0.0f);  // many coincident points
     p->photons[i] = {pos, Vec3f(float(i), 1, 1), Vec3f(0, 0, 1)};
   }
@@ -62,7 +62,8 @@ void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPho
       ASSERT_EQ(got[i], d2[heap[i].index]);  // distance matches the photon it names
     }
     std::sort(got.begin(), got.end());
-    for (size_t i = 0; i < expected; ++i) ASSERT_EQ(got[i], within[i]) << "query " << q << " #" << i;
+    for (size_t i = 0; i < expected; ++i)
+      ASSERT_EQ(got[i], within[i]) << "query " << q << " #" << i;
   }
 }
 
@@ -91,7 +92,8 @@ TEST(PhotonMap, LeavesCoverTheirPhotons) {
       uint32_t leaf = leaf_index(n.child[c].index);
       ++leaf_seen[leaf];
       for (uint32_t i = v.leaf_begin(leaf); i < v.leaf_end(leaf); ++i) {
-        ASSERT_TRUE(n.child[c].bounds().contains(Aabb{sorted[i].position, sorted[i].position})) << "leaf " << leaf;
+        ASSERT_TRUE(n.child[c].bounds().contains(Aabb{sorted[i].position, sorted[i].position}))
+            << "leaf " << leaf;
       }
     }
   for (int s : leaf_seen) ASSERT_EQ(s, 1);
@@ -108,7 +110,8 @@ TEST(PhotonMap, StoresDirectionsWithinTenthOfMilliradian) {
     Vec3f back = decode_octahedral(encode_octahedral(d));
     // The angle from the cross product, in double: acos of a float dot product near 1 would
     // measure its own rounding.
-    double cx = double(back.y) * d.z - double(back.z) * d.y, cy = double(back.z) * d.x - double(back.x) * d.z,
+    double cx = double(back.y) * d.z - double(back.z) * d.y,
+           cy = double(back.z) * d.x - double(back.x) * d.z,
            cz = double(back.x) * d.y - double(back.y) * d.x;
     double angle = std::asin(std::min(1.0, std::sqrt(cx * cx + cy * cy + cz * cz)));
     worst = std::max(worst, angle);
@@ -158,14 +161,15 @@ TEST(Density, RecoversUniformIrradiance) {
     const int queries = 400;
     for (int q = 0; q < queries; ++q) {
       Vec3f x(0.2f + 0.6f * u(rng), 0.2f + 0.6f * u(rng), 0);
-      Vec3f l = estimate_radiance(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), 256, 1.0f, k, heap.data());
+      Vec3f l =
+          estimate_radiance(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), 256, 1.0f, k, heap.data());
       mean += l.x / queries;
     }
     // L = rho E / pi with rho = 1.
     EXPECT_NEAR(mean, total_flux / kPi, 0.01 * total_flux / kPi) << int(k);
     // Photons arriving from below the surface do not count.
-    Vec3f back = estimate_radiance(map.view(), Vec3f(0.5f, 0.5f, 0), Vec3f(0, 0, -1), Vec3f(1.0f), 64,
-                                   1.0f, k, heap.data());
+    Vec3f back = estimate_radiance(map.view(), Vec3f(0.5f, 0.5f, 0), Vec3f(0, 0, -1), Vec3f(1.0f),
+                                   64, 1.0f, k, heap.data());
     EXPECT_EQ(back.x, 0.0f);
   }
 }
@@ -183,7 +187,8 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
   float previous_r2 = INFINITY;
   int bounded = 0;
   for (int q = 0; q < 3000; ++q) {
-    x = Vec3f(std::clamp(x.x + step(rng), 0.0f, 1.0f), std::clamp(x.y + step(rng), 0.0f, 1.0f), 0.0f);
+    x = Vec3f(std::clamp(x.x + step(rng), 0.0f, 1.0f), std::clamp(x.y + step(rng), 0.0f, 1.0f),
+              0.0f);
     const uint32_t k = q % 2 ? 64 : 17;
     const Kernel kernel = Kernel(q % 3);
     const float max_radius = q % 500 < 5 ? 0.005f : 0.5f;  // a few searches find fewer than k
@@ -196,7 +201,8 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
         map, x, Vec3f(0, 0, 1), Vec3f(1.0f), k, max_radius, kernel, heap.data(), bound, {});
     ASSERT_EQ(carried.radius_squared, lone.radius_squared) << "query " << q;
     for (int c = 0; c < 3; ++c)
-      ASSERT_NEAR(carried.radiance[c], lone.radiance[c], 1e-5f * std::max(1.0f, lone.radiance[c])) << q;
+      ASSERT_NEAR(carried.radiance[c], lone.radiance[c], 1e-5f * std::max(1.0f, lone.radiance[c]))
+          << q;
     previous = x;
     previous_r2 = carried.radius_squared;
   }
@@ -254,7 +260,6 @@ TEST(Density, EstimateMatchesBruteForce) {
       ASSERT_NEAR(got.radiance[c], expected, 1e-5 * std::max(1.0, expected)) << "query " << q;
     }
   }
-
 }
 
 // Photons stacked on the same points, so that many lie exactly at the k-th distance: the estimate
@@ -275,8 +280,9 @@ TEST(Density, TakesExactlyKWhenPhotonsTieAtTheKthDistance) {
   for (int q = 0; q < 300; ++q) {
     const Vec3f x(u(rng), u(rng), 0.0f);
     const uint32_t k = std::vector<uint32_t>{10, 33, 64}[q % 3];
-    const RadianceEstimate got = estimate_radiance_within(
-        map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f, Kernel::kUniform, heap.data(), INFINITY, {});
+    const RadianceEstimate got =
+        estimate_radiance_within(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f,
+                                 Kernel::kUniform, heap.data(), INFINITY, {});
     // Uniform kernel, unit powers: the sum is the number of photons taken.
     const double taken = got.radiance.x * kPi * kPi * got.radius_squared;
     ASSERT_NEAR(taken, double(k), 1e-3 * k) << "query " << q;

@@ -14,7 +14,8 @@ namespace caustica {
 namespace {
 
 std::vector<float> render_with_room(uint32_t requests_per_pixel) {
-  absl::StatusOr<Scene> scene = load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return {};
   scene->camera.width = 64;
@@ -31,7 +32,8 @@ std::vector<float> render_with_room(uint32_t requests_per_pixel) {
   settings.gather_requests_per_pixel = requests_per_pixel;
   for (uint32_t pass = 0; pass < 2; ++pass) {
     settings.pass = pass;
-    render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings, film);
+    render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings,
+                film);
   }
   const std::span<const float> image = film.resolve_linear();
   return {image.begin(), image.end()};
