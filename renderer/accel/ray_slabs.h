@@ -37,7 +37,8 @@ CAUSTICA_HDI RaySlabs ray_slabs(Vec3f origin, Vec3f direction) {
   const Vec3f inv = safe_reciprocal(direction);
   for (int a = 0; a < 3; ++a) {
     const float scaled = origin[a] * inv[a];
-    // |o * (1/d) - scaled| <= 2^-24 |scaled|; twice that covers the rounding of the sum below.
+    // |o * (1/d) - scaled| <= 2^-24 |scaled|, and rounding the two sums below adds about as much
+    // again: four times that bound covers both with room to spare.
     const float error = fabsf(scaled) * 0x1p-22f;
     if (fabsf(scaled) <= FLT_MAX * 0.5f) {
       s.inv[a] = inv[a];
