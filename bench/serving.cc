@@ -277,10 +277,8 @@ std::vector<std::string> serving_benchmark_names() {
 absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_report) {
   client::ConnectOptions connect;
   // Always a server of our own: a figure must not depend on whatever else listens on 50051.
-  client::EmbeddedServerOptions options;  // (designated initializers would leave one out and warn)
-  options.extra_args = {"--device", o.device, "--log-level", "warning"};
-  absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server =
-      client::EmbeddedServer::start(options);
+  absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server = client::EmbeddedServer::start(
+      {.extra_args = {"--device", o.device, "--log-level", "warning"}});
   if (!server.ok()) return server.status();
   connect.server = (*server)->address();
   connect.max_message_mb = 256;

@@ -20,7 +20,7 @@ namespace caustica::client {
 absl::StatusOr<std::filesystem::path> find_server_binary();
 
 struct EmbeddedServerOptions {
-  std::filesystem::path binary;         // empty: find_server_binary()
+  std::filesystem::path binary = {};    // empty: find_server_binary()
   std::vector<std::string> extra_args;  // appended to --listen and --port-file
   std::chrono::seconds startup_timeout{60};
 };

@@ -34,8 +34,9 @@ absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
 struct EngineOptions {
   DeviceKind device = DeviceKind::kCpu;
   size_t memory_budget_bytes = size_t(8) << 30;
-  // When set, the engine allocates from this backend and ignores the two fields above.
-  std::shared_ptr<Backend> backend;
+  // When set, the engine allocates from this backend and ignores the two fields above. (Every
+  // field has an initializer, so designated initializers may leave any out without a warning.)
+  std::shared_ptr<Backend> backend = nullptr;
   // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h); a tuning knob.
   uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
 };

@@ -35,7 +35,8 @@ Interval exact_interval(const Aabb& b, Vec3f origin, Vec3f inv, float t_min, flo
 // close to call.
 int check(const Aabb& b, Vec3f origin, Vec3f direction, float t_min, float t_max) {
   const RaySlabs s = ray_slabs(origin, direction);
-  const Interval exact = exact_interval(b, origin, safe_reciprocal(direction), t_min, t_max);
+  const Vec3f inv = safe_reciprocal(direction);
+  const Interval exact = exact_interval(b, origin, inv, t_min, t_max);
   const float got = slab_entry(s, b, t_min, t_max);
   const double scale = std::max({std::fabs(exact.enter), std::fabs(exact.leave), 1e-30});
   if (exact.leave - exact.enter > 1e-9 * scale) {
@@ -43,7 +44,6 @@ int check(const Aabb& b, Vec3f origin, Vec3f direction, float t_min, float t_max
         << "missed or entered late: origin " << origin.x << " " << origin.y << " " << origin.z;
     return 1;
   }
-  const Vec3f inv = safe_reciprocal(direction);
   const double widening =
       0x1p-20 * std::max({std::fabs(double(origin.x) * inv.x), std::fabs(double(origin.y) * inv.y),
                           std::fabs(double(origin.z) * inv.z)});

@@ -461,10 +461,7 @@ TEST(GpuParity, GroupSearchesWithCarriedBoundsFindWhatLoneSearchesFind) {
 
 // `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.
 std::vector<float> render_image(const Scene& scene, DeviceKind device, uint32_t passes) {
-  EngineOptions options;  // (designated initializers would leave `backend` out and warn)
-  options.device = device;
-  options.memory_budget_bytes = kBudget;
-  auto engine = Engine::create(options);
+  auto engine = Engine::create({.device = device, .memory_budget_bytes = kBudget});
   EXPECT_TRUE(engine.ok()) << engine.status();
   if (!engine.ok()) return {};
   absl::StatusOr<RebuildReport> loaded = (*engine)->load(scene);

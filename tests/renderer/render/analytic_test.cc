@@ -277,10 +277,7 @@ TEST(Engine, EnginesSharingABackendShareOneBudget) {
 TEST(Engine, MemoryBudgetOverrunIsResourceExhausted) {
   absl::StatusOr<Scene> scene = load_scene(scene_path("cornell-box"));
   ASSERT_TRUE(scene.ok());
-  EngineOptions options;  // (designated initializers would leave `backend` out and warn)
-  options.device = DeviceKind::kCpu;
-  options.memory_budget_bytes = 4096;
-  auto engine = Engine::create(options);
+  auto engine = Engine::create({.device = DeviceKind::kCpu, .memory_budget_bytes = 4096});
   ASSERT_TRUE(engine.ok());
   auto loaded = (*engine)->load(*scene);
   EXPECT_EQ(loaded.status().code(), absl::StatusCode::kResourceExhausted) << loaded.status();
