@@ -36,7 +36,9 @@ CAUSTICA_HDI uint32_t encode_octahedral(Vec3f v) {
   return detail::quantise_snorm16(x) | (detail::quantise_snorm16(y) << 16);
 }
 
-CAUSTICA_HDI Vec3f decode_octahedral(uint32_t bits) {
+// The point of the octahedron |x| + |y| + |z| = 1 that `bits` encodes: the direction, not yet
+// of unit length.
+CAUSTICA_HDI Vec3f decode_octahedral_unnormalised(uint32_t bits) {
   float x = detail::dequantise_snorm16(bits & 0xffffu);
   float y = detail::dequantise_snorm16(bits >> 16);
   float z = 1.0f - fabsf(x) - fabsf(y);
@@ -46,7 +48,18 @@ CAUSTICA_HDI Vec3f decode_octahedral(uint32_t bits) {
     x = fx;
     y = fy;
   }
-  return normalize(Vec3f(x, y, z));
+  return Vec3f(x, y, z);
+}
+
+CAUSTICA_HDI Vec3f decode_octahedral(uint32_t bits) {
+  return normalize(decode_octahedral_unnormalised(bits));
+}
+
+// Whether the direction `bits` encodes points along `n` (a positive dot product): the side test
+// without normalising, a square root and a division that cannot change the sign. On a GPU the
+// normalisation took about 30 instructions per photon of every estimate.
+CAUSTICA_HDI bool octahedral_along(uint32_t bits, Vec3f n) {
+  return dot(decode_octahedral_unnormalised(bits), n) > 0.0f;
 }
 
 }  // namespace caustica

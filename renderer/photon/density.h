@@ -200,13 +200,23 @@ struct SearchGroup {
   }
 };
 
+// A record of the leaves a walk visited, for a later walk that needs no more of them: this one
+// records nothing and replays nothing (binned_estimate.h has one that does).
+struct NoLeafLog {
+  CAUSTICA_HDI void record(uint32_t) {}
+  CAUSTICA_HDI bool replays() const { return false; }
+  CAUSTICA_HDI uint32_t next() { return ~0u; }
+};
+
 // Calls visit_leaf(leaf) for every leaf of `map` whose box lies within squared distance `limit`
 // of `p`, nearer subtrees first; visit_leaf may shrink `limit` as it goes. Every member of `group`
 // must make this call with the same map; each branch is a vote, so the members stay in step, and
-// a member handed a leaf it does not need rejects its photons by distance.
-template <typename VisitLeaf>
+// a member handed a leaf it does not need rejects its photons by distance. `log` records the
+// leaves visited or, when it replays, hands them out instead of the tree (in no particular order).
+template <typename VisitLeaf, typename LeafLog = NoLeafLog>
 CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const float& limit,
-                                      SearchGroup group, VisitLeaf visit_leaf) {
+                                      SearchGroup group, VisitLeaf visit_leaf,
+                                      LeafLog&& log = NoLeafLog{}) {
   if (map.count == 0) return;
   // Deferred subtrees keep their box distance: by the time one is popped the limit has usually
   // shrunk below it, and the subtree is dropped without loading its node.
@@ -215,13 +225,17 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
   int top = 0;
   constexpr uint32_t kNone = ~0u;
   // A map of one leaf has no node: its leaf is visited alone.
-  uint32_t node = map.leaf_count == 1 ? kNone : map.root;
+  const bool replays = log.replays();
+  uint32_t node = map.leaf_count == 1 || replays ? kNone : map.root;
   while (true) {
     uint32_t leaf0 = 0u, leaf1 = kNone;
     bool go0 = false, go1 = false;
     float d0 = 0.0f, d1 = 0.0f;
     uint32_t c0 = 0, c1 = 0;
-    if (node != kNone) {
+    if (replays) {
+      leaf0 = log.next();
+      leaf1 = log.next();
+    } else if (node != kNone) {
       const BvhChild a = map.nodes[node].child[0], b = map.nodes[node].child[1];
       d0 = distance_squared(a.bounds(), p);
       d1 = distance_squared(b.bounds(), p);
@@ -237,7 +251,14 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
     CAUSTICA_NO_UNROLL
     for (int l = 0; l < 2; ++l) {
       const uint32_t leaf = l == 0 ? leaf0 : leaf1;  // an array would live in local memory
-      if (leaf != kNone) visit_leaf(leaf);
+      if (leaf != kNone) {
+        log.record(leaf);
+        visit_leaf(leaf);
+      }
+    }
+    if (replays) {
+      if (leaf1 == kNone) return;
+      continue;
     }
     if (node == kNone) return;
     if (go0 && go1) {
@@ -267,7 +288,7 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
 }
 
 #if defined(__CUDA_ARCH__)
-// The GPU search's batches of photons (find_nearest).
+// The GPU searches' batches of photons (for_each_photon_within, estimate_radiance_binned).
 constexpr uint32_t kPhotonBatch = 8;
 
 // positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads when they are 16-byte
@@ -298,7 +319,61 @@ __device__ inline float pick(const float v[kPhotonBatch], uint32_t j) {
   const float b0 = j & 2 ? a1 : a0, b1 = j & 2 ? a3 : a2;
   return j & 4 ? b1 : b0;
 }
+
+// The squared distances from `p` of the photons first .. first + kPhotonBatch.
+__device__ __forceinline__ void batch_distances(const PhotonMapView& map, uint32_t first, Vec3f p,
+                                                float d2[kPhotonBatch]) {
+  Vec3f at[kPhotonBatch];
+  load_positions(map.positions, first, at);
+  for (uint32_t j = 0; j < kPhotonBatch; ++j) d2[j] = length_squared(at[j] - p);
+}
+
+// offer(d2, first + j) for the batch's photons nearer than `limit`, in photon order, each checked
+// again as offer shrinks the limit. The lanes of a warp take this loop together, each at its own
+// next photon, so the warp steps through as many offers as its busiest lane makes, not one round
+// per photon that any lane takes.
+template <typename Offer>
+__device__ __forceinline__ void offer_nearer(const float d2[kPhotonBatch], uint32_t first,
+                                             const float& limit, Offer& offer) {
+  uint32_t nearer = 0;  // the photons nearer than the limit, one bit each
+  for (uint32_t j = 0; j < kPhotonBatch; ++j) nearer |= uint32_t(d2[j] < limit) << j;
+  while (nearer != 0) {
+    const uint32_t j = uint32_t(__ffs(int(nearer)) - 1);
+    nearer &= nearer - 1;
+    const float d = pick(d2, j);
+    if (d < limit) offer(d, first + j);
+  }
+}
 #endif
+
+// Calls offer(d2, index) for every photon of `map` at squared distance d2 < `limit` from `p`, by
+// leaves nearer subtrees first (visit_photon_leaves); offer may shrink `limit` as it goes, and
+// each photon is checked against the limit as it stands. Every member of `group` must make this
+// call with the same map.
+template <typename Offer>
+CAUSTICA_HDI void for_each_photon_within(const PhotonMapView& map, Vec3f p, float& limit,
+                                         SearchGroup group, Offer offer) {
+  visit_photon_leaves(map, p, limit, group, [&](uint32_t leaf) {
+    uint32_t i = map.leaf_begin(leaf);
+    const uint32_t end = map.leaf_end(leaf);
+#if defined(__CUDA_ARCH__)
+    // On a GPU, eight photons at a time, all loaded before any is offered: one at a time, each
+    // photon's load waited behind the previous one's heap insertion. (On the CPU, eight positions
+    // and distances held at once spill x86's vector registers, and one at a time is as fast.)
+    for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
+      float d2[kPhotonBatch];
+      batch_distances(map, i, p, d2);
+      offer_nearer(d2, i, limit, offer);
+    }
+#endif
+    // The rest one at a time (rolled on a GPU, since the body is big).
+    CAUSTICA_NO_UNROLL
+    for (; i < end; ++i) {
+      const float d2 = length_squared(map.positions[i] - p);
+      if (d2 < limit) offer(d2, i);
+    }
+  });
+}
 
 // Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared and
 // leaves them in `heap` (heap.size of them). Every member of `group` must make this call with the
@@ -310,39 +385,8 @@ CAUSTICA_HDI uint32_t find_nearest(const PhotonMapView& map, Vec3f p, uint32_t k
   heap.size = 0;
   if (k == 0) return 0;
   float limit = max_distance_squared;  // shrinks to the k-th distance once the heap is full
-  visit_photon_leaves(map, p, limit, group, [&](uint32_t leaf) {
-    uint32_t i = map.leaf_begin(leaf);
-    const uint32_t end = map.leaf_end(leaf);
-#if defined(__CUDA_ARCH__)
-    // On a GPU, eight photons at a time, all loaded before any is offered: one at a time, each
-    // photon's load waited behind the previous one's heap insertion. (On the CPU, eight positions
-    // and distances held at once spill x86's vector registers, and one at a time is as fast.)
-    for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
-      Vec3f at[kPhotonBatch];
-      load_positions(map.positions, i, at);
-      float d2[kPhotonBatch];
-      uint32_t nearer = 0;  // the photons nearer than the limit, one bit each
-      for (uint32_t j = 0; j < kPhotonBatch; ++j) {
-        d2[j] = length_squared(at[j] - p);
-        nearer |= uint32_t(d2[j] < limit) << j;
-      }
-      // In photon order, each checked again as the limit shrinks. On a GPU the lanes of a warp
-      // take this loop together, each at its own next photon, so the warp steps through as many
-      // insertions as its busiest lane makes, not one round per photon that any lane takes.
-      while (nearer != 0) {
-        const uint32_t j = uint32_t(__ffs(int(nearer)) - 1);
-        nearer &= nearer - 1;
-        const float d = pick(d2, j);
-        if (d < limit) limit = min_f(limit, heap.offer({d, i + j}, k));
-      }
-    }
-#endif
-    // The rest one at a time (rolled on a GPU, since the body is big).
-    CAUSTICA_NO_UNROLL
-    for (; i < end; ++i) {
-      const float d2 = length_squared(map.positions[i] - p);
-      if (d2 < limit) limit = min_f(limit, heap.offer({d2, i}, k));
-    }
+  for_each_photon_within(map, p, limit, group, [&](float d2, uint32_t index) {
+    limit = min_f(limit, heap.offer({d2, index}, k));
   });
   return heap.size;
 }
@@ -412,7 +456,7 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_within(const PhotonMapView& map,
   for (uint32_t i = 0; i < found; ++i) {
     const Neighbour n = heap[i];
     const PhotonFlux& ph = map.flux[n.index];
-    if (dot(decode_octahedral(ph.incoming), normal) <= 0.0f) continue;
+    if (!octahedral_along(ph.incoming, normal)) continue;
     flux += ph.power * kernel_weight(kernel, n.distance_squared * inv_r2);
   }
   return {albedo * flux * (kInvPi * kInvPi * inv_r2), r2};

@@ -24,8 +24,8 @@ CAUSTICA_HDI uint32_t photon_leaf_end(uint32_t leaf, uint32_t per_leaf, uint32_t
   return end < count ? end : count;
 }
 
-// What the estimate needs of a photon besides its position.
-struct PhotonFlux {
+// What the estimate needs of a photon besides its position, read with one 16-byte load.
+struct alignas(16) PhotonFlux {
   Vec3f power;
   uint32_t incoming;  // octahedral (base/octahedral.h)
 };

@@ -1,5 +1,7 @@
 #include "renderer/render/whitted.h"
 
+#include <type_traits>
+
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/curve_order.h"
 #include "renderer/base/atomic.h"
@@ -7,6 +9,7 @@
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/binned_estimate.h"
 #include "renderer/photon/density.h"
 #include "renderer/photon/scattering.h"
 
@@ -97,10 +100,20 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
 // 1, 9.65 at 2, 10.0 at 4): a warp that searches as a group already shares its nodes.
 constexpr uint32_t kGatherChain = 8;
 
+// From this k on, a GPU's estimates count (binned_estimate.h) instead of keeping heaps. The
+// render pass on an H200 (cornell-caustics 1024x1024), heap against counting: k = 32 4.46 against
+// 6.04 ms, k = 48 5.79 against 6.75, k = 64 7.66..7.72 against 7.34..7.38, k = 96 12.35 against
+// 9.63, k = 128 19.9 against 11.8. Two walks cost more than small heaps; large heaps cost more
+// than counting. On the CPU, where a thread searches alone, counting took the render pass from
+// 0.66 to 0.83 s at k = 64 and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
+constexpr uint32_t kBinnedFromK = 64;
+
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
 // of `lanes` threads (a GPU warp; one thread on the CPU) takes lanes x chain consecutive
 // requests, `lanes` at a time, and searches each batch together; each thread carries its
-// previous request's two radii as bounds for its next one.
+// previous request's two radii as bounds for its next one. kBinned: each estimate by counting
+// (binned_estimate.h) in kBinnedWords words of scratch, else with a heap of NeighbourPairs.
+template <bool kBinned>
 struct GatherEstimates {
   PhotonMapView caustics, global;
   const GatherRequest* requests;
@@ -119,8 +132,20 @@ struct GatherEstimates {
     return (request_count + per_group - 1) / per_group * lanes;
   }
 
-  template <typename Pairs>
-  CAUSTICA_HDI void operator()(size_t thread, Pairs heap) const {
+  template <typename Scratch>
+  CAUSTICA_HDI RadianceEstimate estimate(const PhotonMapView& map, const GatherRequest& q,
+                                         float bound, Scratch scratch, SearchGroup group) const {
+    if constexpr (kBinned) {
+      return estimate_radiance_binned(map, q.position, q.normal, q.weight, k, max_radius, kernel,
+                                      scratch, bound, group);
+    } else {
+      return estimate_radiance_within(map, q.position, q.normal, q.weight, k, max_radius, kernel,
+                                      scratch, bound, group);
+    }
+  }
+
+  template <typename Scratch>
+  CAUSTICA_HDI void operator()(size_t thread, Scratch scratch) const {
     const uint32_t lane = uint32_t(thread % lanes);
     const size_t group_first = (thread - lane) * chain;
     // An infinite radius carries no bound to the first request.
@@ -136,10 +161,8 @@ struct GatherEstimates {
           carried_radius_squared(caustic.radius_squared, previous, q.position);
       const float indirect_bound =
           carried_radius_squared(indirect.radius_squared, previous, q.position);
-      caustic = estimate_radiance_within(caustics, q.position, q.normal, q.weight, k, max_radius,
-                                         kernel, heap, caustic_bound, group);
-      indirect = estimate_radiance_within(global, q.position, q.normal, q.weight, k, max_radius,
-                                          kernel, heap, indirect_bound, group);
+      caustic = estimate(caustics, q, caustic_bound, scratch, group);
+      indirect = estimate(global, q, indirect_bound, scratch, group);
       gathered[pixel_offsets[q.pixel] + q.order] = caustic.radiance + indirect.radiance;
       previous = q.position;
     }
@@ -250,23 +273,34 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
       [=] CAUSTICA_HD(uint32_t rank) { return in_pixel_order[rank]; });
   const uint32_t* by_code = request_order.order.data();
 
-  // Stage 4: both photon-map estimates per request, stored in pixel and path order, with the
-  // neighbour heap in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a
-  // private array. A GPU warp's requests are Hilbert neighbours, so its lanes search together.
+  // Stage 4: both photon-map estimates per request, stored in pixel and path order. A GPU warp's
+  // requests are Hilbert neighbours, so its lanes search together. On a GPU from k = 64 on, each
+  // estimate counts in 160 bytes of per-thread scratch at any k; otherwise a neighbour heap lives
+  // in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a private array.
   Buffer<Vec3f> gathered(backend, request_total);
   const bool gpu = backend.kind() == DeviceKind::kCuda;
   const uint32_t lanes = gpu ? 32 : 1;
   const uint32_t chain = gpu ? 1 : kGatherChain;
-  const GatherEstimates gather{caustics,        global,        request, by_code, offset,
-                               gathered.data(), request_total, lanes,   chain,   k,
-                               cfg.max_radius,  cfg.kernel};
-  const size_t threads = GatherEstimates::threads(request_total, lanes, chain);
-  const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
-  if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {
-    parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
-      NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)];
-      gather(thread, heap);
-    });
+  const size_t threads = GatherEstimates<false>::threads(request_total, lanes, chain);
+  auto gather_with = [&](auto binned) {
+    return GatherEstimates<decltype(binned)::value>{
+        caustics,      global, request, by_code, offset,         gathered.data(),
+        request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
+  };
+  if (gpu && k >= kBinnedFromK) {
+    if (!parallel_for_with_scratch<uint32_t>(backend, threads, kBinnedWords,
+                                             gather_with(std::true_type{}))) {
+      throw DeviceError("render_pass: no room for the gather's scratch");
+    }
+  } else {
+    const auto gather = gather_with(std::false_type{});
+    const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
+    if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {
+      parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
+        NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)];
+        gather(thread, heap);
+      });
+    }
   }
 
   // Stage 5: each pixel adds its direct light and its requests' estimates in path order, so the

@@ -40,22 +40,24 @@ __global__ void scratch_kernel(size_t n, F f) {
 }
 
 // Warps per block for `per_thread` bytes of scratch: the count that lets the most warps share a
-// multiprocessor's shared memory (each block also costs the reserved bytes), or 0 when one warp's
-// scratch is more than a block may have without opting in (48 KiB).
-inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm,
-                                    size_t reserved_per_block) {
-  constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8, kMaxBlocksPerSm = 32,
-                   kMaxWarpsPerSm = 64;
-  if (per_thread == 0) return kMaxWarps;
+// multiprocessor, by the driver's occupancy for the kernel (its registers, the scratch and each
+// block's reserved shared memory), fewer warps per block when counts tie (a block holds its slot
+// until its slowest warp ends); 0 when one warp's scratch is more than a block may have without
+// opting in (48 KiB). Counting shared memory alone chose blocks of 8 warps for 128 bytes per
+// thread, of which 86 registers per thread let 2 blocks, 16 warps, share a multiprocessor; blocks
+// of 1 warp let 23.
+template <typename Kernel>
+unsigned scratch_block_warps(Kernel kernel, size_t per_thread) {
+  constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8;
   unsigned best = 0;
-  size_t best_resident = 0;
-  for (size_t warps = 1; warps <= kMaxWarps && warps * 32 * per_thread <= kBlockBytes; ++warps) {
-    size_t blocks = shared_per_sm / (warps * 32 * per_thread + reserved_per_block);
-    if (blocks > kMaxBlocksPerSm) blocks = kMaxBlocksPerSm;
-    size_t resident = blocks * warps < kMaxWarpsPerSm ? blocks * warps : kMaxWarpsPerSm;
-    if (resident >= best_resident) {
-      best_resident = resident;
-      best = unsigned(warps);
+  int best_resident = 0;
+  for (unsigned warps = 1; warps <= kMaxWarps && warps * 32 * per_thread <= kBlockBytes; ++warps) {
+    int blocks = 0;
+    CAUSTICA_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+        &blocks, kernel, int(32 * warps), 32 * warps * per_thread));
+    if (blocks * int(warps) > best_resident) {
+      best_resident = blocks * int(warps);
+      best = warps;
     }
   }
   return best;
@@ -69,24 +71,22 @@ inline unsigned scratch_block_warps(size_t per_thread, size_t shared_per_sm,
 template <typename T, typename F>
 bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_count, const F& f) {
   const size_t per_thread = size_t(scratch_count) * sizeof(T);
-  // Asked of the driver once per kernel, not at every launch (the gather launches once a pass).
-  struct SharedMemory {
-    size_t per_multiprocessor, reserved_per_block;
-  };
-  static const SharedMemory shared = [] {
-    int device = 0, per_sm = 0, reserved = 0;
-    CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
-    CAUSTICA_CUDA_CHECK(
-        cudaDeviceGetAttribute(&per_sm, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
-    CAUSTICA_CUDA_CHECK(
-        cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
+  // Asked of the driver once per kernel and scratch size, not at every launch (the gather
+  // launches once a pass with the same k).
+  static const bool carveout_set = [] {
     CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(detail::scratch_kernel<T, F>,
                                              cudaFuncAttributePreferredSharedMemoryCarveout,
                                              int(cudaSharedmemCarveoutMaxShared)));
-    return SharedMemory{size_t(per_sm), size_t(reserved)};
+    return true;
   }();
-  const unsigned warps =
-      detail::scratch_block_warps(per_thread, shared.per_multiprocessor, shared.reserved_per_block);
+  (void)carveout_set;
+  static thread_local size_t cached_per_thread = ~size_t(0);
+  static thread_local unsigned cached_warps = 0;
+  if (per_thread != cached_per_thread) {
+    cached_warps = detail::scratch_block_warps(detail::scratch_kernel<T, F>, per_thread);
+    cached_per_thread = per_thread;
+  }
+  const unsigned warps = cached_warps;
   if (warps == 0) return false;
   const unsigned block = 32 * warps;
   const size_t blocks = (n + block - 1) / block;

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "renderer/photon/density.h"
+#include "tests/renderer/photon/reference_estimate.h"
 
 namespace caustica {
 namespace {
@@ -97,6 +98,28 @@ TEST(PhotonMap, LeavesCoverTheirPhotons) {
       }
     }
   for (int s : leaf_seen) ASSERT_EQ(s, 1);
+}
+
+// The side test on the encoded direction agrees with the decoded unit vector's dot product
+// wherever that is not within rounding of zero, and the axes' signs come out exactly.
+TEST(PhotonMap, SideTestNeedsNoNormalisation) {
+  std::mt19937 rng(19);
+  std::normal_distribution<float> g;
+  int decided = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const Vec3f d = normalize(Vec3f(g(rng), g(rng), g(rng)));
+    const Vec3f n = normalize(Vec3f(g(rng), g(rng), g(rng)));
+    const uint32_t bits = encode_octahedral(d);
+    const float along = dot(decode_octahedral(bits), n);
+    if (std::abs(along) < 1e-6f) continue;
+    ++decided;
+    ASSERT_EQ(octahedral_along(bits, n), along > 0.0f) << i;
+  }
+  EXPECT_GT(decided, 199000);
+  for (Vec3f axis : {Vec3f(1, 0, 0), Vec3f(0, 1, 0), Vec3f(0, 0, 1)}) {
+    EXPECT_TRUE(octahedral_along(encode_octahedral(axis), axis));
+    EXPECT_FALSE(octahedral_along(encode_octahedral(-axis), axis));
+  }
 }
 
 // Incoming directions survive the 32-bit octahedral encoding within 1e-4 radians.
@@ -209,25 +232,18 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
   EXPECT_GT(bounded, 1500);
 }
 
-// The estimate against brute force: the k nearest by sorting every distance, their flux summed
-// with the kernel's weights, those arriving from behind left out. Photons of distinct powers and
-// directions, so that summing a wrong photon shows.
+// The estimate against brute force (reference_estimate.h).
 TEST(Density, EstimateMatchesBruteForce) {
   auto backend = make_cpu_backend(size_t(1) << 30);
-  std::mt19937 rng(23);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::normal_distribution<float> g;
-  const size_t n = 20000;
-  std::vector<Photon> photons(n);
-  for (auto& ph : photons) {
-    ph = {Vec3f(u(rng), u(rng), 0.2f * u(rng)), Vec3f(u(rng), u(rng), u(rng)),
-          normalize(Vec3f(g(rng), g(rng), g(rng)))};
-  }
-  Buffer<Photon> buf(*backend, n);
+  const std::vector<Photon> photons = photons_in_slab(20000, 23);
+  Buffer<Photon> buf(*backend, photons.size());
   buf.upload(photons);
   const PhotonMap map = build_photon_map(*backend, buf);
   const std::vector<Photon> stored = map.download();  // directions as decoded
   std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
+  std::mt19937 rng(24);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g;
   for (int q = 0; q < 600; ++q) {
     const Vec3f x(u(rng), u(rng), 0.1f);
     const Vec3f normal = normalize(Vec3f(g(rng), g(rng), 2.0f));
@@ -236,28 +252,13 @@ TEST(Density, EstimateMatchesBruteForce) {
     const Kernel kernel = Kernel(q % 3);
     const RadianceEstimate got = estimate_radiance_within(
         map.view(), x, normal, Vec3f(0.5f), k, max_radius, kernel, heap.data(), INFINITY, {});
-
-    std::vector<std::pair<float, size_t>> by_distance;
-    for (size_t i = 0; i < n; ++i) {
-      const float d2 = length_squared(stored[i].position - x);
-      if (d2 < max_radius * max_radius) by_distance.push_back({d2, i});
-    }
-    std::sort(by_distance.begin(), by_distance.end());
-    const size_t used = std::min<size_t>(k, by_distance.size());
-    const float r2 = used == k ? by_distance[k - 1].first : max_radius * max_radius;
-    ASSERT_EQ(got.radius_squared, r2) << "query " << q;
-    double sum[3] = {0, 0, 0};
-    for (size_t j = 0; j < used; ++j) {
-      const Photon& ph = stored[by_distance[j].second];
-      if (dot(ph.incoming, normal) <= 0.0f) continue;
-      // d2 times 1/r2 as the renderer computes it: at the k-th photon it may fall an ulp short
-      // of 1, where the Epanechnikov and cone weights are not yet 0.
-      const float w = kernel_weight(kernel, by_distance[j].first * (1.0f / r2));
-      for (int c = 0; c < 3; ++c) sum[c] += double(ph.power[c]) * w;
-    }
+    const RadianceEstimate expected =
+        reference_estimate(stored, x, normal, Vec3f(0.5f), k, max_radius, kernel).estimate;
+    ASSERT_EQ(got.radius_squared, expected.radius_squared) << "query " << q;
     for (int c = 0; c < 3; ++c) {
-      const double expected = 0.5 * sum[c] / (kPi * kPi * r2);
-      ASSERT_NEAR(got.radiance[c], expected, 1e-5 * std::max(1.0, expected)) << "query " << q;
+      ASSERT_NEAR(got.radiance[c], expected.radiance[c],
+                  1e-5 * std::max(1.0f, expected.radiance[c]))
+          << "query " << q;
     }
   }
 }
@@ -268,11 +269,7 @@ TEST(Density, TakesExactlyKWhenPhotonsTieAtTheKthDistance) {
   auto backend = make_cpu_backend(size_t(1) << 30);
   std::mt19937 rng(29);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Photon> photons;
-  for (int point = 0; point < 400; ++point) {
-    const Vec3f at(u(rng), u(rng), 0.0f);
-    for (int copy = 0; copy < 25; ++copy) photons.push_back({at, Vec3f(1.0f), Vec3f(0, 0, 1)});
-  }
+  const std::vector<Photon> photons = stacked_photons(400, 25, rng);
   Buffer<Photon> buf(*backend, photons.size());
   buf.upload(photons);
   const PhotonMap map = build_photon_map(*backend, buf);
