@@ -5,16 +5,16 @@
 // the gather's 3190 M warp instructions were heap insertions, each a chain of dependent shared-
 // memory steps that a warp runs for whichever of its lanes has one. Here:
 // 1. A counting walk files every photon nearer than the limit under a bin of its squared
-//    distance (the float's exponent and top three mantissa bits: eight bins per octave), as
-//    16-bit counts. The bin where the count reaches k is the cut; once the bins below it hold k,
-//    the cut moves down a bin and the limit with it, so the walk prunes almost as a heap search
-//    does. A batch of eight photons is filed without a branch, and the cut lowered once after.
+//    distance (the float's exponent and top three mantissa bits: eight bins per octave). The bin
+//    where the count reaches k is the cut; once the bins below it hold k, the cut moves down a bin
+//    and the limit with it, so the walk prunes almost as a heap search does. A batch of eight
+//    photons is filed without a branch, and the cut lowered once after.
 // 2. A collecting walk with the cut's top as a fixed limit sums the flux of the photons below the
 //    cut (all among the k nearest) and keeps those in it, about 6 at k = 64, to take the nearest
 //    of them that make k. A warp replays the leaves its first counting walk recorded instead of
 //    walking the tree again. Should the cut hold more photons than fit, the counting is repeated
 //    within it with finer bins first.
-// A lane's scratch is 160 bytes at any k (the heap's is 512 at k = 64, 1 KiB at k = 128).
+// A lane's scratch is 288 bytes at any k (the heap's is 512 at k = 64, 1 KiB at k = 128).
 // Render pass, cornell-caustics 1024x1024 on an H200: k = 64 7.66..7.72 -> 7.34..7.38 ms,
 // k = 128 19.9 -> 11.8 ms; below k = 64 two walks cost more than small heaps (kBinnedFromK,
 // whitted.cc), and on the CPU, where a thread searches alone, counting is slower at every k.
@@ -26,11 +26,11 @@
 
 namespace caustica {
 
-// Counts of the counting walk, two 16-bit counts per 32-bit word, and in the same words the
-// collecting walk's photons in the cut, two words each.
+// Counts of the counting walk, a word per bin, and in the same words the collecting walk's
+// photons in the cut, two words each.
 // After them, the leaves of the first counting walk (WarpLeafLog).
 constexpr uint32_t kDistanceBins = 64;
-constexpr uint32_t kBinWords = kDistanceBins / 2;
+constexpr uint32_t kBinWords = kDistanceBins;
 constexpr uint32_t kCutCapacity = kBinWords / 2;
 constexpr uint32_t kLeafLogWords = 8;
 constexpr uint32_t kBinnedWords = kBinWords + kLeafLogWords;
@@ -81,12 +81,6 @@ struct DistanceBins {
 constexpr uint32_t kFirstBinShift = 20;
 constexpr uint32_t kRefineBits = 6;
 
-// Word scratch (a uint32_t* or a Scratch<uint32_t>) as bins of 16-bit counts.
-template <typename Words>
-CAUSTICA_HDI uint32_t bin_count(const Words& words, uint32_t b) {
-  return (words[b >> 1] >> ((b & 1) * 16)) & 0xffffu;
-}
-
 // Sums the flux of the photons taken, as estimate_radiance_within weighs them once the k-th
 // distance r is known: w(d / r) is linear in a term per photon (d for the cone, d^2 for the
 // Epanechnikov kernel), so the sum is kept in two parts.
@@ -96,7 +90,7 @@ struct FluxSum {
 
   CAUSTICA_HDI void add(const PhotonMapView& map, uint32_t index, float d2, Vec3f normal,
                         Kernel kernel) {
-    const PhotonFlux& ph = map.flux[index];
+    const PhotonFlux ph = map.flux_of(index);
     if (!octahedral_along(ph.incoming, normal)) return;
     flux += ph.power;
     if (kernel == Kernel::kCone) by_distance += ph.power * sqrtf(d2);
@@ -202,18 +196,17 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
     if (b == cut) {
       ++in_cut;
     } else {
-      words[b >> 1] += 1u << ((b & 1) * 16);
+      ++words[b];
     }
     ++counted;
   };
-  // While the bins below the cut hold k, the cut moves down (a bin below holds fewer than k <
-  // 2^16). Returns the limit: the cut's top.
+  // While the bins below the cut hold k, the cut moves down. Returns the limit: the cut's top.
   auto lower_cut = [&]() {
     const uint32_t wanted = k - known;
     while (counted - in_cut >= wanted) {
       counted -= in_cut;
       --cut;
-      in_cut = bin_count(words, cut);
+      in_cut = words[cut];
     }
     return min_f(ceiling, bins.top(cut));
   };
@@ -245,6 +238,8 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
     if (walks) {
       float limit;
       if (counting) {
+        // Unrolled in full, the 64 stores took the kernel from 106 to 196 registers.
+        CAUSTICA_UNROLL_BY(8)
         for (uint32_t w = 0; w < kBinWords; ++w) words[w] = 0u;
         cut = float_bits(ceiling) > 0 ? bins.of(bits_float(float_bits(ceiling) - 1)) : 0u;
         in_cut = 0;
@@ -270,7 +265,7 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
                   // A photon left out adds 0 to the cut's word, which is stale anyway.
                   const uint32_t b = in ? bins.of(d2[j]) : cut;
                   in_cut += uint32_t(in && b == cut);
-                  words[b >> 1] += uint32_t(in && b != cut) << ((b & 1) * 16);
+                  words[b] += uint32_t(in && b != cut);
                   counted += uint32_t(in);
                 }
                 limit = lower_cut();

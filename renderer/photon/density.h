@@ -455,7 +455,7 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_within(const PhotonMapView& map,
   CAUSTICA_UNROLL_BY(4)
   for (uint32_t i = 0; i < found; ++i) {
     const Neighbour n = heap[i];
-    const PhotonFlux& ph = map.flux[n.index];
+    const PhotonFlux ph = map.flux_of(n.index);
     if (!octahedral_along(ph.incoming, normal)) continue;
     flux += ph.power * kernel_weight(kernel, n.distance_squared * inv_r2);
   }

@@ -25,7 +25,7 @@ CAUSTICA_HDI uint32_t photon_leaf_end(uint32_t leaf, uint32_t per_leaf, uint32_t
 }
 
 // What the estimate needs of a photon besides its position, read with one 16-byte load.
-struct alignas(16) PhotonFlux {
+struct alignas(16) PhotonFlux {  // 16 bytes: flux_of reads it as one float4
   Vec3f power;
   uint32_t incoming;  // octahedral (base/octahedral.h)
 };
@@ -41,6 +41,16 @@ struct PhotonMapView {
   Aabb bounds;
 
   CAUSTICA_HDI uint32_t leaf_begin(uint32_t leaf) const { return leaf * photons_per_leaf; }
+  // Photon i's flux record in one 16-byte load: read field by field, the side test waited for
+  // the direction and then the power for a second round trip.
+  CAUSTICA_HDI PhotonFlux flux_of(uint32_t i) const {
+#if defined(__CUDA_ARCH__)
+    const float4 f = __ldg(reinterpret_cast<const float4*>(flux) + i);
+    return {Vec3f(f.x, f.y, f.z), __float_as_uint(f.w)};
+#else
+    return flux[i];
+#endif
+  }
   CAUSTICA_HDI uint32_t leaf_end(uint32_t leaf) const {
     return photon_leaf_end(leaf, photons_per_leaf, count);
   }

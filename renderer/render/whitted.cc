@@ -275,7 +275,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
 
   // Stage 4: both photon-map estimates per request, stored in pixel and path order. A GPU warp's
   // requests are Hilbert neighbours, so its lanes search together. On a GPU from k = 64 on, each
-  // estimate counts in 160 bytes of per-thread scratch at any k; otherwise a neighbour heap lives
+  // estimate counts in 288 bytes of per-thread scratch at any k; otherwise a neighbour heap lives
   // in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a private array.
   Buffer<Vec3f> gathered(backend, request_total);
   const bool gpu = backend.kind() == DeviceKind::kCuda;
