@@ -2,8 +2,9 @@
 // by counting instead of with a heap, for GPU searches in groups at larger k.
 //
 // A heap search spends most of its instructions keeping its heap: on an H200 at k = 64, half of
-// the gather's 3190 M warp instructions were heap insertions, each a chain of dependent shared-
-// memory steps that a warp runs for whichever of its lanes has one. Here:
+// the gather's 3190 M warp instructions were heap insertions and the climbs that fill the heap,
+// each a chain of dependent shared-memory steps that a warp runs for whichever of its lanes has
+// one. Here:
 // 1. A counting walk files every photon nearer than the limit under a bin of its squared
 //    distance (the float's exponent and top three mantissa bits: eight bins per octave). The bin
 //    where the count reaches k is the cut; once the bins below it hold k, the cut moves down a bin
@@ -15,9 +16,10 @@
 //    walking the tree again. Should the cut hold more photons than fit, the counting is repeated
 //    within it with finer bins first.
 // A lane's scratch is 288 bytes at any k (the heap's is 512 at k = 64, 1 KiB at k = 128).
-// Render pass, cornell-caustics 1024x1024 on an H200: k = 64 7.66..7.72 -> 7.34..7.38 ms,
-// k = 128 19.9 -> 11.8 ms; below k = 64 two walks cost more than small heaps (kBinnedFromK,
-// whitted.cc), and on the CPU, where a thread searches alone, counting is slower at every k.
+// Render pass, cornell-caustics 1024x1024 on an H200, heap against counting: k = 64 7.63 ->
+// 7.05 ms, k = 128 19.8 -> 9.38 ms; below k = 64 two walks cost more than small heaps
+// (kBinnedFromK, whitted.cc), and on the CPU, where a thread searches alone, counting is slower
+// at every k.
 #pragma once
 
 #include <cstring>

@@ -101,11 +101,11 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
 constexpr uint32_t kGatherChain = 8;
 
 // From this k on, a GPU's estimates count (binned_estimate.h) instead of keeping heaps. The
-// render pass on an H200 (cornell-caustics 1024x1024), heap against counting: k = 32 4.46 against
-// 6.04 ms, k = 48 5.79 against 6.75, k = 64 7.66..7.72 against 7.34..7.38, k = 96 12.35 against
-// 9.63, k = 128 19.9 against 11.8. Two walks cost more than small heaps; large heaps cost more
-// than counting. On the CPU, where a thread searches alone, counting took the render pass from
-// 0.66 to 0.83 s at k = 64 and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
+// render pass on an H200 (cornell-caustics 1024x1024), heaps against counting: k = 8 3.02 against
+// 4.60 ms, k = 32 4.47 against 5.73, k = 48 5.80 against 6.40 (two walks cost more than small
+// heaps), k = 64 7.61 against 7.02, k = 96 12.3 against 8.26, k = 128 19.8 against 9.38. On the
+// CPU, where a thread searches alone, counting took the render pass from 0.66 to 0.83 s at k = 64
+// and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
 constexpr uint32_t kBinnedFromK = 64;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
