@@ -401,10 +401,12 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
 
 // Estimates at `points` with the given squared-radius bounds, each warp's 32 lanes searching as
 // one group (a lone search per thread on the CPU), with heaps or by counting.
+constexpr uint32_t kGroupMaxK = 320;
+
 std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMap& map,
                                                 const std::vector<Vec3f>& points,
-                                                const std::vector<float>& bounds,
-                                                bool binned = false) {
+                                                const std::vector<float>& bounds, bool binned,
+                                                uint32_t k, float max_radius) {
   const uint32_t n = uint32_t(points.size());
   Buffer<Vec3f> at = upload(backend, points);
   Buffer<float> bound = upload(backend, bounds);
@@ -417,12 +419,12 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
   parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
     if (binned) {
       uint32_t words[kBinnedWords];
-      e[i] = estimate_radiance_binned(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), kNnMaxK, 0.2f,
+      e[i] = estimate_radiance_binned(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
                                       Kernel(i / 32 % 3), words, b[i], group);
       return;
     }
-    NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
-    e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), kNnMaxK, 0.2f,
+    NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kGroupMaxK)];
+    e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
                                     Kernel(i / 32 % 3), heap, b[i], group);
   });
   return out.download();
@@ -432,7 +434,7 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
 // bound too small, for one warp in five), with heaps or by counting, find the k-th distance of a
 // lone heap search from the maximum radius bit for bit, and the estimate up to the order of its
 // sum (and, counting, the split of the kernel's weights: binned_estimate.h).
-void check_group_searches(bool binned) {
+void check_group_searches(bool binned, uint32_t k = kNnMaxK, float max_radius = 0.2f) {
   BothBackends both;
   std::mt19937 rng(41);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -452,14 +454,15 @@ void check_group_searches(bool binned) {
   std::sort(points.begin(), points.end(),
             [&](Vec3f a, Vec3f b) { return morton_code(a, unit) < morton_code(b, unit); });
   const std::vector<float> none(points.size(), INFINITY);
-  const std::vector<RadianceEstimate> lone = grouped_estimates(*both.cpu, c_map, points, none);
+  const std::vector<RadianceEstimate> lone =
+      grouped_estimates(*both.cpu, c_map, points, none, false, k, max_radius);
   std::vector<float> bounds(points.size(), INFINITY);
   for (size_t i = 32; i < points.size(); ++i)
     bounds[i] = i / 32 % 5 == 0 ? 0.25f * lone[i].radius_squared
                                 : carried_radius_squared(lone[i - 32].radius_squared,
                                                          points[i - 32], points[i]);
   const std::vector<RadianceEstimate> grouped =
-      grouped_estimates(*both.gpu, g_map, points, bounds, binned);
+      grouped_estimates(*both.gpu, g_map, points, bounds, binned, k, max_radius);
   for (size_t i = 0; i < points.size(); ++i) {
     ASSERT_EQ(grouped[i].radius_squared, lone[i].radius_squared) << "point " << i;
     for (int c = 0; c < 3; ++c)
@@ -477,6 +480,9 @@ TEST(GpuParity, GroupSearchesWithCarriedBoundsFindWhatLoneSearchesFind) {
 TEST(GpuParity, CountingGroupSearchesFindWhatLoneHeapSearchesFind) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   check_group_searches(/*binned=*/true);
+  // Larger k: cuts of more photons than fit, counted again with finer bins, and, within the
+  // smaller radius, many searches with fewer than k photons.
+  check_group_searches(/*binned=*/true, 300, 0.04f);
 }
 
 // `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.
