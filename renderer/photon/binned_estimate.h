@@ -28,9 +28,9 @@
 
 namespace caustica {
 
-// Counts of the counting walk, a word per bin, and in the same words the collecting walk's
-// photons in the cut, two words each.
-// After them, the leaves of the first counting walk (WarpLeafLog).
+// A lane's words: the counting walk's bins, a word each, which the collecting walk reuses for the
+// cut's photons (distance and index, two words each); after them, the leaves of the first
+// counting walk (WarpLeafLog).
 constexpr uint32_t kDistanceBins = 64;
 constexpr uint32_t kBinWords = kDistanceBins;
 constexpr uint32_t kCutCapacity = kBinWords / 2;
