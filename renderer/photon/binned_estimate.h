@@ -22,8 +22,6 @@
 // at every k.
 #pragma once
 
-#include <cstring>
-
 #include "renderer/photon/density.h"
 
 namespace caustica {
@@ -37,24 +35,8 @@ constexpr uint32_t kCutCapacity = kBinWords / 2;
 constexpr uint32_t kLeafLogWords = 8;
 constexpr uint32_t kBinnedWords = kBinWords + kLeafLogWords;
 
-CAUSTICA_HDI uint32_t float_bits(float f) {
-#if defined(__CUDA_ARCH__)
-  return __float_as_uint(f);
-#else
-  uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-#endif
-}
-CAUSTICA_HDI float bits_float(uint32_t u) {
-#if defined(__CUDA_ARCH__)
-  return __uint_as_float(u);
-#else
-  float f;
-  std::memcpy(&f, &u, sizeof f);
-  return f;
-#endif
-}
+CAUSTICA_HDI uint32_t float_bits(float f) { return __builtin_bit_cast(uint32_t, f); }
+CAUSTICA_HDI float bits_float(uint32_t u) { return __builtin_bit_cast(float, u); }
 
 // Bins of non-negative squared distances: bin b holds those whose float bits shifted right by
 // `shift` equal base + b, and bin 0 every smaller one as well. The order of the float bits is
@@ -62,6 +44,7 @@ CAUSTICA_HDI float bits_float(uint32_t u) {
 struct DistanceBins {
   uint32_t shift;
   uint32_t base;
+  uint32_t last;  // the bin of the largest value below the ceiling the bins were made for
 
   CAUSTICA_HDI uint32_t key(float d2) const { return float_bits(d2) >> shift; }
   CAUSTICA_HDI uint32_t of(float d2) const { return key(d2) > base ? key(d2) - base : 0u; }
@@ -75,7 +58,7 @@ struct DistanceBins {
     const uint32_t lowest = float_bits(floor) >> shift;
     const uint32_t base =
         highest >= lowest + (kDistanceBins - 1) ? highest - (kDistanceBins - 1) : lowest;
-    return {shift, base};
+    return {shift, base, highest - base};
   }
 };
 
@@ -191,16 +174,15 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
   bool all = false, keeps = true;
   FluxSum sum;
 
-  // Files a photon nearer than the limit under its bin (the cut's count lives in a register; the
-  // cut's word is stale).
-  auto count = [&](float d2) {
-    const uint32_t b = bins.of(d2);
-    if (b == cut) {
-      ++in_cut;
-    } else {
-      ++words[b];
-    }
-    ++counted;
+  // Files a photon nearer than the limit under its bin when `in` (it is at or above the floor),
+  // without branching, so that a batch's photons are filed in step (no lane waits for another's
+  // insertions). The cut's count lives in a register; its word is stale, and a photon left out
+  // adds 0 to it.
+  auto count = [&](float d2, bool in) {
+    const uint32_t b = in ? bins.of(d2) : cut;
+    in_cut += uint32_t(in && b == cut);
+    words[b] += uint32_t(in && b != cut);
+    counted += uint32_t(in);
   };
   // While the bins below the cut hold k, the cut moves down. Returns the limit: the cut's top.
   auto lower_cut = [&]() {
@@ -243,49 +225,31 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
         // Unrolled in full, the 64 stores took the kernel from 106 to 196 registers.
         CAUSTICA_UNROLL_BY(8)
         for (uint32_t w = 0; w < kBinWords; ++w) words[w] = 0u;
-        cut = float_bits(ceiling) > 0 ? bins.of(bits_float(float_bits(ceiling) - 1)) : 0u;
+        cut = bins.last;
         in_cut = 0;
         counted = 0;
         limit = ceiling;
       } else {
         limit = hi;
       }
-      visit_photon_leaves(
+      visit_photon_batches(
           map, p, limit, walking,
-          [&](uint32_t leaf) {
-            uint32_t i = map.leaf_begin(leaf);
-            const uint32_t end = map.leaf_end(leaf);
-#if defined(__CUDA_ARCH__)
-            for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
-              float d2[kPhotonBatch];
-              batch_distances(map, i, p, d2);
-              if (counting) {
-                // Every photon of the batch filed without branching (no lane waits for another's
-                // insertions), the cut lowered once after them.
-                for (uint32_t j = 0; j < kPhotonBatch; ++j) {
-                  const bool in = d2[j] < limit && d2[j] >= floor;
-                  // A photon left out adds 0 to the cut's word, which is stale anyway.
-                  const uint32_t b = in ? bins.of(d2[j]) : cut;
-                  in_cut += uint32_t(in && b == cut);
-                  words[b] += uint32_t(in && b != cut);
-                  counted += uint32_t(in);
-                }
-                limit = lower_cut();
-              } else {
-                offer_nearer(d2, i, limit, collect);
+          [&](uint32_t first, const float d2[kPhotonBatch]) {
+            if (counting) {  // the cut lowered once after the batch
+              for (uint32_t j = 0; j < kPhotonBatch; ++j) {
+                count(d2[j], d2[j] < limit && d2[j] >= floor);
               }
+              limit = lower_cut();
+            } else {
+              offer_nearer(d2, first, limit, collect);
             }
-#endif
-            CAUSTICA_NO_UNROLL
-            for (; i < end; ++i) {
-              const float d2 = length_squared(map.positions[i] - p);
-              if (d2 >= limit) continue;
-              if (!counting) {
-                collect(d2, i);
-              } else if (d2 >= floor) {
-                count(d2);
-                limit = lower_cut();
-              }
+          },
+          [&](float d2, uint32_t index) {
+            if (!counting) {
+              collect(d2, index);
+            } else if (d2 >= floor) {
+              count(d2, true);
+              limit = lower_cut();
             }
           },
           log);

@@ -287,9 +287,40 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
   }
 }
 
-#if defined(__CUDA_ARCH__)
-// The GPU searches' batches of photons (for_each_photon_within, estimate_radiance_binned).
+// The GPU searches' batches of photons (visit_photon_batches).
 constexpr uint32_t kPhotonBatch = 8;
+
+// v[j] by selects on the bits of j: indexing the array at run time would put it in local memory.
+CAUSTICA_HDI float pick(const float v[kPhotonBatch], uint32_t j) {
+  static_assert(kPhotonBatch == 8, "three levels of selects");
+  const float a0 = j & 1 ? v[1] : v[0], a1 = j & 1 ? v[3] : v[2];
+  const float a2 = j & 1 ? v[5] : v[4], a3 = j & 1 ? v[7] : v[6];
+  const float b0 = j & 2 ? a1 : a0, b1 = j & 2 ? a3 : a2;
+  return j & 4 ? b1 : b0;
+}
+
+// offer(d2, first + j) for the batch's photons nearer than `limit`, in photon order, each checked
+// again as offer shrinks the limit. The lanes of a warp take this loop together, each at its own
+// next photon, so the warp steps through as many offers as its busiest lane makes, not one round
+// per photon that any lane takes.
+template <typename Offer>
+CAUSTICA_HDI void offer_nearer(const float d2[kPhotonBatch], uint32_t first, const float& limit,
+                               Offer& offer) {
+  uint32_t nearer = 0;  // the photons nearer than the limit, one bit each
+  for (uint32_t j = 0; j < kPhotonBatch; ++j) nearer |= uint32_t(d2[j] < limit) << j;
+  while (nearer != 0) {
+#if defined(__CUDA_ARCH__)
+    const uint32_t j = uint32_t(__ffs(int(nearer)) - 1);
+#else
+    const uint32_t j = uint32_t(__builtin_ctz(nearer));
+#endif
+    nearer &= nearer - 1;
+    const float d = pick(d2, j);
+    if (d < limit) offer(d, first + j);
+  }
+}
+
+#if defined(__CUDA_ARCH__)
 
 // positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads when they are 16-byte
 // aligned (a leaf of 8 photons always is, in an aligned buffer).
@@ -311,15 +342,6 @@ __device__ inline void load_positions(const Vec3f* positions, uint32_t first,
   for (uint32_t j = 0; j < kPhotonBatch; ++j) at[j] = positions[first + j];
 }
 
-// v[j] by selects on the bits of j: indexing the array at run time would put it in local memory.
-__device__ inline float pick(const float v[kPhotonBatch], uint32_t j) {
-  static_assert(kPhotonBatch == 8, "three levels of selects");
-  const float a0 = j & 1 ? v[1] : v[0], a1 = j & 1 ? v[3] : v[2];
-  const float a2 = j & 1 ? v[5] : v[4], a3 = j & 1 ? v[7] : v[6];
-  const float b0 = j & 2 ? a1 : a0, b1 = j & 2 ? a3 : a2;
-  return j & 4 ? b1 : b0;
-}
-
 // The squared distances from `p` of the photons first .. first + kPhotonBatch.
 __device__ __forceinline__ void batch_distances(const PhotonMapView& map, uint32_t first, Vec3f p,
                                                 float d2[kPhotonBatch]) {
@@ -328,51 +350,50 @@ __device__ __forceinline__ void batch_distances(const PhotonMapView& map, uint32
   for (uint32_t j = 0; j < kPhotonBatch; ++j) d2[j] = length_squared(at[j] - p);
 }
 
-// offer(d2, first + j) for the batch's photons nearer than `limit`, in photon order, each checked
-// again as offer shrinks the limit. The lanes of a warp take this loop together, each at its own
-// next photon, so the warp steps through as many offers as its busiest lane makes, not one round
-// per photon that any lane takes.
-template <typename Offer>
-__device__ __forceinline__ void offer_nearer(const float d2[kPhotonBatch], uint32_t first,
-                                             const float& limit, Offer& offer) {
-  uint32_t nearer = 0;  // the photons nearer than the limit, one bit each
-  for (uint32_t j = 0; j < kPhotonBatch; ++j) nearer |= uint32_t(d2[j] < limit) << j;
-  while (nearer != 0) {
-    const uint32_t j = uint32_t(__ffs(int(nearer)) - 1);
-    nearer &= nearer - 1;
-    const float d = pick(d2, j);
-    if (d < limit) offer(d, first + j);
-  }
-}
 #endif
 
+// Walks the photons of `map` within squared distance `limit` of `p` leaf by leaf
+// (visit_photon_leaves, `log` as there): on a GPU each whole batch of kPhotonBatch photons goes to
+// on_batch(first, d2) with their squared distances, all loaded before any is looked at (one at a
+// time, each photon's load waited behind the previous one's heap insertion); every other photon
+// nearer than the limit, and on the CPU every one (where eight positions and distances held at
+// once spill x86's vector registers), goes to on_photon(d2, index). Both may shrink `limit`.
+template <typename OnBatch, typename OnPhoton, typename LeafLog = NoLeafLog>
+CAUSTICA_HDI void visit_photon_batches(const PhotonMapView& map, Vec3f p, float& limit,
+                                       SearchGroup group, OnBatch on_batch, OnPhoton on_photon,
+                                       LeafLog&& log = NoLeafLog{}) {
+  visit_photon_leaves(
+      map, p, limit, group,
+      [&](uint32_t leaf) {
+        uint32_t i = map.leaf_begin(leaf);
+        const uint32_t end = map.leaf_end(leaf);
+#if defined(__CUDA_ARCH__)
+        for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
+          float d2[kPhotonBatch];
+          batch_distances(map, i, p, d2);
+          on_batch(i, d2);
+        }
+#endif
+        // The rest one at a time (rolled on a GPU, since the body is big).
+        CAUSTICA_NO_UNROLL
+        for (; i < end; ++i) {
+          const float d2 = length_squared(map.positions[i] - p);
+          if (d2 < limit) on_photon(d2, i);
+        }
+      },
+      log);
+}
+
 // Calls offer(d2, index) for every photon of `map` at squared distance d2 < `limit` from `p`, by
-// leaves nearer subtrees first (visit_photon_leaves); offer may shrink `limit` as it goes, and
-// each photon is checked against the limit as it stands. Every member of `group` must make this
-// call with the same map.
+// leaves nearer subtrees first; offer may shrink `limit` as it goes, and each photon is checked
+// against the limit as it stands. Every member of `group` must make this call with the same map.
 template <typename Offer>
 CAUSTICA_HDI void for_each_photon_within(const PhotonMapView& map, Vec3f p, float& limit,
                                          SearchGroup group, Offer offer) {
-  visit_photon_leaves(map, p, limit, group, [&](uint32_t leaf) {
-    uint32_t i = map.leaf_begin(leaf);
-    const uint32_t end = map.leaf_end(leaf);
-#if defined(__CUDA_ARCH__)
-    // On a GPU, eight photons at a time, all loaded before any is offered: one at a time, each
-    // photon's load waited behind the previous one's heap insertion. (On the CPU, eight positions
-    // and distances held at once spill x86's vector registers, and one at a time is as fast.)
-    for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
-      float d2[kPhotonBatch];
-      batch_distances(map, i, p, d2);
-      offer_nearer(d2, i, limit, offer);
-    }
-#endif
-    // The rest one at a time (rolled on a GPU, since the body is big).
-    CAUSTICA_NO_UNROLL
-    for (; i < end; ++i) {
-      const float d2 = length_squared(map.positions[i] - p);
-      if (d2 < limit) offer(d2, i);
-    }
-  });
+  visit_photon_batches(
+      map, p, limit, group,
+      [&](uint32_t first, const float d2[kPhotonBatch]) { offer_nearer(d2, first, limit, offer); },
+      offer);
 }
 
 // Finds the (up to) k photons nearest to `p` with squared distance < max_distance_squared and

@@ -45,7 +45,7 @@ __global__ void scratch_kernel(size_t n, F f) {
 // until its slowest warp ends); 0 when one warp's scratch is more than a block may have without
 // opting in (48 KiB). Counting shared memory alone chose blocks of 8 warps for 128 bytes per
 // thread, of which 86 registers per thread let 2 blocks, 16 warps, share a multiprocessor; blocks
-// of 1 warp let 23.
+// of 1 warp let 20.
 template <typename Kernel>
 unsigned scratch_block_warps(Kernel kernel, size_t per_thread) {
   constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8;
