@@ -19,12 +19,14 @@
 
 namespace caustica {
 
-template <typename F>
+// kMinBlocks: on a GPU, the blocks of 128 threads that must fit on a multiprocessor at once; more
+// than 1 caps the kernel's registers (launch.cuh).
+template <unsigned kMinBlocks = 1, typename F>
 void parallel_for(Backend& backend, size_t n, F f) {
   if (n == 0) return;
   if (backend.kind() == DeviceKind::kCuda) {
 #if defined(__CUDACC__)
-    launch_on_cuda(backend, n, f);
+    launch_on_cuda<kMinBlocks>(backend, n, f);
     return;
 #else
     // The loop below would dereference device pointers on the host.
@@ -43,13 +45,14 @@ void parallel_for(Backend& backend, size_t n, F f) {
 // memory, which is cached in L1 and L2 and, for the gather's neighbour heaps, was 100 GB of L2
 // traffic a frame. On the CPU each task reuses one buffer. Returns false, running nothing, when
 // the GPU's shared memory cannot hold one warp's scratch; the caller then falls back to
-// parallel_for with a private array.
-template <typename T, typename F>
+// parallel_for with a private array. kMaxRegisters caps the GPU kernel's registers per thread
+// (255, the most a thread may have, leaves the choice to the compiler).
+template <typename T, unsigned kMaxRegisters = 255, typename F>
 bool parallel_for_with_scratch(Backend& backend, size_t n, uint32_t scratch_count, F f) {
   if (n == 0) return true;
   if (backend.kind() == DeviceKind::kCuda) {
 #if defined(__CUDACC__)
-    return launch_with_scratch_on_cuda<T>(backend, n, scratch_count, f);
+    return launch_with_scratch_on_cuda<T, kMaxRegisters>(backend, n, scratch_count, f);
 #else
     throw DeviceError("parallel_for on the CUDA backend from code not compiled by nvcc");
 #endif

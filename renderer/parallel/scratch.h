@@ -13,9 +13,14 @@ namespace caustica {
 template <typename T>
 struct Scratch {
   T* base;
-  uint32_t stride;
-  // In 32 bits (i * stride < 2^32: scratch is small), which a GPU computes in one instruction.
-  CAUSTICA_HDI T& operator[](uint32_t i) const { return base[i * stride]; }
+  uint32_t stride_bytes;  // between element i and i + 1
+  CAUSTICA_HDI Scratch(T* first, uint32_t stride) : base(first), stride_bytes(stride * sizeof(T)) {}
+  // The offset in bytes in 32 bits (scratch is small), so that a GPU forms the address in one
+  // multiply-add where an element stride took two (H200, cornell-caustics 1024x1024: render pass
+  // 6.86..6.92 -> 6.77..6.80 ms at k = 64 and 4.48 -> 4.28 at k = 32).
+  CAUSTICA_HDI T& operator[](uint32_t i) const {
+    return *reinterpret_cast<T*>(reinterpret_cast<char*>(base) + i * stride_bytes);
+  }
 };
 
 }  // namespace caustica

@@ -62,6 +62,23 @@ struct DistanceBins {
   }
 };
 
+// Adds to a bin's count. On a GPU, in shared memory, an atomic addition whose result nobody reads:
+// the additions of a batch's photons then go out one after the other without a wait, where a
+// read, an addition and a write each waited for the previous photon's write (H200, render pass
+// at k = 64 7.00..7.01 -> 6.87..6.89 ms, at k = 128 9.38 -> 9.25). Each lane adds to its own
+// words only, so the atomicity itself is not needed.
+CAUSTICA_HDI void add_to_bin(uint32_t& count, uint32_t v) {
+#if defined(__CUDA_ARCH__)
+  // Known at compile time once inlined; words private to a thread are in local memory, which
+  // has no atomics.
+  if (__isShared(&count)) {
+    atomicAdd(&count, v);
+    return;
+  }
+#endif
+  count += v;
+}
+
 // Eight bins per octave of squared distance to begin with; each refinement splits a bin in 64.
 constexpr uint32_t kFirstBinShift = 20;
 constexpr uint32_t kRefineBits = 6;
@@ -181,7 +198,7 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
   auto count = [&](float d2, bool in) {
     const uint32_t b = in ? bins.of(d2) : cut;
     in_cut += uint32_t(in && b == cut);
-    words[b] += uint32_t(in && b != cut);
+    add_to_bin(words[b], uint32_t(in && b != cut));
     counted += uint32_t(in);
   };
   // While the bins below the cut hold k, the cut moves down. Returns the limit: the cut's top.

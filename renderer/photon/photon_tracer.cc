@@ -10,6 +10,15 @@
 namespace caustica {
 namespace {
 
+// Workers per multiprocessor, measured on an H200 (1M photons, cornell-caustics): 256 -> 2.89 ms,
+// 512 -> 1.90, 768 -> 1.68, 1024 -> 1.62, 2048 -> 1.79. About what a multiprocessor holds at
+// once; many more only delay the late blocks' first paths to the end.
+constexpr size_t kWorkersPerMultiprocessor = 1024;
+// Blocks of 128 that a multiprocessor should hold at once, all 1024 workers: the kernel's
+// registers are capped at 64 for it (72 left room for 7 blocks, and one waited). H200, 3
+// invocations alternated: photon trace 1.17..1.19 -> 1.12 ms.
+constexpr unsigned kTraceBlocksPerMultiprocessor = 8;
+
 // Decorrelates photon streams from camera streams drawn with the same seed and pass.
 constexpr uint32_t kPhotonDomain = 0x5f3759dfu;
 
@@ -97,11 +106,6 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   // on an H200. On the GPU a fixed set of workers therefore takes the next path as soon as its
   // current one ends, and every lane traces a hit in every step. The result does not depend on
   // which worker traced a path: its samples and slots follow from its index alone.
-  // Workers per multiprocessor, measured on an H200 (1M photons, cornell-caustics): 256 -> 2.89
-  // ms, 512 -> 1.90, 768 -> 1.68, 1024 -> 1.62, 2048 -> 1.79. About what a multiprocessor holds
-  // at once with this kernel's registers, plus one block in waiting; many more only delay the
-  // late blocks' first paths to the end.
-  constexpr size_t kWorkersPerMultiprocessor = 1024;
   const uint32_t count = settings.photon_count;
   const bool regenerate = backend.kind() == DeviceKind::kCuda;
   const uint32_t workers =
@@ -112,7 +116,7 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   uint32_t* next = next_path.data();
   parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
 
-  parallel_for(backend, workers, [=] CAUSTICA_HD(size_t worker) {
+  parallel_for<kTraceBlocksPerMultiprocessor>(backend, workers, [=] CAUSTICA_HD(size_t worker) {
     uint32_t path = uint32_t(worker);
     Sampler s(seed, path, pass);
     Ray ray;

@@ -107,6 +107,16 @@ constexpr uint32_t kGatherChain = 8;
 // CPU, where a thread searches alone, counting took the render pass from 0.66 to 0.83 s at k = 64
 // and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
 constexpr uint32_t kBinnedFromK = 64;
+// Registers per thread for the GPU gathers: fewer let more warps share a multiprocessor, which
+// hides the latency the searches wait on, until spilling costs more. A scheduler's 16384
+// registers hold 4 warps of the counting gather at its own 106 and 5 at 96 (28 bytes spilled):
+// render pass 6.77..6.80 -> 6.21..6.28 ms at k = 64, 9.13 -> 8.17 at k = 128; 80 (6 warps, 224
+// bytes spilled) took 6.33..6.35 ms and 72 took 7.05. The heap gather, at its own 80, went at
+// 72 (7 warps) from 2.95..2.97 to 2.84..2.88 ms at k = 8 and from 4.25..4.29 to 4.22 at k = 32;
+// 64 was as fast at k = 32 and faster at k = 8 (2.80..2.83) but spilled 144 bytes (H200,
+// cornell-caustics 1024x1024).
+constexpr unsigned kCountingGatherRegisters = 96;
+constexpr unsigned kHeapGatherRegisters = 72;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
 // of `lanes` threads (a GPU warp; one thread on the CPU) takes lanes x chain consecutive
@@ -288,14 +298,15 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
         request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
   };
   if (gpu && k >= kBinnedFromK) {
-    if (!parallel_for_with_scratch<uint32_t>(backend, threads, kBinnedWords,
-                                             gather_with(std::true_type{}))) {
+    if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters>(
+            backend, threads, kBinnedWords, gather_with(std::true_type{}))) {
       throw DeviceError("render_pass: no room for the gather's scratch");
     }
   } else {
     const auto gather = gather_with(std::false_type{});
     const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
-    if (!parallel_for_with_scratch<NeighbourPair>(backend, threads, heap_pairs, gather)) {
+    if (!parallel_for_with_scratch<NeighbourPair, kHeapGatherRegisters>(backend, threads,
+                                                                        heap_pairs, gather)) {
       parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
         NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)];
         gather(thread, heap);
