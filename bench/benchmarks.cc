@@ -175,6 +175,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
   if (!made.ok()) return made.status();
   Backend* backend = made->get();
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  // The maps' leaves as the engine makes them for this device and k, unless asked otherwise.
+  const uint32_t per_leaf =
+      o.photons_per_leaf != 0 ? o.photons_per_leaf : photons_per_leaf_for(backend->kind(), o.k);
 
   if (wanted(o, "photon_pass")) {
     // The whole light-change pipeline up to the maps, then its two halves on their own.
@@ -185,8 +188,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
       PhotonTraceSettings this_pass = trace;
       this_pass.pass = pass++;
       TracedPhotons traced = trace_photons(*backend, resident, this_pass);
-      PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
-      PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
+      PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
+      PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
       stored = caustic.size() + global.size();
       map_bytes = caustic.bytes() + global.bytes();
     });
@@ -197,8 +200,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     report.line("photon_trace", label, traced_only.median, "ms", &traced_only, o.runs);
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     Measurement maps = measure(o, *backend, [&] {
-      (void)build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
-      (void)build_photon_map(*backend, traced.global, o.photons_per_leaf);
+      (void)build_photon_map(*backend, traced.caustic, per_leaf);
+      (void)build_photon_map(*backend, traced.global, per_leaf);
     });
     report.line("photon_maps_build", label + absl::StrFormat(" %zu stored", stored), maps.median,
                 "ms", &maps, o.runs);
@@ -229,8 +232,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
     const RenderSettings& rs = scene->settings;
     TracedPhotons traced =
         trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
-    PhotonMap caustic = build_photon_map(*backend, traced.caustic, o.photons_per_leaf);
-    PhotonMap global = build_photon_map(*backend, traced.global, o.photons_per_leaf);
+    PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
+    PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
     Film film(*backend, o.width, o.height);
     const PinholeCamera camera = PinholeCamera::from(scene->camera);
     uint32_t pass = 0;

@@ -24,8 +24,8 @@ struct BenchOptions {
   int width = 1024, height = 1024;
   uint32_t photons = 1000000;
   uint32_t k = 64;
-  uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
-  std::string device = "cpu";  // serving benchmarks: the server's --device
+  uint32_t photons_per_leaf = 0;  // 0: what the engine takes for the device and k
+  std::string device = "cpu";     // serving benchmarks: the server's --device
 };
 
 // The names run_benchmarks knows, in the order it runs them.

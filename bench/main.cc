@@ -27,8 +27,9 @@ int main(int argc, char** argv) {
   app.add_option("--photons", options.photons, "photons per photon pass");
   app.add_option("--k", options.k, "photons per radiance estimate in the frame benchmark");
   app.add_option("--photons-per-leaf", options.photons_per_leaf,
-                 "photons per leaf of the photon maps' hierarchy")
-      ->check(CLI::Range(1, 256));
+                 "photons per leaf of the photon maps' hierarchy; 0 (the default) takes what the "
+                 "engine takes for the device and --k")
+      ->check(CLI::Range(0, 256));
   app.add_option("--device", options.device,
                  "backend to measure; the serving benchmarks pass it to the server they start")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));

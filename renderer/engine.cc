@@ -68,7 +68,7 @@ struct Engine::State {
   Epochs epochs;
   double last_build_ms = 0;
   size_t last_photon_map_bytes = 0;
-  uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
+  uint32_t photons_per_leaf = 0;  // 0: photons_per_leaf_for the device and k
 
   // Traces the photons of pass `pass` and builds both maps, adding the cost to `timings`.
   PreparedPhotons trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
@@ -84,8 +84,11 @@ struct Engine::State {
     global_count = traced.global.size();
 
     auto t1 = std::chrono::steady_clock::now();
-    PreparedPhotons maps{pass, build_photon_map(*backend, traced.caustic, photons_per_leaf),
-                         build_photon_map(*backend, traced.global, photons_per_leaf)};
+    const uint32_t per_leaf = photons_per_leaf != 0
+                                  ? photons_per_leaf
+                                  : photons_per_leaf_for(backend->kind(), rs.k_nearest);
+    PreparedPhotons maps{pass, build_photon_map(*backend, traced.caustic, per_leaf),
+                         build_photon_map(*backend, traced.global, per_leaf)};
     backend->synchronize();
     timings.photon_map_build_ms += elapsed_ms(t1);
     last_photon_map_bytes = maps.caustic.bytes() + maps.global.bytes();
@@ -151,7 +154,7 @@ absl::StatusOr<std::unique_ptr<Engine>> Engine::create(const EngineOptions& opti
     if (!backend.ok()) return backend.status();
     state->backend = *std::move(backend);
   }
-  state->photons_per_leaf = options.photons_per_leaf;  // build_photon_map takes 0 as 1
+  state->photons_per_leaf = options.photons_per_leaf;
   return std::unique_ptr<Engine>(new Engine(std::move(state)));
 }
 

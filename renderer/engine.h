@@ -37,8 +37,9 @@ struct EngineOptions {
   // When set, the engine allocates from this backend and ignores the two fields above. (Every
   // field has an initializer, so designated initializers may leave any out without a warning.)
   std::shared_ptr<Backend> backend = nullptr;
-  // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h); a tuning knob.
-  uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
+  // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h), a tuning knob; 0 takes
+  // what suits the pass's gathers (photons_per_leaf_for, render/whitted.h).
+  uint32_t photons_per_leaf = 0;
 };
 
 // Change counters; each frame reports the epochs it reflects.

@@ -181,6 +181,13 @@ struct GatherEstimates {
 
 }  // namespace
 
+// Leaves of 16 photons for counting, whose walks file a leaf's photons in batches of 8: render pass
+// at k = 64 6.21..6.23 -> 6.02..6.03 ms, at k = 128 8.15 -> 7.94; but 4.22 -> 4.31 at k = 32 with
+// heaps, and leaves of 12 took 6.97..6.99 at k = 64 (H200, cornell-caustics 1024x1024).
+uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k) {
+  return device == DeviceKind::kCuda && k >= kBinnedFromK ? 16u : 8u;
+}
+
 void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,
                  const ShadingSettings& settings, Film& film) {

@@ -25,6 +25,7 @@
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/binned_estimate.h"
 #include "renderer/photon/density.h"
+#include "renderer/render/whitted.h"
 #include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/triangle_soup.h"
 #include "tests/renderer/parallel/host_download_check.h"
@@ -434,7 +435,10 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
 // bound too small, for one warp in five), with heaps or by counting, find the k-th distance of a
 // lone heap search from the maximum radius bit for bit, and the estimate up to the order of its
 // sum (and, counting, the split of the kernel's weights: binned_estimate.h).
-void check_group_searches(bool binned, uint32_t k = kNnMaxK, float max_radius = 0.2f) {
+// The GPU's map has `gpu_leaf` photons per leaf, the CPU's the default: the same estimates either
+// way.
+void check_group_searches(bool binned, uint32_t k = kNnMaxK, float max_radius = 0.2f,
+                          uint32_t gpu_leaf = kDefaultPhotonsPerLeaf) {
   BothBackends both;
   std::mt19937 rng(41);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -444,7 +448,7 @@ void check_group_searches(bool binned, uint32_t k = kNnMaxK, float max_radius = 
     ph = {Vec3f(x * x, y, 0.0f), Vec3f(u(rng), u(rng), u(rng)), Vec3f(0, 0, 1)};  // denser at x = 0
   }
   Buffer<Photon> g_in = upload(*both.gpu, photons);
-  PhotonMap g_map = build_photon_map(*both.gpu, g_in);
+  PhotonMap g_map = build_photon_map(*both.gpu, g_in, gpu_leaf);
   Buffer<Photon> c_in = upload(*both.cpu, photons);
   PhotonMap c_map = build_photon_map(*both.cpu, c_in);
 
@@ -483,6 +487,9 @@ TEST(GpuParity, CountingGroupSearchesFindWhatLoneHeapSearchesFind) {
   // Larger k: cuts of more photons than fit, counted again with finer bins, and, within the
   // smaller radius, many searches with fewer than k photons.
   check_group_searches(/*binned=*/true, 300, 0.04f);
+  // The leaves the engine takes for counting gathers (photons_per_leaf_for).
+  check_group_searches(/*binned=*/true, kNnMaxK, 0.2f, photons_per_leaf_for(DeviceKind::kCuda, 64));
+  check_group_searches(/*binned=*/true, 300, 0.04f, 16);
 }
 
 // `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.
