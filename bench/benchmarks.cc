@@ -176,8 +176,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
   Backend* backend = made->get();
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
   // The maps' leaves as the engine makes them for this device and k, unless asked otherwise.
-  const uint32_t per_leaf =
-      o.photons_per_leaf != 0 ? o.photons_per_leaf : photons_per_leaf_for(backend->kind(), o.k);
+  const uint32_t per_leaf = photons_per_leaf_for(backend->kind(), o.k, o.photons_per_leaf);
 
   if (wanted(o, "photon_pass")) {
     // The whole light-change pipeline up to the maps, then its two halves on their own.

@@ -84,9 +84,7 @@ struct Engine::State {
     global_count = traced.global.size();
 
     auto t1 = std::chrono::steady_clock::now();
-    const uint32_t per_leaf = photons_per_leaf != 0
-                                  ? photons_per_leaf
-                                  : photons_per_leaf_for(backend->kind(), rs.k_nearest);
+    const uint32_t per_leaf = photons_per_leaf_for(backend->kind(), rs.k_nearest, photons_per_leaf);
     PreparedPhotons maps{pass, build_photon_map(*backend, traced.caustic, per_leaf),
                          build_photon_map(*backend, traced.global, per_leaf)};
     backend->synchronize();

@@ -19,14 +19,14 @@
 
 namespace caustica {
 
-// kMinBlocks: on a GPU, the blocks of 128 threads that must fit on a multiprocessor at once; more
-// than 1 caps the kernel's registers (launch.cuh).
-template <unsigned kMinBlocks = 1, typename F>
+// kResidentThreads: on a GPU, the threads that must fit on a multiprocessor at once (0: one
+// block); more than a block caps the kernel's registers (launch.cuh).
+template <unsigned kResidentThreads = 0, typename F>
 void parallel_for(Backend& backend, size_t n, F f) {
   if (n == 0) return;
   if (backend.kind() == DeviceKind::kCuda) {
 #if defined(__CUDACC__)
-    launch_on_cuda<kMinBlocks>(backend, n, f);
+    launch_on_cuda<kResidentThreads>(backend, n, f);
     return;
 #else
     // The loop below would dereference device pointers on the host.

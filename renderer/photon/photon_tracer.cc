@@ -12,12 +12,10 @@ namespace {
 
 // Workers per multiprocessor, measured on an H200 (1M photons, cornell-caustics): 256 -> 2.89 ms,
 // 512 -> 1.90, 768 -> 1.68, 1024 -> 1.62, 2048 -> 1.79. About what a multiprocessor holds at
-// once; many more only delay the late blocks' first paths to the end.
-constexpr size_t kWorkersPerMultiprocessor = 1024;
-// Blocks of 128 that a multiprocessor should hold at once, all 1024 workers: the kernel's
-// registers are capped at 64 for it (72 left room for 7 blocks, and one waited). H200, 3
-// invocations alternated: photon trace 1.17..1.19 -> 1.12 ms.
-constexpr unsigned kTraceBlocksPerMultiprocessor = 8;
+// once; many more only delay the late blocks' first paths to the end. The kernel asks for all of
+// them to fit at once, which caps its registers at 64 (at 72 only 896 fitted, and one block
+// waited; H200, 3 invocations alternated: photon trace 1.17..1.19 -> 1.12 ms).
+constexpr unsigned kWorkersPerMultiprocessor = 1024;
 
 // Decorrelates photon streams from camera streams drawn with the same seed and pass.
 constexpr uint32_t kPhotonDomain = 0x5f3759dfu;
@@ -116,7 +114,7 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   uint32_t* next = next_path.data();
   parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
 
-  parallel_for<kTraceBlocksPerMultiprocessor>(backend, workers, [=] CAUSTICA_HD(size_t worker) {
+  parallel_for<kWorkersPerMultiprocessor>(backend, workers, [=] CAUSTICA_HD(size_t worker) {
     uint32_t path = uint32_t(worker);
     Sampler s(seed, path, pass);
     Ray ray;

@@ -107,6 +107,9 @@ constexpr uint32_t kGatherChain = 8;
 // CPU, where a thread searches alone, counting took the render pass from 0.66 to 0.83 s at k = 64
 // and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
 constexpr uint32_t kBinnedFromK = 64;
+constexpr bool gathers_count(DeviceKind device, uint32_t k) {
+  return device == DeviceKind::kCuda && k >= kBinnedFromK;
+}
 // Registers per thread for the GPU gathers: fewer let more warps share a multiprocessor, which
 // hides the latency the searches wait on, until spilling costs more. A scheduler's 16384
 // registers hold 4 warps of the counting gather at its own 106 and 5 at 96 (28 bytes spilled):
@@ -184,8 +187,9 @@ struct GatherEstimates {
 // Leaves of 16 photons for counting, whose walks file a leaf's photons in batches of 8: render pass
 // at k = 64 6.21..6.23 -> 6.02..6.03 ms, at k = 128 8.15 -> 7.94; but 4.22 -> 4.31 at k = 32 with
 // heaps, and leaves of 12 took 6.97..6.99 at k = 64 (H200, cornell-caustics 1024x1024).
-uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k) {
-  return device == DeviceKind::kCuda && k >= kBinnedFromK ? 16u : 8u;
+uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested) {
+  if (requested != 0) return requested;
+  return gathers_count(device, k) ? 16u : 8u;
 }
 
 void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
@@ -304,7 +308,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
         caustics,      global, request, by_code, offset,         gathered.data(),
         request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
   };
-  if (gpu && k >= kBinnedFromK) {
+  if (gathers_count(backend.kind(), k)) {
     if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters>(
             backend, threads, kBinnedWords, gather_with(std::true_type{}))) {
       throw DeviceError("render_pass: no room for the gather's scratch");

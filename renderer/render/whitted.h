@@ -28,10 +28,11 @@ struct ShadingSettings {
   uint32_t gather_requests_per_pixel = 4;
 };
 
-// Photons per leaf of the photon maps that suit a pass's gathers at `k` on `device`: 16 where a
-// GPU's estimates count (from k = 64 on), 8 where searches keep heaps (the CPU at every k, a GPU
-// below 64). The estimates are the same at any leaf size; only their speed differs.
-uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k);
+// Photons per leaf of the photon maps for a pass's gathers at `k` on `device`: `requested` when not
+// 0, else what suits the search: 16 where a GPU's estimates count (from k = 64 on), 8 where
+// searches keep heaps (the CPU at every k, a GPU below 64). The estimates are the same at any leaf
+// size; only their speed differs.
+uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested = 0);
 
 // Renders one pass (one jittered sample per pixel) and adds it to the film, as a wavefront:
 // camera rays (accel/camera_tiles.h); per pixel the specular tree with emitted and direct light,

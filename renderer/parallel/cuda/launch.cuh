@@ -104,8 +104,11 @@ bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_co
   return true;
 }
 
-template <unsigned kMinBlocks, typename F>
+template <unsigned kResidentThreads, typename F>
 void launch_on_cuda(Backend& backend, size_t n, const F& f) {
+  constexpr unsigned kMinBlocks = kResidentThreads > detail::kParallelForBlock
+                                      ? kResidentThreads / detail::kParallelForBlock
+                                      : 1;
   const size_t blocks = (n + detail::kParallelForBlock - 1) / detail::kParallelForBlock;
   if (blocks > 0x7fffffffu) throw DeviceError("parallel_for: too many elements for one launch");
   detail::parallel_for_kernel<kMinBlocks>
