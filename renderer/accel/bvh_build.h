@@ -30,6 +30,11 @@ CAUSTICA_HDI uint64_t split_key(const uint32_t* codes, uint32_t k) {
 
 }  // namespace detail
 
+// What a build does with each internal node once it is complete: nothing, by default.
+struct IgnoreNodes {
+  CAUSTICA_HDI void operator()(uint32_t, uint32_t, uint32_t) const {}
+};
+
 // What the host needs of a build, fetched in one copy when it ends: the primitives' bounds
 // (written before the build by Backend::reduce_bounds_to) and the root (written by the build).
 struct BvhSummary {
@@ -41,11 +46,14 @@ struct BvhSummary {
 // `summary` (in the backend's memory) holding their bounds; the root is written there and both
 // come back in the Bvh with one wait for the device;
 // `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order; it is
-// called exactly once per leaf, so it may also move that primitive into its sorted place. Equal
-// codes are split by index, so any input gives a valid tree.
-template <typename LeafBox>
+// called exactly once per leaf, so it may also move that primitive into its sorted place.
+// `on_node(node, first, last)` is called once for each internal node, with the range of leaves it
+// covers, when both its children are written. Equal codes are split by index, so any input gives a
+// valid tree.
+template <typename LeafBox, typename OnNode = IgnoreNodes>
 Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
-                                BvhSummary* summary, LeafBox leaf_box) {
+                                BvhSummary* summary, LeafBox leaf_box,
+                                OnNode on_node = IgnoreNodes{}) {
   Bvh bvh;
   bvh.leaf_count = n;
   bvh.nodes.bind(backend);
@@ -95,6 +103,7 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
       const BvhChild sibling = nodes[parent].child[1 - side];
       box = merge(box, sibling.bounds());
       current = parent;
+      on_node(current, l, r);
       if (l == 0 && r == last) {
         *root_out = current;
         return;

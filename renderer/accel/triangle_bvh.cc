@@ -2,6 +2,7 @@
 
 #include "renderer/accel/bvh_build.h"
 #include "renderer/accel/curve_order.h"
+#include "renderer/accel/sah_subtrees.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -15,8 +16,12 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
   return build_triangle_lbvh(backend, triangles, count, triangle_curve(backend));
 }
 
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                 uint32_t count, Curve curve) {
+namespace {
+
+// The LBVH, with `on_node` called for each internal node as build_bvh_from_sorted_codes does.
+template <typename OnNode>
+TriangleLbvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
+                        Curve curve, OnNode on_node) {
   TriangleLbvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
@@ -48,8 +53,16 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
                                           const TriangleVertices t = triangles[ids[leaf]];
                                           sorted[leaf] = t;
                                           return triangle_bounds(t);
-                                        });
+                                        },
+                                        on_node);
   return out;
+}
+
+}  // namespace
+
+TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                 uint32_t count, Curve curve) {
+  return build_lbvh(backend, triangles, count, curve, IgnoreNodes{});
 }
 
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles,
@@ -57,9 +70,23 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
   return build_triangle_bvh(backend, triangles, count, triangle_curve(backend));
 }
 
+TriangleLbvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                    uint32_t count, Curve curve) {
+  Buffer<SmallSubtree> small(backend, count / 2 + 1);
+  Buffer<uint32_t> listed(backend, 1);
+  backend.fill_bytes(listed.data(), 0, sizeof(uint32_t));
+  TriangleLbvh lbvh = build_lbvh(backend, triangles, count, curve,
+                                 ListSmallSubtrees{small.data(), listed.data(), count});
+  uint32_t small_count = 0;
+  if (count >= 2) backend.copy_to_host(&small_count, listed.data(), sizeof(uint32_t));
+  rebuild_small_subtrees(backend, lbvh.bvh, small.data(), small_count, lbvh.triangles,
+                         lbvh.triangle_ids);
+  return lbvh;
+}
+
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                                Curve curve) {
-  TriangleLbvh lbvh = build_triangle_lbvh(backend, triangles, count, curve);
+  TriangleLbvh lbvh = build_sah_refined_lbvh(backend, triangles, count, curve);
   TriangleBvh out;
   out.bvh = collapse_to_bvh4(backend, lbvh.bvh);
   out.triangles = std::move(lbvh.triangles);

@@ -1,7 +1,8 @@
 // The ray-tracing structure over a scene's triangles: the binary LBVH (Karras 2012) over the
-// triangles in Hilbert or Morton order (curve_order.h), collapsed into a 4-wide tree for traversal
-// whose leaves are runs of up to kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex
-// triples in that sorted order, so a leaf names them by range, next to their original indices.
+// triangles in Hilbert or Morton order (curve_order.h), its small subtrees rebuilt by SAH
+// (sah_subtrees.h), collapsed into a 4-wide tree for traversal whose leaves are runs of up to
+// kMaxLeafTriangles (bvh4.h); the triangles are stored as vertex triples in leaf order, so a leaf
+// names them by range, next to their original indices.
 #pragma once
 
 #include "renderer/accel/bvh.h"
@@ -53,7 +54,12 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count);
 
-// The LBVH collapsed to 4-wide nodes: what traversal uses.
+// The LBVH with its small subtrees rebuilt by SAH (sah_subtrees.h): the same layout, leaves in a
+// new order.
+TriangleLbvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
+                                    uint32_t count, Curve curve);
+
+// The refined LBVH collapsed to 4-wide nodes: what traversal uses.
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                                Curve curve);
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count);

@@ -25,7 +25,7 @@ constexpr int kKnnStackSize = 64;
 // 8-byte aligned so that a heap entry moves as one load or store.
 struct alignas(8) Neighbour {
   float distance_squared;
-  uint32_t index;  // map (Morton) order
+  uint32_t index;  // map (curve) order
 };
 
 // Two heap entries side by side, read with one 16-byte load.

@@ -15,8 +15,17 @@ std::vector<Photon> PhotonMap::download() const {
   return out;
 }
 
+Curve photon_curve(const Backend& backend) {
+  return backend.kind() == DeviceKind::kCuda ? Curve::kHilbert : Curve::kMorton;
+}
+
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf) {
+  return build_photon_map(backend, photons, photons_per_leaf, photon_curve(backend));
+}
+
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf, Curve curve) {
   PhotonMap map;
   const uint32_t n = uint32_t(photons.size());
   const uint32_t per_leaf = photons_per_leaf > 0 ? photons_per_leaf : 1;
@@ -34,10 +43,9 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   });
   Buffer<BvhSummary> summary(backend, 1);
   backend.reduce_bounds_to(point, n, &summary.data()->bounds);
-  CurveOrder sorted_order =
-      sort_by_curve(backend, point, n, &summary.data()->bounds, Curve::kMorton);
+  CurveOrder sorted_order = sort_by_curve(backend, point, n, &summary.data()->bounds, curve);
 
-  // The photons in Morton order, split into positions and flux, and the code of each leaf's
+  // The photons in curve order, split into positions and flux, and the code of each leaf's
   // first photon: ascending, so the radix tree over leaves is built like the one over photons.
   const uint32_t leaves = (n + per_leaf - 1) / per_leaf;
   map.positions.resize_discard(n);

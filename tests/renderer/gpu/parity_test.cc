@@ -276,8 +276,8 @@ std::vector<Hit> camera_hits(Backend& backend, const TriangleBvh& bvh, Vec3f eye
   return hits.download();
 }
 
-// Both builds take the same decisions (integer codes, min/max bounds) and the traversal the same
-// float operations with no contraction, so the structures and the hits agree bit for bit.
+// Both builds take the same decisions (integer codes, min/max bounds, SAH costs) and the traversal
+// the same float operations with no contraction, so the structures and the hits agree bit for bit.
 TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
@@ -291,6 +291,16 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
     EXPECT_EQ(c_lbvh.bvh.root, g_lbvh.bvh.root);
     EXPECT_TRUE(same_bytes(c_lbvh.bvh.nodes.download(), g_lbvh.bvh.nodes.download()));
     EXPECT_EQ(c_lbvh.triangle_ids.download(), g_lbvh.triangle_ids.download());
+
+    // The small subtrees rebuilt by SAH (sah_subtrees.h), and a soup small enough to be rebuilt
+    // whole.
+    for (uint32_t count : {n, 200u}) {
+      TriangleLbvh c_sah = build_sah_refined_lbvh(*both.cpu, c_soup.data(), count, curve);
+      TriangleLbvh g_sah = build_sah_refined_lbvh(*both.gpu, g_soup.data(), count, curve);
+      EXPECT_EQ(c_sah.bvh.root, g_sah.bvh.root) << count;
+      EXPECT_TRUE(same_bytes(c_sah.bvh.nodes.download(), g_sah.bvh.nodes.download())) << count;
+      EXPECT_EQ(c_sah.triangle_ids.download(), g_sah.triangle_ids.download()) << count;
+    }
 
     TriangleBvh c_bvh = build_triangle_bvh(*both.cpu, c_soup.data(), n, curve);
     TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), n, curve);
@@ -337,8 +347,9 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
   return {counts.download(), found.download(), radiance.download()};
 }
 
-// The photon map from the same photons, and k-nearest searches and radiance estimates on it. The
-// map agrees bit for bit, and so do the k nearest distances of every search (the same integer
+// The photon map from the same photons, and k-nearest searches and radiance estimates on it. Along
+// the same curve the maps agree bit for bit; along each backend's own (photon_curve), the k
+// nearest distances of every search agree bit for bit (the same integer
 // decisions and uncontracted float operations). The heaps hold them in different orders (the GPU
 // fills its heaps by climbing, the CPU by one construction), so an estimate sums the same photons
 // in another order: equal to 1e-5. Where more photons lie exactly at the k-th distance than the k
@@ -357,11 +368,17 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
                   normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
   }
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
+  // Along each curve (the backends' defaults differ), the same map.
+  for (Curve curve : {Curve::kMorton, Curve::kHilbert}) {
+    PhotonMap c = build_photon_map(*both.cpu, c_in, kDefaultPhotonsPerLeaf, curve);
+    PhotonMap g = build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, curve);
+    EXPECT_EQ(c.bvh.root, g.bvh.root) << int(curve);
+    EXPECT_TRUE(same_bytes(c.bvh.nodes.download(), g.bvh.nodes.download())) << int(curve);
+    EXPECT_TRUE(same_bytes(c.positions.download(), g.positions.download())) << int(curve);
+    EXPECT_TRUE(same_bytes(c.flux.download(), g.flux.download())) << int(curve);
+  }
+  // The searches on the CPU's map and on the GPU's, each along its backend's curve.
   PhotonMap c_map = build_photon_map(*both.cpu, c_in), g_map = build_photon_map(*both.gpu, g_in);
-  EXPECT_EQ(c_map.bvh.root, g_map.bvh.root);
-  EXPECT_TRUE(same_bytes(c_map.bvh.nodes.download(), g_map.bvh.nodes.download()));
-  EXPECT_TRUE(same_bytes(c_map.positions.download(), g_map.positions.download()));
-  EXPECT_TRUE(same_bytes(c_map.flux.download(), g_map.flux.download()));
 
   std::vector<Vec3f> points(kNnQueries);
   for (Vec3f& q : points) q = Vec3f(u(rng), u(rng), u(rng) < 0.5f ? 0.5f : u(rng));
