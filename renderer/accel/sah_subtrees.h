@@ -5,9 +5,10 @@
 // of a scanned surface share a handful of octree cells, those splits cut the surface into boxes
 // that overlap and leave much empty space, and the leaves of up to four triangles that the
 // collapse makes (bvh4.h) group triangles by cell rather than by how well they fit together.
-// Rebuilt by SAH below kSahSubtreeTriangles, the dragon's rays on an H200 went from primary 4250
-// to 5100, shadow 2290 to 2600 and incoherent 1700 to 1890 Mrays/s (docs/performance.md); a full
-// SAH build from the root was no better for shadow rays and needs work spread over every level.
+// Rebuilt by SAH below kSahSubtreeTriangles, the dragon's rays on an H200 went from primary
+// 4200..4340 to 5040..5180, shadow 2210..2340 to 2490..2580 and incoherent 1670..1710 to
+// 1890..1910 Mrays/s (docs/performance.md, "Tree quality"); a full SAH build from the root was no
+// better for shadow rays and needs its work spread over every level.
 //
 // Each maximal subtree of at most kSahSubtreeTriangles triangles is a contiguous range of the
 // sorted triangles, and whatever binary tree is built over a range fits the radix tree's layout:
@@ -23,8 +24,9 @@
 
 namespace caustica {
 
-// The largest subtree rebuilt. Each takes a thread, so the dragon (871,414 triangles) gives a few
-// thousand; larger subtrees give fewer threads, each with more to do.
+// The largest subtree rebuilt: about 5,700 of them on the dragon (871,414 triangles). Limits of
+// 1024 and 4096 gave shadow rays 2% more but took the dragon's build from 6 to 13 and 39 ms on an
+// H200, since a range's splits are each one thread's.
 constexpr uint32_t kSahSubtreeTriangles = 256;
 
 constexpr uint32_t kNoParent = 0xffffffffu;
