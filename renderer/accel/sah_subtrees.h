@@ -6,7 +6,7 @@
 // that overlap and leave much empty space, and the leaves of up to four triangles that the
 // collapse makes (bvh4.h) group triangles by cell rather than by how well they fit together.
 // Rebuilt by SAH below kSahSubtreeTriangles, the dragon's rays on an H200 went from primary
-// 4200..4340 to 5040..5180, shadow 2210..2340 to 2490..2580 and incoherent 1670..1710 to
+// 4200..4340 to 5040..5180, shadow 2210..2340 to 2470..2590 and incoherent 1670..1710 to
 // 1890..1910 Mrays/s (docs/performance.md, "Tree quality"); a full SAH build from the root was no
 // better for shadow rays and needs its work spread over every level.
 //
