@@ -1,5 +1,6 @@
 // Rebuilds the small subtrees of a triangle LBVH by the surface area heuristic (binned SAH, Wald
-// 2007, "On fast Construction of SAH-based Bounding Volume Hierarchies"), one subtree per thread.
+// 2007, "On fast Construction of SAH-based Bounding Volume Hierarchies"), level by level over all
+// of them at once, a range of triangles per thread.
 //
 // A radix tree splits where the curve's codes split: at the bottom, where a few hundred triangles
 // of a scanned surface share a handful of octree cells, those splits cut the surface into boxes
