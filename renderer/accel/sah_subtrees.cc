@@ -45,8 +45,8 @@ CAUSTICA_HDI int bin_of(float c, float low, float scale, int bins) {
 
 // The cheapest split of positions [first, last] between two of `bins` bins along `axis`: sets
 // `cost` and `bin` (the last bin of the left side) when it beats `cost`.
-CAUSTICA_HDI void best_split_along(const Aabb* box, uint32_t first, uint32_t last, int axis, float low, float scale, int bins,
-                                   float& cost, int& bin) {
+CAUSTICA_HDI void best_split_along(const Aabb* box, uint32_t first, uint32_t last, int axis,
+                                   float low, float scale, int bins, float& cost, int& bin) {
   uint32_t count[kSahBins];
   Uninitialized<Aabb, kSahBins> bounds;
   for (int i = 0; i < bins; ++i) {
@@ -90,8 +90,7 @@ CAUSTICA_HDI void best_split_along(const Aabb* box, uint32_t first, uint32_t las
 // side comes first; where every centroid falls in one bin on every axis, in the middle. One axis
 // at a time, in a few hundred bytes: on a GPU every thread's arrays live in local memory, and
 // bins for all three axes at once (1.8 KB a thread) went through L2 at every level.
-CAUSTICA_HDI RangeSplit split_range(Aabb* box, uint32_t* order, uint32_t first,
-                                    uint32_t last) {
+CAUSTICA_HDI RangeSplit split_range(Aabb* box, uint32_t* order, uint32_t first, uint32_t last) {
   if (last == first + 1) return {first, box[first], box[last]};  // the only split there is
   Aabb centroids;
   for (uint32_t p = first; p <= last; ++p) centroids.extend(box[p].center());
@@ -151,8 +150,9 @@ CAUSTICA_HDI void point_slot(BvhNode* nodes, uint32_t* root, const PendingRange&
 }
 
 // Ranges of at most this many triangles are split all the way down by the thread that meets
-// them, the smaller half first so that at most log2 of it wait: level by level, the last levels'
-// launches and scans (about 50 us each on an H200) cost more than their splits.
+// them, the smaller half first so that at most log2 of it wait. Level by level, each of the last
+// levels cost a launch, a scan and a wait (about 50 us on an H200) for little work: five dragons
+// built in 22 instead of 39 ms (the dragon in 6.1 instead of 5.8).
 constexpr uint32_t kRangeFinishedAlone = 16;
 constexpr int kWaitingRanges = 5;
 static_assert(kRangeFinishedAlone <= (1u << (kWaitingRanges - 1)), "room for the waiting halves");

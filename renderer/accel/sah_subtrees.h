@@ -59,7 +59,8 @@ struct ListSmallSubtrees {
       return;
     }
     // The children cover [first, node] and [node + 1, last].
-    if (node - first + 1 >= 2 && node - first + 1 <= kSahSubtreeTriangles) add(node, 0, first, node);
+    if (node - first + 1 >= 2 && node - first + 1 <= kSahSubtreeTriangles)
+      add(node, 0, first, node);
     if (last - node >= 2 && last - node <= kSahSubtreeTriangles) add(node, 1, node + 1, last);
   }
 };

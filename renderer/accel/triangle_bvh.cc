@@ -48,13 +48,14 @@ TriangleLbvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uin
   // triangles are read once, not once for a gather and again for their boxes.
   out.triangles.resize_discard(count);
   TriangleVertices* sorted = out.triangles.data();
-  out.bvh = build_bvh_from_sorted_codes(backend, sorted_order.codes.data(), count, summary.data(),
-                                        [=] CAUSTICA_HD(uint32_t leaf) {
-                                          const TriangleVertices t = triangles[ids[leaf]];
-                                          sorted[leaf] = t;
-                                          return triangle_bounds(t);
-                                        },
-                                        on_node);
+  out.bvh = build_bvh_from_sorted_codes(
+      backend, sorted_order.codes.data(), count, summary.data(),
+      [=] CAUSTICA_HD(uint32_t leaf) {
+        const TriangleVertices t = triangles[ids[leaf]];
+        sorted[leaf] = t;
+        return triangle_bounds(t);
+      },
+      on_node);
   return out;
 }
 

@@ -238,7 +238,6 @@ void check_binary_invariants(const TriangleLbvh& t, const std::vector<TriangleVe
   auto all = span(t.bvh.root);
   EXPECT_EQ(all.first, 0u);
   EXPECT_EQ(all.second, n - 1);
-
 }
 
 void check_invariants(const std::vector<TriangleVertices>& tris) {
