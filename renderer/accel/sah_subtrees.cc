@@ -1,6 +1,7 @@
 #include "renderer/accel/sah_subtrees.h"
 
 #include "renderer/base/atomic.h"
+#include "renderer/base/uninitialized.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -14,14 +15,6 @@ struct PendingRange {
   uint32_t first, last;
   uint32_t parent, side;
   Aabb box;
-};
-
-// Room for N values left unconstructed: an array of Aabb would set every box empty where a small
-// range uses a few.
-template <typename T, int N>
-union Uninitialized {
-  T item[N];
-  CAUSTICA_HD Uninitialized() {}
 };
 
 // How a range splits: positions [first, mid] to the left, the rest to the right.
@@ -157,6 +150,10 @@ constexpr uint32_t kRangeFinishedAlone = 16;
 constexpr int kWaitingRanges = 5;
 static_assert(kRangeFinishedAlone <= (1u << (kWaitingRanges - 1)), "room for the waiting halves");
 
+CAUSTICA_HDI bool finished_alone(const PendingRange& r) {
+  return r.last - r.first < kRangeFinishedAlone;
+}
+
 // Splits `r` and its halves down to single triangles.
 CAUSTICA_HDI void finish_range(BvhNode* nodes, uint32_t* root, Aabb* box, uint32_t* order,
                                PendingRange r) {
@@ -222,7 +219,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
     uint32_t* more = continuing.data();
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
       const PendingRange r = range[i];
-      if (r.last - r.first < kRangeFinishedAlone) {
+      if (finished_alone(r)) {
         finish_range(nodes, root, box, order, r);
         more[i] = 0;
         return;
@@ -237,7 +234,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
     next_ranges.resize_discard(next_size);
     PendingRange* next = next_ranges.data();
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
-      if (range[i].last - range[i].first < kRangeFinishedAlone) return;
+      if (finished_alone(range[i])) return;
       next[more[i]] = half[2 * i];
       next[more[i] + 1] = half[2 * i + 1];
     });

@@ -7,13 +7,9 @@
 
 namespace caustica {
 
-Curve triangle_curve(const Backend& backend) {
-  return backend.kind() == DeviceKind::kCuda ? Curve::kHilbert : Curve::kMorton;
-}
-
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count) {
-  return build_triangle_lbvh(backend, triangles, count, triangle_curve(backend));
+  return build_triangle_lbvh(backend, triangles, count, backend_curve(backend));
 }
 
 namespace {
@@ -68,7 +64,7 @@ TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* trian
 
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles,
                                uint32_t count) {
-  return build_triangle_bvh(backend, triangles, count, triangle_curve(backend));
+  return build_triangle_bvh(backend, triangles, count, backend_curve(backend));
 }
 
 TriangleLbvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,

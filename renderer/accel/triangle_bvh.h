@@ -41,14 +41,8 @@ struct TriangleBvh {
   size_t bytes() const { return bvh.nodes.bytes() + triangles.bytes() + triangle_ids.bytes(); }
 };
 
-// The curve a backend's triangle structure follows (curve_order.h). Hilbert on a GPU. Morton on
-// the CPU, where a Hilbert code costs about 40 ns (a chain of dependent bit operations that the
-// compiler does not vectorise): the dragon's LBVH build went from 32 to 19 Mtris/s on two cores,
-// for rays 1 to 4% faster.
-Curve triangle_curve(const Backend& backend);
-
 // Builds the binary LBVH from triangles already in the backend's memory (`count` of them), along
-// `curve`, by default the backend's.
+// `curve`, by default the backend's (backend_curve).
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count, Curve curve);
 TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,

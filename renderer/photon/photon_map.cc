@@ -15,13 +15,9 @@ std::vector<Photon> PhotonMap::download() const {
   return out;
 }
 
-Curve photon_curve(const Backend& backend) {
-  return backend.kind() == DeviceKind::kCuda ? Curve::kHilbert : Curve::kMorton;
-}
-
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf) {
-  return build_photon_map(backend, photons, photons_per_leaf, photon_curve(backend));
+  return build_photon_map(backend, photons, photons_per_leaf, backend_curve(backend));
 }
 
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,

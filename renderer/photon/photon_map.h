@@ -73,17 +73,8 @@ struct PhotonMap {
   std::vector<Photon> download() const;
 };
 
-// The curve a backend's photon maps follow (curve_order.h). Hilbert on a GPU: a leaf is a run of
-// consecutive photons, and a run along the Hilbert curve never jumps between distant cells, so
-// leaf boxes are tighter and a search tests fewer photons. Render pass at k = 64 on an H200
-// (cornell-caustics 1024x1024, counting gathers): 6.02..6.05 -> 5.71..5.77 ms, and at k = 8
-// 2.84..2.86 -> 2.78, k = 128 7.91..7.93 -> 7.59..7.62, k = 32 unchanged. (With heaps alone it had
-// made 13% more insertions, in the order they came.) Morton on the CPU, where a Hilbert code
-// costs about 40 ns (triangle_curve).
-Curve photon_curve(const Backend& backend);
-
-// Sorts `photons` along `curve` (by default the backend's) and builds the hierarchy over runs of
-// `photons_per_leaf` (>= 1) of them.
+// Sorts `photons` along `curve` (by default the backend's, backend_curve) and builds the hierarchy
+// over runs of `photons_per_leaf` (>= 1) of them.
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, Curve curve);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,

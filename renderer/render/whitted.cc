@@ -8,6 +8,7 @@
 #include "renderer/base/morton.h"
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
+#include "renderer/base/uninitialized.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/binned_estimate.h"
 #include "renderer/photon/density.h"
@@ -22,13 +23,8 @@ struct PendingRay {
   uint32_t depth;
 };
 
-// Room for the pending branches of a specular walk, left unconstructed: an array of PendingRay
-// would zero all its entries (2.9 KB of local-memory writes per pixel, 3.2 GB a 1024x1024 pass
-// on a GPU) where a walk uses a handful.
-union PendingStack {
-  PendingRay entry[kMaxSpecularDepth + 2];
-  CAUSTICA_HD PendingStack() {}
-};
+// Room for the pending branches of a specular walk, left unconstructed (a walk uses a handful).
+using PendingStack = Uninitialized<PendingRay, kMaxSpecularDepth + 2>;
 
 // A diffuse hit of a camera path, waiting for its two photon-map estimates.
 struct GatherRequest {
@@ -47,7 +43,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
                                       const Hit& first_hit, uint32_t max_depth,
                                       OnDiffuse on_diffuse) {
   PendingStack pending;
-  PendingRay* stack = pending.entry;
+  PendingRay* stack = pending.item;
   int top = 0;
   stack[top++] = {camera_ray, Vec3f(1.0f), 0};
   bool first = true;

@@ -348,7 +348,7 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
 }
 
 // The photon map from the same photons, and k-nearest searches and radiance estimates on it. Along
-// the same curve the maps agree bit for bit; along each backend's own (photon_curve), the k
+// the same curve the maps agree bit for bit; along each backend's own (backend_curve), the k
 // nearest distances of every search agree bit for bit (the same integer
 // decisions and uncontracted float operations). The heaps hold them in different orders (the GPU
 // fills its heaps by climbing, the CPU by one construction), so an estimate sums the same photons
