@@ -27,7 +27,7 @@ CAUSTICA_HDI bool becomes_leaf(const BvhNode* nodes, uint32_t child, uint32_t si
                                const Aabb& bounds) {
   if (size == 1) return true;
   if (size > kMaxLeafTriangles) return false;
-  if (size_class(box, bounds) == 1u) return true;
+  if (always_one_leaf(size, box, bounds)) return true;
   const BvhNode& n = nodes[child];
   const float half = box.half_area();
   return half <= n.child[0].bounds().half_area() || half <= n.child[1].bounds().half_area();

@@ -17,6 +17,7 @@
 #include <cstdint>
 
 #include "renderer/accel/bvh.h"
+#include "renderer/base/morton.h"
 
 namespace caustica {
 
@@ -27,6 +28,15 @@ constexpr uint32_t kEmptyChild = 0xffffffffu;
 // rays measured the same with two, three and four (docs/performance.md): the node level saved
 // pays for the extra triangle tests.
 constexpr uint32_t kMaxLeafTriangles = 4;
+
+// Whether a binary subtree of `size` triangles in `box` (within the scene's `bounds`) becomes one
+// leaf child whatever its inner splits: at most kMaxLeafTriangles, none of them huge by the measure
+// that sorts huge triangles apart (size_class, base/morton.h). A subtree of huge triangles also
+// becomes one leaf when its box is no larger than one of its halves' (bvh4.cc), which depends on
+// how it splits.
+CAUSTICA_HDI bool always_one_leaf(uint32_t size, const Aabb& box, const Aabb& bounds) {
+  return size <= kMaxLeafTriangles && size_class(box, bounds) == 1u;
+}
 
 // A leaf child is kLeafFlag | (count - 1) << kLeafCountShift | first: the range of sorted
 // triangles [first, first + count). The first index takes the low 28 bits, which caps the

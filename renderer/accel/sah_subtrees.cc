@@ -1,5 +1,6 @@
 #include "renderer/accel/sah_subtrees.h"
 
+#include "renderer/accel/bvh4.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/uninitialized.h"
 #include "renderer/parallel/parallel_for.h"
@@ -132,6 +133,15 @@ CAUSTICA_HDI RangeSplit split_range(Aabb* box, uint32_t* order, uint32_t first, 
   return split;
 }
 
+// The split of a range the collapse turns into one leaf whatever its inner splits
+// (always_one_leaf): in the middle, in the order the range has. SAH splits there change nothing
+// a ray meets but the order of a leaf's triangles, and each costs a binning's fixed setup
+// (dragon on two CPU cores, alternated runs: structure build 349..416 -> 317..354 ms).
+CAUSTICA_HDI RangeSplit split_in_middle(const Aabb* box, uint32_t first, uint32_t last) {
+  const uint32_t mid = first + (last - first + 1) / 2 - 1;
+  return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
+}
+
 // Points the slot of range `r` (a child of r.parent, or the root) at `index`.
 CAUSTICA_HDI void point_slot(BvhNode* nodes, uint32_t* root, const PendingRange& r,
                              uint32_t index) {
@@ -156,7 +166,7 @@ CAUSTICA_HDI bool finished_alone(const PendingRange& r) {
 
 // Splits `r` and its halves down to single triangles.
 CAUSTICA_HDI void finish_range(BvhNode* nodes, uint32_t* root, Aabb* box, uint32_t* order,
-                               PendingRange r) {
+                               const Aabb& bounds, PendingRange r) {
   PendingRange waiting[kWaitingRanges];
   int top = 0;
   while (true) {
@@ -166,7 +176,9 @@ CAUSTICA_HDI void finish_range(BvhNode* nodes, uint32_t* root, Aabb* box, uint32
       r = waiting[--top];
       continue;
     }
-    const RangeSplit split = split_range(box, order, r.first, r.last);
+    const RangeSplit split = always_one_leaf(r.last - r.first + 1, r.box, bounds)
+                                 ? split_in_middle(box, r.first, r.last)
+                                 : split_range(box, order, r.first, r.last);
     point_slot(nodes, root, r, split.mid);
     const PendingRange left{r.first, split.mid, split.mid, 0, split.left};
     const PendingRange right{split.mid + 1, r.last, split.mid, 1, split.right};
@@ -220,7 +232,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
     parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
       const PendingRange r = range[i];
       if (finished_alone(r)) {
-        finish_range(nodes, root, box, order, r);
+        finish_range(nodes, root, box, order, bounds, r);
         more[i] = 0;
         return;
       }
