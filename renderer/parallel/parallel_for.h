@@ -44,15 +44,16 @@ void parallel_for(Backend& backend, size_t n, F f) {
 // On a GPU the scratch is in shared memory; an array private to the thread would be in local
 // memory, which is cached in L1 and L2 and, for the gather's neighbour heaps, was 100 GB of L2
 // traffic a frame. On the CPU each task reuses one buffer. Returns false, running nothing, when
-// the GPU's shared memory cannot hold one warp's scratch; the caller then falls back to
+// the GPU's shared memory cannot hold one block's scratch; the caller then falls back to
 // parallel_for with a private array. kMaxRegisters caps the GPU kernel's registers per thread
-// (255, the most a thread may have, leaves the choice to the compiler).
-template <typename T, unsigned kMaxRegisters = 255, typename F>
+// (255, the most a thread may have, leaves the choice to the compiler); kBlockWarps fixes the
+// warps per GPU block (0: those that let the most warps share a multiprocessor, launch.cuh).
+template <typename T, unsigned kMaxRegisters = 255, unsigned kBlockWarps = 0, typename F>
 bool parallel_for_with_scratch(Backend& backend, size_t n, uint32_t scratch_count, F f) {
   if (n == 0) return true;
   if (backend.kind() == DeviceKind::kCuda) {
 #if defined(__CUDACC__)
-    return launch_with_scratch_on_cuda<T, kMaxRegisters>(backend, n, scratch_count, f);
+    return launch_with_scratch_on_cuda<T, kMaxRegisters, kBlockWarps>(backend, n, scratch_count, f);
 #else
     throw DeviceError("parallel_for on the CUDA backend from code not compiled by nvcc");
 #endif

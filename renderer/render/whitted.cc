@@ -116,6 +116,16 @@ constexpr bool gathers_count(DeviceKind device, uint32_t k) {
 // cornell-caustics 1024x1024).
 constexpr unsigned kCountingGatherRegisters = 96;
 constexpr unsigned kHeapGatherRegisters = 72;
+// Warps per block for the counting gather. Its 20 resident warps take 9 KiB of scratch each, and
+// the shared memory not asked for is L1, where the searches' nodes and photons hit (launch.cuh):
+// in blocks of 1 warp they needed the largest carveout (L1 hit rate 62%), in blocks of 2 the next
+// one (73%, 60 KiB more L1). Render pass at k = 64 5.57..5.60 -> 5.43..5.47 ms, at k =
+// 128 7.42..7.46
+// -> 7.20..7.23; blocks of 4 and 5 warps, which fit the same carveout, took 5.43..5.44 and
+// 5.47..5.51 (a block holds its slot until its slowest warp ends), and fewer resident warps with
+// a smaller carveout still lost (16 warps: 5.87..5.90; 128 registers a thread: 5.78..5.79) (H200,
+// cornell-caustics 1024x1024).
+constexpr unsigned kCountingGatherBlockWarps = 2;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
 // of `lanes` threads (a GPU warp; one thread on the CPU) takes lanes x chain consecutive
@@ -305,7 +315,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
         request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
   };
   if (gathers_count(backend.kind(), k)) {
-    if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters>(
+    if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters, kCountingGatherBlockWarps>(
             backend, threads, kBinnedWords, gather_with(std::true_type{}))) {
       throw DeviceError("render_pass: no room for the gather's scratch");
     }

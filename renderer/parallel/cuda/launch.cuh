@@ -45,55 +45,76 @@ __global__ void __maxnreg__(kMaxRegisters) scratch_kernel(size_t n, F f) {
   if (i < n) f(i, Scratch<T>{reinterpret_cast<T*>(shared_scratch) + threadIdx.x, blockDim.x});
 }
 
-// Warps per block for `per_thread` bytes of scratch: the count that lets the most warps share a
-// multiprocessor, by the driver's occupancy for the kernel (its registers, the scratch and each
-// block's reserved shared memory), fewer warps per block when counts tie (a block holds its slot
-// until its slowest warp ends); 0 when one warp's scratch is more than a block may have without
-// opting in (48 KiB). Counting shared memory alone chose blocks of 8 warps for 128 bytes per
-// thread, of which 86 registers per thread let 2 blocks, 16 warps, share a multiprocessor; blocks
-// of 1 warp let 20.
+// How a scratch kernel is launched: warps per block, and the share of each multiprocessor's
+// unified L1 and shared memory (percent of the most it may give to shared memory) that its
+// resident blocks need.
+struct ScratchShape {
+  unsigned warps = 0;
+  int shared_percent = 100;
+};
+
+// The shape for `per_thread` bytes of scratch, with `block_warps` warps per block where it is not
+// 0, else the warps per block that let the most warps share a multiprocessor, by the driver's
+// occupancy for the kernel (its registers, the scratch and each block's reserved shared memory)
+// under the largest shared-memory carveout; among those that tie, the one whose blocks need the
+// least shared memory, then the fewest warps per block (a block holds its slot until its slowest
+// warp ends). The carveout then asked for is just what those blocks need, and the rest of the
+// memory stays L1, which caches the searches' nodes and photons. warps is 0 when the block's
+// scratch is more than a block may have without opting in (48 KiB). Counting shared memory alone
+// chose blocks of 8 warps for 128 bytes per thread, of which 86 registers per thread let 2 blocks,
+// 16 warps, share a multiprocessor; blocks of 1 warp let 20.
 template <typename Kernel>
-unsigned scratch_block_warps(Kernel kernel, size_t per_thread) {
+ScratchShape scratch_shape(Kernel kernel, size_t per_thread, unsigned block_warps) {
   constexpr size_t kBlockBytes = 48 * 1024, kMaxWarps = 8;
-  unsigned best = 0;
+  int device = 0, sm_shared = 0, reserved = 0;
+  CAUSTICA_CUDA_CHECK(cudaGetDevice(&device));
+  CAUSTICA_CUDA_CHECK(
+      cudaDeviceGetAttribute(&sm_shared, cudaDevAttrMaxSharedMemoryPerMultiprocessor, device));
+  CAUSTICA_CUDA_CHECK(
+      cudaDeviceGetAttribute(&reserved, cudaDevAttrReservedSharedMemoryPerBlock, device));
+  CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+                                           int(cudaSharedmemCarveoutMaxShared)));
+  ScratchShape best;
   int best_resident = 0;
+  size_t best_shared = 0;
   for (unsigned warps = 1; warps <= kMaxWarps && warps * 32 * per_thread <= kBlockBytes; ++warps) {
+    if (block_warps != 0 && warps != block_warps) continue;
     int blocks = 0;
     CAUSTICA_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
         &blocks, kernel, int(32 * warps), 32 * warps * per_thread));
-    if (blocks * int(warps) > best_resident) {
-      best_resident = blocks * int(warps);
-      best = warps;
+    const int resident = blocks * int(warps);
+    const size_t shared = size_t(blocks) * (32 * warps * per_thread + size_t(reserved));
+    if (resident > best_resident || (resident == best_resident && shared < best_shared)) {
+      best_resident = resident;
+      best_shared = shared;
+      best.warps = warps;
     }
+  }
+  if (best.warps != 0 && sm_shared > 0) {
+    const size_t percent = (best_shared * 100 + size_t(sm_shared) - 1) / size_t(sm_shared);
+    best.shared_percent = int(percent < 100 ? percent : 100);
   }
   return best;
 }
 
 }  // namespace detail
 
-// Returns false, launching nothing, when one warp's scratch does not fit in a block's shared
-// memory. The kernel asks for the largest shared-memory carveout, since its occupancy is bounded
-// by shared memory, not by L1.
-template <typename T, unsigned kMaxRegisters, typename F>
+// Returns false, launching nothing, when a block's scratch does not fit in its shared memory.
+template <typename T, unsigned kMaxRegisters, unsigned kBlockWarps, typename F>
 bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_count, const F& f) {
   const size_t per_thread = size_t(scratch_count) * sizeof(T);
   // Asked of the driver once per kernel and scratch size, not at every launch (the gather
   // launches once a pass with the same k).
-  static const bool carveout_set = [] {
-    CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(detail::scratch_kernel<kMaxRegisters, T, F>,
-                                             cudaFuncAttributePreferredSharedMemoryCarveout,
-                                             int(cudaSharedmemCarveoutMaxShared)));
-    return true;
-  }();
-  (void)carveout_set;
   static thread_local size_t cached_per_thread = ~size_t(0);
-  static thread_local unsigned cached_warps = 0;
+  static thread_local detail::ScratchShape shape;
   if (per_thread != cached_per_thread) {
-    cached_warps =
-        detail::scratch_block_warps(detail::scratch_kernel<kMaxRegisters, T, F>, per_thread);
+    auto* kernel = detail::scratch_kernel<kMaxRegisters, T, F>;
+    shape = detail::scratch_shape(kernel, per_thread, kBlockWarps);
+    CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+                                             shape.shared_percent));
     cached_per_thread = per_thread;
   }
-  const unsigned warps = cached_warps;
+  const unsigned warps = shape.warps;
   if (warps == 0) return false;
   const unsigned block = 32 * warps;
   const size_t blocks = (n + block - 1) / block;
