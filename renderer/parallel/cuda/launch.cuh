@@ -103,19 +103,21 @@ ScratchShape scratch_shape(Kernel kernel, size_t per_thread, unsigned block_warp
 template <typename T, unsigned kMaxRegisters, unsigned kBlockWarps, typename F>
 bool launch_with_scratch_on_cuda(Backend& backend, size_t n, uint32_t scratch_count, const F& f) {
   const size_t per_thread = size_t(scratch_count) * sizeof(T);
-  // Asked of the driver once per kernel and scratch size, not at every launch (the gather
-  // launches once a pass with the same k).
+  // The shape is asked of the driver once per kernel and scratch size, not at every launch (the
+  // gather launches once a pass with the same k). The carveout is the kernel's, shared by every
+  // thread of the process, so it is set again at each launch: another thread may have launched the
+  // same kernel with scratch of another size since.
+  auto* kernel = detail::scratch_kernel<kMaxRegisters, T, F>;
   static thread_local size_t cached_per_thread = ~size_t(0);
   static thread_local detail::ScratchShape shape;
   if (per_thread != cached_per_thread) {
-    auto* kernel = detail::scratch_kernel<kMaxRegisters, T, F>;
     shape = detail::scratch_shape(kernel, per_thread, kBlockWarps);
-    CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
-                                             shape.shared_percent));
     cached_per_thread = per_thread;
   }
   const unsigned warps = shape.warps;
   if (warps == 0) return false;
+  CAUSTICA_CUDA_CHECK(cudaFuncSetAttribute(kernel, cudaFuncAttributePreferredSharedMemoryCarveout,
+                                           shape.shared_percent));
   const unsigned block = 32 * warps;
   const size_t blocks = (n + block - 1) / block;
   if (blocks > 0x7fffffffu) throw DeviceError("parallel_for: too many elements for one launch");
