@@ -79,6 +79,16 @@ CAUSTICA_HDI void best_split_along(const Aabb* box, uint32_t first, uint32_t las
   }
 }
 
+// The split in the middle, in the order the range has: for a range the collapse turns into one
+// leaf whatever its inner splits (always_one_leaf), where SAH splits change nothing a ray meets but
+// the order of a leaf's triangles and each costs a binning's fixed setup (dragon on two CPU cores,
+// alternated runs: structure build 349..416 -> 317..354 ms), and for one whose centroids all fall
+// in one bin.
+CAUSTICA_HDI RangeSplit split_in_middle(const Aabb* box, uint32_t first, uint32_t last) {
+  const uint32_t mid = first + (last - first + 1) / 2 - 1;
+  return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
+}
+
 // Splits positions [first, last] (at least two) where the binned SAH cost (left count x left area +
 // right count x right area) is least, reordering their boxes and `order` alike so that the left
 // side comes first; where every centroid falls in one bin on every axis, in the middle. One axis
@@ -106,39 +116,24 @@ CAUSTICA_HDI RangeSplit split_range(Aabb* box, uint32_t* order, uint32_t first, 
       best_scale = scale;
     }
   }
-  RangeSplit split;
-  if (best_axis < 0) {
-    split.mid = first + size / 2 - 1;
-  } else {
-    // In place: the left side's positions to the front (each side has at least one).
-    auto goes_left = [&](uint32_t p) {
-      return bin_of(box[p].center()[best_axis], best_low, best_scale, bins) <= best_bin;
-    };
-    uint32_t i = first, j = last;
-    while (true) {
-      while (goes_left(i)) ++i;
-      while (!goes_left(j)) --j;
-      if (i > j) break;
-      const uint32_t t = order[i];
-      order[i] = order[j];
-      order[j] = t;
-      const Aabb b = box[i];
-      box[i] = box[j];
-      box[j] = b;
-    }
-    split.mid = i - 1;
+  if (best_axis < 0) return split_in_middle(box, first, last);
+  // In place: the left side's positions to the front (each side has at least one).
+  auto goes_left = [&](uint32_t p) {
+    return bin_of(box[p].center()[best_axis], best_low, best_scale, bins) <= best_bin;
+  };
+  uint32_t i = first, j = last;
+  while (true) {
+    while (goes_left(i)) ++i;
+    while (!goes_left(j)) --j;
+    if (i > j) break;
+    const uint32_t t = order[i];
+    order[i] = order[j];
+    order[j] = t;
+    const Aabb b = box[i];
+    box[i] = box[j];
+    box[j] = b;
   }
-  split.left = bounds_of(box, first, split.mid);
-  split.right = bounds_of(box, split.mid + 1, last);
-  return split;
-}
-
-// The split of a range the collapse turns into one leaf whatever its inner splits
-// (always_one_leaf): in the middle, in the order the range has. SAH splits there change nothing
-// a ray meets but the order of a leaf's triangles, and each costs a binning's fixed setup
-// (dragon on two CPU cores, alternated runs: structure build 349..416 -> 317..354 ms).
-CAUSTICA_HDI RangeSplit split_in_middle(const Aabb* box, uint32_t first, uint32_t last) {
-  const uint32_t mid = first + (last - first + 1) / 2 - 1;
+  const uint32_t mid = i - 1;
   return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
 }
 

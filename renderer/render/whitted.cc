@@ -119,12 +119,12 @@ constexpr unsigned kHeapGatherRegisters = 72;
 // Warps per block for the counting gather. Its 20 resident warps take 9 KiB of scratch each, and
 // the shared memory not asked for is L1, where the searches' nodes and photons hit (launch.cuh):
 // in blocks of 1 warp they needed the largest carveout (L1 hit rate 62%), in blocks of 2 the next
-// one (73%, 60 KiB more L1). Render pass at k = 64 5.57..5.60 -> 5.43..5.47 ms, at k =
-// 128 7.42..7.46
-// -> 7.20..7.23; blocks of 4 and 5 warps, which fit the same carveout, took 5.43..5.44 and
-// 5.47..5.51 (a block holds its slot until its slowest warp ends), and fewer resident warps with
-// a smaller carveout still lost (16 warps: 5.87..5.90; 128 registers a thread: 5.78..5.79) (H200,
-// cornell-caustics 1024x1024).
+// one (73%, 60 KiB more L1). Render pass at k = 64 5.57..5.60 -> 5.43..5.47 ms, at k = 128
+// 7.42..7.46 -> 7.20..7.23; blocks of 4 and 5 warps, which fit the same carveout, took 5.43..5.44
+// and 5.47..5.51 (a block holds its slot until its slowest warp ends), and fewer resident warps
+// with a smaller carveout still lost (16 warps: 5.87..5.90; 128 registers a thread: 5.78..5.79)
+// (H200, cornell-caustics 1024x1024). launch.cuh's own choice among shapes that keep 20 warps,
+// the least shared memory, would take blocks of 5.
 constexpr unsigned kCountingGatherBlockWarps = 2;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
