@@ -13,29 +13,30 @@ constexpr int kTraversalStackSize = 96;
 
 namespace detail {
 
-// Entry distances of the ray into the four child boxes of `n`; +infinity for a miss or an empty
-// slot. One loop over the structure-of-arrays rows, so that it vectorises on the CPU.
+// Entry distances of the ray into the four child boxes of `n`; +infinity for a miss. An empty
+// slot needs no test of its own: its box is Aabb{} (bvh4.cc), lower corner FLT_MAX and upper
+// -FLT_MAX, which every ray misses (slab_entry), so a node visit does not compare its four
+// children with kEmptyChild (4% of a shadow ray's instructions).
 CAUSTICA_HDI void intersect_children(const OrderedNode& n, const RaySlabs& s, float t_min,
                                      float t_max, float t_out[4]) {
   for (int c = 0; c < 4; ++c) {
-    const float t = slab_entry(s, n.enter[0][c], n.enter[1][c], n.enter[2][c], n.leave[0][c],
-                               n.leave[1][c], n.leave[2][c], t_min, t_max);
-    t_out[c] = n.child[c] != kEmptyChild ? t : INFINITY;
+    t_out[c] = slab_entry(s, n.enter[0][c], n.enter[1][c], n.enter[2][c], n.leave[0][c],
+                          n.leave[1][c], n.leave[2][c], t_min, t_max);
   }
 }
 
-// The four (distance, child) pairs of `n` nearest first, those with t[c] > t_limit last as
-// +infinity, by a fixed sorting network: every index is known at compile time, so the pairs stay
-// in registers on a GPU (an insertion sort indexed by a running count put them in local memory),
-// and the swaps are selects, not branches, which would mispredict. With kWhole false only the
-// nearest is sure to come first, by three exchanges of the five: enough for a walk that ends at
-// any hit, where what matters is to meet a blocker soon (H200, dragon shadow rays, alternated
-// runs: 2080..2144 -> 2140..2193 Mrays/s, the same answers).
+// The four (distance, child) pairs of `n` nearest first, misses (+infinity) last, by a fixed
+// sorting network: every index is known at compile time, so the pairs stay in registers on a GPU
+// (an insertion sort indexed by a running count put them in local memory), and the swaps are
+// selects, not branches, which would mispredict. With kWhole false only the nearest is sure to
+// come first, by three exchanges of the five: enough for a walk that ends at any hit, where what
+// matters is to meet a blocker soon (H200, dragon shadow rays, alternated runs: 2080..2144 ->
+// 2140..2193 Mrays/s, the same answers).
 template <bool kWhole = true>
-CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], float t_limit,
-                                  float key[4], uint32_t child[4]) {
+CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], float key[4],
+                                  uint32_t child[4]) {
   for (int c = 0; c < 4; ++c) {
-    key[c] = t[c] <= t_limit ? t[c] : INFINITY;
+    key[c] = t[c];
     child[c] = children[c];
   }
   auto order = [&](int a, int b) {
@@ -62,9 +63,10 @@ CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], 
 // over.
 CAUSTICA_HDI bool descend_near_first(const uint32_t children[4], const float t[4], float t_limit,
                                      uint32_t* stack, int& top, uint32_t& node) {
-  float key[4];
+  float limited[4], key[4];
   uint32_t child[4];
-  sort_near_first(children, t, t_limit, key, child);
+  for (int c = 0; c < 4; ++c) limited[c] = t[c] <= t_limit ? t[c] : INFINITY;
+  sort_near_first(children, limited, key, child);
   if (key[3] != INFINITY) stack[top++] = child[3];
   if (key[2] != INFINITY) stack[top++] = child[2];
   if (key[1] != INFINITY) stack[top++] = child[1];
@@ -117,8 +119,10 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
       const OrderedNode n = load_ordered_node(bvh.nodes + node, slabs);
       float t[4], key[4];
       uint32_t child[4];
+      // No box is entered past t_max but by the slack on its far distance, which costs a visit
+      // at most: the entry distances need no comparison with t_max before the sort.
       intersect_children(n, slabs, t_min, t_max, t);
-      sort_near_first<kShrinks>(n.child, t, t_max, key, child);
+      sort_near_first<kShrinks>(n.child, t, key, child);
       for (int c = 3; c >= 1; --c) {
         if (key[c] != INFINITY) {
           stack[top] = child[c];

@@ -42,26 +42,34 @@ CAUSTICA_HDI bool intersect_triangle(const WatertightRay& r, const TriangleVerti
                                      float t_min, float t_max, float& t_out, float& u_out,
                                      float& v_out) {
   const Vec3f a = tri.p0 - r.origin, b = tri.p1 - r.origin, c = tri.p2 - r.origin;
-  float ax = a[r.kx] - r.sx * a[r.kz], ay = a[r.ky] - r.sy * a[r.kz];
-  float bx = b[r.kx] - r.sx * b[r.kz], by = b[r.ky] - r.sy * b[r.kz];
-  float cx = c[r.kx] - r.sx * c[r.kz], cy = c[r.ky] - r.sy * c[r.kz];
+  // The shear as fused multiply-adds: a vertex's sheared coordinates depend on the vertex and the
+  // ray alone, so two triangles sharing an edge still see the same edge. The edge functions below
+  // must not fuse: a * b - c * d with both products rounded is exactly -(c * d - a * b), which is
+  // what keeps a shared edge watertight.
+  float ax = fmaf(-r.sx, a[r.kz], a[r.kx]), ay = fmaf(-r.sy, a[r.kz], a[r.ky]);
+  float bx = fmaf(-r.sx, b[r.kz], b[r.kx]), by = fmaf(-r.sy, b[r.kz], b[r.ky]);
+  float cx = fmaf(-r.sx, c[r.kz], c[r.kx]), cy = fmaf(-r.sy, c[r.kz], c[r.ky]);
   float u = cx * by - cy * bx;  // weight of p0
   float v = ax * cy - ay * cx;  // weight of p1
   float w = bx * ay - by * ax;  // weight of p2
-  if (u == 0.0f || v == 0.0f || w == 0.0f) {
+  // The conditions below are combined with | and &, not || and &&: evaluated whole they are a
+  // few chained comparisons, where the short-circuit forms became branches on a GPU.
+  if ((u == 0.0f) | (v == 0.0f) | (w == 0.0f)) {
     // Exactly on an edge in float: decide in double, as the paper prescribes.
     u = float(double(cx) * double(by) - double(cy) * double(bx));
     v = float(double(ax) * double(cy) - double(ay) * double(cx));
     w = float(double(bx) * double(ay) - double(by) * double(ax));
   }
-  if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
+  const bool some_negative = (u < 0.0f) | (v < 0.0f) | (w < 0.0f);
+  const bool some_positive = (u > 0.0f) | (v > 0.0f) | (w > 0.0f);
+  if (some_negative & some_positive) return false;
   float det = u + v + w;
   if (det == 0.0f) return false;
   float az = r.sz * a[r.kz], bz = r.sz * b[r.kz], cz = r.sz * c[r.kz];
-  float t_scaled = u * az + v * bz + w * cz;
+  float t_scaled = fmaf(w, cz, fmaf(v, bz, u * az));
   float inv_det = 1.0f / det;
   float t = t_scaled * inv_det;
-  if (!(t > t_min && t < t_max)) return false;
+  if (!((t > t_min) & (t < t_max))) return false;
   t_out = t;
   u_out = v * inv_det;
   v_out = w * inv_det;

@@ -20,7 +20,8 @@ CAUSTICA_HDI uint32_t quantise_snorm16(float v) {
   return uint32_t(int32_t(rintf((clamped * 0.5f + 0.5f) * 65535.0f)));
 }
 
-CAUSTICA_HDI float dequantise_snorm16(uint32_t q) { return float(q) * (2.0f / 65535.0f) - 1.0f; }
+// Never exactly 0 (q * 2 / 65535 is 1 for no integer q), so its sign is sign_not_zero's.
+CAUSTICA_HDI float dequantise_snorm16(uint32_t q) { return fmaf(float(q), 2.0f / 65535.0f, -1.0f); }
 
 }  // namespace detail
 
@@ -38,17 +39,16 @@ CAUSTICA_HDI uint32_t encode_octahedral(Vec3f v) {
 
 // The point of the octahedron |x| + |y| + |z| = 1 that `bits` encodes: the direction, not yet
 // of unit length.
+// The lower half is unfolded by selects, and each sign is copied rather than multiplied in, where
+// a branch and two products by sign_not_zero cost a fifth more instructions: every photon the
+// gather sums takes this side test.
 CAUSTICA_HDI Vec3f decode_octahedral_unnormalised(uint32_t bits) {
-  float x = detail::dequantise_snorm16(bits & 0xffffu);
-  float y = detail::dequantise_snorm16(bits >> 16);
-  float z = 1.0f - fabsf(x) - fabsf(y);
-  if (z < 0.0f) {
-    float fx = (1.0f - fabsf(y)) * detail::sign_not_zero(x);
-    float fy = (1.0f - fabsf(x)) * detail::sign_not_zero(y);
-    x = fx;
-    y = fy;
-  }
-  return Vec3f(x, y, z);
+  const float x = detail::dequantise_snorm16(bits & 0xffffu);
+  const float y = detail::dequantise_snorm16(bits >> 16);
+  const float z = 1.0f - fabsf(x) - fabsf(y);
+  const bool folded = z < 0.0f;
+  return Vec3f(folded ? copysignf(1.0f - fabsf(y), x) : x,
+               folded ? copysignf(1.0f - fabsf(x), y) : y, z);
 }
 
 CAUSTICA_HDI Vec3f decode_octahedral(uint32_t bits) {

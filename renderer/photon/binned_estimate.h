@@ -47,7 +47,10 @@ struct DistanceBins {
   uint32_t last;  // the bin of the largest value below the ceiling the bins were made for
 
   CAUSTICA_HDI uint32_t key(float d2) const { return float_bits(d2) >> shift; }
-  CAUSTICA_HDI uint32_t of(float d2) const { return key(d2) > base ? key(d2) - base : 0u; }
+  CAUSTICA_HDI uint32_t of(float d2) const {
+    const uint32_t k = key(d2);
+    return (k > base ? k : base) - base;  // an integer maximum and a subtraction
+  }
   // The lower end of bin b >= 1, and the upper end (excluded) of any bin.
   CAUSTICA_HDI float bottom(uint32_t b) const { return bits_float((base + b) << shift); }
   CAUSTICA_HDI float top(uint32_t b) const { return bits_float((base + b + 1) << shift); }
@@ -193,17 +196,17 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
 
   // Files a photon nearer than the limit under its bin when `in` (it is at or above the floor),
   // without branching, so that a batch's photons are filed in step (no lane waits for another's
-  // insertions). The cut's count lives in a register; its word is stale, and a photon left out
-  // adds 0 to it.
+  // insertions). A photon left out adds 0 to the cut's word.
   auto count = [&](float d2, bool in) {
-    const uint32_t b = in ? bins.of(d2) : cut;
-    in_cut += uint32_t(in && b == cut);
-    add_to_bin(words[b], uint32_t(in && b != cut));
+    add_to_bin(words[in ? bins.of(d2) : cut], uint32_t(in));
     counted += uint32_t(in);
   };
-  // While the bins below the cut hold k, the cut moves down. Returns the limit: the cut's top.
+  // While the bins below the cut hold k, the cut moves down. Returns the limit: the cut's top. The
+  // cut's count is read from its word here, once a batch, where keeping it in a register apart
+  // took every photon a comparison and a select more to leave the cut's word out.
   auto lower_cut = [&]() {
     const uint32_t wanted = k - known;
+    in_cut = words[cut];
     while (counted - in_cut >= wanted) {
       counted -= in_cut;
       --cut;
@@ -315,11 +318,15 @@ CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map,
     // The `needed` nearest of the cut's photons, ties in the order they were kept.
     for (uint32_t a = 0; a < kept; ++a) {
       const float d = bits_float(words[2 * a]);
+      // Those kept before it count when no farther, those after when nearer: two loops of one
+      // comparison each, where one loop over all weighed the tie by index. Not unrolled: they run
+      // a few times each, and nvcc's unrolling by four with its remainder loops took 4.8% of the
+      // gather's instructions.
       uint32_t rank = 0;
-      for (uint32_t b = 0; b < kept; ++b) {
-        const float e = bits_float(words[2 * b]);
-        rank += e < d || (e == d && b < a);
-      }
+      CAUSTICA_NO_UNROLL
+      for (uint32_t b = 0; b < a; ++b) rank += bits_float(words[2 * b]) <= d;
+      CAUSTICA_NO_UNROLL
+      for (uint32_t b = a + 1; b < kept; ++b) rank += bits_float(words[2 * b]) < d;
       if (rank >= needed) continue;
       sum.add(map, words[2 * a + 1], d, normal, kernel);
       if (rank == needed - 1) r2 = d;

@@ -180,24 +180,35 @@ struct SearchGroup {
   // Whether any member's `wish` holds.
   CAUSTICA_HDI bool any(bool wish) const {
 #if defined(__CUDA_ARCH__)
-    if (lanes != 0) return __any_sync(lanes, wish);
-#endif
+    return __any_sync(voters(), wish);
+#else
     return wish;
+#endif
   }
   // Whether more than half of the members' `wish` holds.
   CAUSTICA_HDI bool most(bool wish) const {
 #if defined(__CUDA_ARCH__)
-    if (lanes != 0) return 2 * __popc(__ballot_sync(lanes, wish)) > __popc(lanes);
-#endif
+    return 2 * __popc(__ballot_sync(voters(), wish)) > __popc(voters());
+#else
     return wish;
+#endif
   }
   // The members whose `wish` holds, as a group of their own.
   CAUSTICA_HDI SearchGroup among(bool wish) const {
 #if defined(__CUDA_ARCH__)
-    if (lanes != 0) return {__ballot_sync(lanes, wish)};
-#endif
+    return {__ballot_sync(voters(), wish) & lanes};
+#else
     return {};
+#endif
   }
+
+ private:
+#if defined(__CUDA_ARCH__)
+  // The lanes that vote: a thread searching alone votes by itself. One mask for both cases, where
+  // a branch on whether the group is a lone thread cost three or four instructions a vote, at
+  // three or more votes a node of the gather's walks.
+  __device__ uint32_t voters() const { return lanes | (1u << (threadIdx.x & 31u)); }
+#endif
 };
 
 // A record of the leaves a walk visited, for a later walk that needs no more of them: this one
@@ -322,40 +333,35 @@ CAUSTICA_HDI void offer_nearer(const float d2[kPhotonBatch], uint32_t first, con
 
 #if defined(__CUDA_ARCH__)
 
-// positions[first .. first + kPhotonBatch) into `at`: as six 16-byte loads when they are 16-byte
-// aligned (a leaf of 8 photons always is, in an aligned buffer).
-__device__ inline void load_positions(const Vec3f* positions, uint32_t first,
-                                      Vec3f at[kPhotonBatch]) {
+// Whether the batches of a leaf starting at photon `first` can be loaded as 16-byte words: four
+// positions make three such words, so the first must be a multiple of 4 (every leaf is, when
+// photons_per_leaf is) in a 16-byte aligned buffer.
+__device__ inline bool vector_loadable(const Vec3f* positions, uint32_t first) {
   static_assert(kPhotonBatch % 4 == 0, "four positions make three 16-byte words");
-  if (first % 4 == 0 && reinterpret_cast<uintptr_t>(positions) % 16 == 0) {
-    const float4* from = reinterpret_cast<const float4*>(positions + first);
-    for (uint32_t w = 0; w < kPhotonBatch / 4; ++w) {
-      const float4 a = __ldg(from + 3 * w), b = __ldg(from + 3 * w + 1),
-                   c = __ldg(from + 3 * w + 2);
-      at[4 * w + 0] = Vec3f(a.x, a.y, a.z);
-      at[4 * w + 1] = Vec3f(a.w, b.x, b.y);
-      at[4 * w + 2] = Vec3f(b.z, b.w, c.x);
-      at[4 * w + 3] = Vec3f(c.y, c.z, c.w);
-    }
-    return;
-  }
-  for (uint32_t j = 0; j < kPhotonBatch; ++j) at[j] = positions[first + j];
+  return first % 4 == 0 && reinterpret_cast<uintptr_t>(positions) % 16 == 0;
 }
 
-// The squared distances from `p` of the photons first .. first + kPhotonBatch.
-__device__ __forceinline__ void batch_distances(const PhotonMapView& map, uint32_t first, Vec3f p,
+// The squared distances from `p` of the photons first .. first + kPhotonBatch, loaded as six
+// 16-byte words (vector_loadable).
+__device__ __forceinline__ void batch_distances(const Vec3f* positions, uint32_t first, Vec3f p,
                                                 float d2[kPhotonBatch]) {
-  Vec3f at[kPhotonBatch];
-  load_positions(map.positions, first, at);
-  for (uint32_t j = 0; j < kPhotonBatch; ++j) d2[j] = length_squared(at[j] - p);
+  const float4* from = reinterpret_cast<const float4*>(positions + first);
+  for (uint32_t w = 0; w < kPhotonBatch / 4; ++w) {
+    const float4 a = __ldg(from + 3 * w), b = __ldg(from + 3 * w + 1), c = __ldg(from + 3 * w + 2);
+    d2[4 * w + 0] = length_squared(Vec3f(a.x, a.y, a.z) - p);
+    d2[4 * w + 1] = length_squared(Vec3f(a.w, b.x, b.y) - p);
+    d2[4 * w + 2] = length_squared(Vec3f(b.z, b.w, c.x) - p);
+    d2[4 * w + 3] = length_squared(Vec3f(c.y, c.z, c.w) - p);
+  }
 }
 
 #endif
 
 // Walks the photons of `map` within squared distance `limit` of `p` leaf by leaf
-// (visit_photon_leaves, `log` as there): on a GPU each whole batch of kPhotonBatch photons goes to
-// on_batch(first, d2) with their squared distances, all loaded before any is looked at (one at a
-// time, each photon's load waited behind the previous one's heap insertion); every other photon
+// (visit_photon_leaves, `log` as there): on a GPU each whole batch of kPhotonBatch photons of a
+// leaf that vector_loadable admits goes to on_batch(first, d2) with their squared distances, all
+// loaded before any is looked at (one at a time, each photon's load waited behind the previous
+// one's heap insertion); every other photon
 // nearer than the limit, and on the CPU every one (where eight positions and distances held at
 // once spill x86's vector registers), goes to on_photon(d2, index). Both may shrink `limit`.
 template <typename OnBatch, typename OnPhoton, typename LeafLog = NoLeafLog>
@@ -368,10 +374,13 @@ CAUSTICA_HDI void visit_photon_batches(const PhotonMapView& map, Vec3f p, float&
         uint32_t i = map.leaf_begin(leaf);
         const uint32_t end = map.leaf_end(leaf);
 #if defined(__CUDA_ARCH__)
-        for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
-          float d2[kPhotonBatch];
-          batch_distances(map, i, p, d2);
-          on_batch(i, d2);
+        // Asked once a leaf, not at every batch (8 instructions each).
+        if (vector_loadable(map.positions, i)) {
+          for (; i + kPhotonBatch <= end; i += kPhotonBatch) {
+            float d2[kPhotonBatch];
+            batch_distances(map.positions, i, p, d2);
+            on_batch(i, d2);
+          }
         }
 #endif
         // The rest one at a time (rolled on a GPU, since the body is big).

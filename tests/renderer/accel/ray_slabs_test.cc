@@ -107,6 +107,29 @@ TEST(RaySlabs, HugeCoordinateOnAParallelAxisStillHits) {
             INFINITY);
 }
 
+// A 4-wide node's empty slots hold Aabb{} (lower corner FLT_MAX, upper -FLT_MAX) and the
+// traversal tests them like any other child, trusting that no ray enters them: rays of every
+// direction, axis-parallel ones among them, from origins up to 1e30 out (where -o / d overflows on
+// some axes and those axes bound nothing), over the whole line.
+TEST(RaySlabs, EveryRayMissesTheEmptyBox) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const Aabb empty{};
+  for (int i = 0; i < 200000; ++i) {
+    const float far = std::pow(10.0f, float(i % 31));  // 1 .. 1e30
+    const Vec3f origin(far * unit(rng), far * unit(rng), far * unit(rng));
+    Vec3f direction(unit(rng), unit(rng), unit(rng));
+    if (i % 7 == 0) direction[i % 3] = 0.0f;  // parallel to a plane
+    if (i % 11 == 0) {                        // along an axis
+      direction = Vec3f(0.0f);
+      direction[i % 3] = 1.0f;
+    }
+    if (length(direction) < 1e-3f) continue;
+    direction = normalize(direction);
+    ASSERT_EQ(slab_entry(ray_slabs(origin, direction), empty, -INFINITY, INFINITY), INFINITY) << i;
+  }
+}
+
 TEST(RaySlabs, OrderedNodeRowsFollowTheDirectionSigns) {
   Bvh4Node node{};
   for (int c = 0; c < 4; ++c) {
