@@ -11,6 +11,7 @@
 #include "renderer/base/morton.h"
 #include "renderer/base/sampling.h"
 #include "renderer/scene/load_scene.h"
+#include "renderer/scene/shapes.h"
 #include "tests/renderer/accel/triangle_soup.h"
 
 namespace caustica {
@@ -435,6 +436,39 @@ TEST(Watertight, RaysThroughSharedEdgesAndVerticesNeverSlipThrough) {
       EXPECT_FLOAT_EQ(h.t, 1.0f);
     }
   }
+}
+
+// The shear is fused (triangle.h): rays in every direction, aimed from inside a closed mesh at its
+// shared vertices and at points of its shared edges, must each hit some triangle; a test whose
+// edge functions two neighbours computed differently lets some of them through the crack.
+TEST(Watertight, ObliqueRaysAtSharedVerticesAndEdgesOfAClosedMeshNeverEscape) {
+  const Mesh sphere = make_sphere(Vec3f(0.3f, -0.2f, 0.1f), 1.7f, 12, 24);
+  std::vector<TriangleVertices> tris(sphere.triangle_count());
+  for (size_t t = 0; t < tris.size(); ++t) {
+    tris[t] = {sphere.positions[sphere.indices[3 * t]], sphere.positions[sphere.indices[3 * t + 1]],
+               sphere.positions[sphere.indices[3 * t + 2]]};
+  }
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), share(0.0f, 1.0f);
+  int rays = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vec3f origin = Vec3f(0.3f, -0.2f, 0.1f) + Vec3f(unit(rng), unit(rng), unit(rng)) * 0.8f;
+    const TriangleVertices& at = tris[size_t(share(rng) * float(tris.size() - 1))];
+    // A vertex, or a point of an edge (each edge of a closed mesh is shared by two triangles).
+    const float s = i % 2 == 0 ? 0.0f : share(rng);
+    const Vec3f target = at.p0 + (at.p1 - at.p0) * s;
+    const Vec3f d = target - origin;
+    if (length(d) < 1e-3f) continue;
+    const WatertightRay ray(Ray{origin, normalize(d), 0.0f, 1e30f});
+    bool hit = false;
+    for (const TriangleVertices& tri : tris) {
+      float t, u, v;
+      hit = hit || intersect_triangle(ray, tri, 0.0f, 1e30f, t, u, v);
+    }
+    ASSERT_TRUE(hit) << "ray " << i << " escaped";
+    ++rays;
+  }
+  EXPECT_GT(rays, 19000);
 }
 
 }  // namespace
