@@ -361,9 +361,9 @@ __device__ __forceinline__ void batch_distances(const Vec3f* positions, uint32_t
 // (visit_photon_leaves, `log` as there): on a GPU each whole batch of kPhotonBatch photons of a
 // leaf that vector_loadable admits goes to on_batch(first, d2) with their squared distances, all
 // loaded before any is looked at (one at a time, each photon's load waited behind the previous
-// one's heap insertion); every other photon
-// nearer than the limit, and on the CPU every one (where eight positions and distances held at
-// once spill x86's vector registers), goes to on_photon(d2, index). Both may shrink `limit`.
+// one's heap insertion); every other photon nearer than the limit, and on the CPU every one
+// (where eight positions and distances held at once spill x86's vector registers), goes to
+// on_photon(d2, index). Both may shrink `limit`.
 template <typename OnBatch, typename OnPhoton, typename LeafLog = NoLeafLog>
 CAUSTICA_HDI void visit_photon_batches(const PhotonMapView& map, Vec3f p, float& limit,
                                        SearchGroup group, OnBatch on_batch, OnPhoton on_photon,
