@@ -79,14 +79,18 @@ CAUSTICA_HDI void best_split_along(const Aabb* box, uint32_t first, uint32_t las
   }
 }
 
+// Positions [first, mid] on the left, [mid + 1, last] on the right, with their bounds.
+CAUSTICA_HDI RangeSplit split_at(const Aabb* box, uint32_t first, uint32_t mid, uint32_t last) {
+  return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
+}
+
 // The split in the middle, in the order the range has: for a range the collapse turns into one
 // leaf whatever its inner splits (always_one_leaf), where SAH splits change nothing a ray meets but
 // the order of a leaf's triangles and each costs a binning's fixed setup (dragon on two CPU cores,
 // alternated runs: structure build 349..416 -> 317..354 ms), and for one whose centroids all fall
 // in one bin.
 CAUSTICA_HDI RangeSplit split_in_middle(const Aabb* box, uint32_t first, uint32_t last) {
-  const uint32_t mid = first + (last - first + 1) / 2 - 1;
-  return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
+  return split_at(box, first, first + (last - first + 1) / 2 - 1, last);
 }
 
 // Splits positions [first, last] (at least two) where the binned SAH cost (left count x left area +
@@ -133,8 +137,7 @@ CAUSTICA_HDI RangeSplit split_range(Aabb* box, uint32_t* order, uint32_t first, 
     box[i] = box[j];
     box[j] = b;
   }
-  const uint32_t mid = i - 1;
-  return {mid, bounds_of(box, first, mid), bounds_of(box, mid + 1, last)};
+  return split_at(box, first, i - 1, last);
 }
 
 // Points the slot of range `r` (a child of r.parent, or the root) at `index`.

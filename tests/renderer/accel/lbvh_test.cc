@@ -17,16 +17,19 @@
 namespace caustica {
 namespace {
 
+void append_triangles(const Mesh& m, std::vector<TriangleVertices>& tris) {
+  for (size_t t = 0; t < m.triangle_count(); ++t)
+    tris.push_back({m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
+                    m.positions[m.indices[3 * t + 2]]});
+}
+
 std::vector<TriangleVertices> scene_triangles(const std::string& name) {
   absl::StatusOr<Scene> scene =
       load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   std::vector<TriangleVertices> tris;
   if (!scene.ok()) return tris;
-  for (const Mesh& m : scene->meshes)
-    for (size_t t = 0; t < m.triangle_count(); ++t)
-      tris.push_back({m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
-                      m.positions[m.indices[3 * t + 2]]});
+  for (const Mesh& m : scene->meshes) append_triangles(m, tris);
   return tris;
 }
 
@@ -442,12 +445,8 @@ TEST(Watertight, RaysThroughSharedEdgesAndVerticesNeverSlipThrough) {
 // shared vertices and at points of its shared edges, must each hit some triangle; a test whose
 // edge functions two neighbours computed differently lets some of them through the crack.
 TEST(Watertight, ObliqueRaysAtSharedVerticesAndEdgesOfAClosedMeshNeverEscape) {
-  const Mesh sphere = make_sphere(Vec3f(0.3f, -0.2f, 0.1f), 1.7f, 12, 24);
-  std::vector<TriangleVertices> tris(sphere.triangle_count());
-  for (size_t t = 0; t < tris.size(); ++t) {
-    tris[t] = {sphere.positions[sphere.indices[3 * t]], sphere.positions[sphere.indices[3 * t + 1]],
-               sphere.positions[sphere.indices[3 * t + 2]]};
-  }
+  std::vector<TriangleVertices> tris;
+  append_triangles(make_sphere(Vec3f(0.3f, -0.2f, 0.1f), 1.7f, 12, 24), tris);
   std::mt19937 rng(23);
   std::uniform_real_distribution<float> unit(-1.0f, 1.0f), share(0.0f, 1.0f);
   int rays = 0;
