@@ -1,6 +1,9 @@
 // Stack traversal of a TriangleBvh: closest hit and any hit, both walking the leaves along a ray
-// nearest first. One function body serves both backends.
+// nearest first. One function body serves both backends; on a GPU the lanes of a warp that trace
+// any hits together also share their walks' subtrees (any_hit_shared).
 #pragma once
+
+#include <cstring>
 
 #include "renderer/accel/ray_slabs.h"
 #include "renderer/accel/triangle_bvh.h"
@@ -165,8 +168,8 @@ CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
   return hit;
 }
 
-// True when anything blocks the open segment (t_min, t_max) of the ray: shadow rays.
-CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
+// True when anything blocks the open segment (t_min, t_max) of the ray, walked by one thread.
+CAUSTICA_HDI bool any_hit_alone(const TriangleBvhView& bvh, const Ray& ray) {
   WatertightRay wray(ray);
   const float t_min = ray.t_min, t_max = ray.t_max;
   bool blocked = false;
@@ -176,6 +179,145 @@ CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
     return blocked;
   });
   return blocked;
+}
+
+#if defined(__CUDA_ARCH__)
+namespace detail {
+
+// What a lane needs to walk part of a ray's tree: the ray made ready for box and triangle tests,
+// and the lane that owns the ray.
+struct SharedAnyHitRay {
+  RaySlabs slabs;
+  WatertightRay wray;
+  float t_min, t_max;
+  uint32_t owner;
+};
+
+// `value` as lane `source` holds it, word by word.
+template <typename T>
+__device__ __forceinline__ T shuffle_words(unsigned mask, const T& value, int source) {
+  static_assert(sizeof(T) % 4 == 0, "whole words");
+  uint32_t words[sizeof(T) / 4];
+  memcpy(words, &value, sizeof(T));
+  for (uint32_t& w : words) w = __shfl_sync(mask, w, source);
+  T out = value;  // WatertightRay has no default constructor
+  memcpy(&out, words, sizeof(T));
+  return out;
+}
+
+// The lane of the `rank`-th set bit of `mask` (rank from 0), by halving: the rank's bit lies in
+// the low half when that half holds more than `rank` bits.
+__device__ __forceinline__ int nth_set_lane(uint32_t mask, int rank) {
+  int lane = 0;
+  for (int width = 16; width >= 1; width /= 2) {
+    const uint32_t low = mask & ((1u << width) - 1u);
+    const int count = __popc(low);
+    const bool high = rank >= count;
+    rank -= high ? count : 0;
+    lane += high ? width : 0;
+    mask = high ? mask >> width : low;
+  }
+  return lane;
+}
+
+// Subtrees a lane gives away from the bottom of its stack, at most, before its stack is empty
+// again; the stack leaves room for them below its entries.
+constexpr int kMaxGivenEntries = 32;
+
+// any_hit for the rays of the lanes that call it together. Each lane walks its own ray as
+// any_hit_alone does; a lane whose ray has ended (blocked, or its stack empty) takes the bottom
+// entry of a busy lane's stack, the largest subtree waiting there, with that lane's ray, and walks
+// it with a stack of its own. So no lane idles while a ray of the warp still has subtrees to test:
+// in the dragon's shadow rays a warp's busiest lane had 1.6 times its mean lane's work, and the
+// warps whose lanes differed most ended the launch (H200, alternated in one script: 2687..2753 ->
+// 2853..2896 Mrays/s; docs/performance.md, "Shadow-ray lanes share their walks"). Lanes meet
+// after each leaf: a blocker found by any of them ends its ray for all. The answer is
+// any_hit_alone's: whether any triangle meets the open segment, in whatever order it is found.
+__device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray) {
+  const unsigned group = __activemask();
+  unsigned lane;
+  asm("mov.u32 %0, %%laneid;" : "=r"(lane));
+  SharedAnyHitRay r{ray_slabs(ray.origin, ray.direction), WatertightRay(ray), ray.t_min, ray.t_max,
+                    lane};
+  uint32_t stack[kMaxGivenEntries + kTraversalStackSize];
+  int bottom = 0, top = 0;  // the entries are stack[bottom, top)
+  uint32_t node = 0;
+  bool busy = slab_entry(r.slabs, bvh.bounds, r.t_min, r.t_max) <= r.t_max;
+  unsigned blocked = 0;  // the same in every lane of the group: owners whose ray is blocked
+  while (true) {
+    bool found = false;
+    if (busy) {
+      while (!is_leaf(node)) {
+        const OrderedNode n = load_ordered_node(bvh.nodes + node, r.slabs);
+        float t[4], key[4];
+        uint32_t child[4];
+        intersect_children(n, r.slabs, r.t_min, r.t_max, t);
+        sort_near_first<false>(n.child, t, key, child);
+        for (int c = 3; c >= 1; --c) {
+          if (key[c] != INFINITY) stack[top++] = child[c];
+        }
+        if (key[0] != INFINITY) {
+          node = child[0];
+        } else if (top > bottom) {
+          node = stack[--top];
+        } else {
+          busy = false;
+          break;
+        }
+      }
+      if (busy) {
+        const uint32_t first = leaf_first(node), end = first + leaf_count(node);
+        for (uint32_t i = first; i < end; ++i) {
+          float th, u, v;
+          if (intersect_triangle(r.wray, bvh.triangles[i], r.t_min, r.t_max, th, u, v)) {
+            found = true;
+            break;
+          }
+        }
+        if (top > bottom) {
+          node = stack[--top];
+        } else {
+          busy = false;
+        }
+      }
+    }
+    blocked |= __reduce_or_sync(group, found ? 1u << r.owner : 0u);
+    if ((blocked >> r.owner) & 1u) busy = false;
+    const unsigned idle = __ballot_sync(group, !busy);
+    if (idle == group) break;
+    const unsigned donors = __ballot_sync(group, busy && top > bottom && bottom < kMaxGivenEntries);
+    if (idle != 0 && donors != 0) {
+      const unsigned below = (1u << lane) - 1u;
+      const int idle_count = __popc(idle), donor_count = __popc(donors);
+      const int pairs = idle_count < donor_count ? idle_count : donor_count;
+      const int idle_rank = __popc(idle & below), donor_rank = __popc(donors & below);
+      const bool receives = !busy && idle_rank < pairs;
+      const bool gives = ((donors >> lane) & 1u) && donor_rank < pairs;
+      // A lane that takes nothing reads its own values back.
+      const int source = receives ? nth_set_lane(donors, idle_rank) : int(lane);
+      const uint32_t given = __shfl_sync(group, stack[bottom], source);
+      r = shuffle_words(group, r, source);
+      if (gives) ++bottom;
+      if (receives) {
+        node = given;
+        bottom = top = 0;
+        busy = true;
+      }
+    }
+  }
+  return (blocked >> lane) & 1u;
+}
+
+}  // namespace detail
+#endif
+
+// True when anything blocks the open segment (t_min, t_max) of the ray: shadow rays. On a GPU the
+// lanes that call it together share their walks (detail::any_hit_shared).
+CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
+#if defined(__CUDA_ARCH__)
+  if (bvh.count >= 2) return detail::any_hit_shared(bvh, ray);
+#endif
+  return any_hit_alone(bvh, ray);
 }
 
 // The shadow ray for the open segment from `surface` (a lit point, already moved off its surface)

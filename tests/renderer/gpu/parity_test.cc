@@ -311,6 +311,58 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
   }
 }
 
+// Shadow rays from a point light above the soup to points on its triangles and to random points,
+// traced with any_hit by the lanes that call it: on the GPU those lanes share their walks
+// (traversal.h). Lanes that skip the call (every third one here) and a last warp only partly
+// filled (the count is not a multiple of 32) leave the others a smaller group.
+std::vector<uint8_t> shadow_answers(Backend& backend, const TriangleBvh& bvh,
+                                    const std::vector<Ray>& rays) {
+  Buffer<Ray> r = upload(backend, rays);
+  Buffer<uint8_t> answers(backend, rays.size());
+  const Ray* ray = r.data();
+  uint8_t* out = answers.data();
+  const TriangleBvhView view = bvh.view();
+  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+    out[i] = 2;  // neither answer: a ray left out keeps it
+    if (i % 3 != 1) out[i] = any_hit(view, ray[i]);
+  });
+  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+    if (i % 3 == 1) out[i] = any_hit(view, ray[i]);
+  });
+  return answers.download();
+}
+
+TEST(GpuParity, ShadowRaysSharingWalksAnswerWhatLoneWalksAnswer) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  const std::vector<TriangleVertices> soup = random_soup(3000, 11);
+  Buffer<TriangleVertices> c_soup = upload(*both.cpu, soup), g_soup = upload(*both.gpu, soup);
+  const uint32_t n = uint32_t(soup.size());
+  TriangleBvh c_bvh = build_triangle_bvh(*both.cpu, c_soup.data(), n, Curve::kHilbert);
+  TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), n, Curve::kHilbert);
+  const Aabb bounds = c_bvh.bvh.bounds;
+  const Vec3f light = bounds.center() + Vec3f(0.0f, length(bounds.extent()), 0.0f);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Ray> rays;
+  for (int i = 0; i < 100001; ++i) {
+    Vec3f target = bounds.lower + bounds.extent() * Vec3f(u(rng), u(rng), u(rng));
+    if (i % 2 == 0) {
+      const TriangleVertices& t = soup[rng() % soup.size()];
+      target = (t.p0 + t.p1 + t.p2) * (1.0f / 3.0f);
+    }
+    rays.push_back(shadow_ray(target + (light - target) * 1e-4f, light, 0.0f));
+  }
+  std::vector<uint8_t> expected(rays.size());
+  const TriangleBvhView view = c_bvh.view();
+  for (size_t i = 0; i < rays.size(); ++i) expected[i] = any_hit_alone(view, rays[i]);
+  const size_t blocked = std::count(expected.begin(), expected.end(), uint8_t(1));
+  EXPECT_GT(blocked, rays.size() / 10);
+  EXPECT_LT(blocked, rays.size() * 9 / 10);
+  EXPECT_EQ(shadow_answers(*both.cpu, c_bvh, rays), expected);
+  EXPECT_EQ(shadow_answers(*both.gpu, g_bvh, rays), expected);
+}
+
 constexpr uint32_t kNnQueries = 4096, kNnMaxK = 64;
 
 struct NearestResults {
