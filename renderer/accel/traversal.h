@@ -82,6 +82,32 @@ CAUSTICA_HDI bool descend_near_first(const uint32_t children[4], const float t[4
   return true;
 }
 
+// Visits inner node `node`: pushes every child box the ray enters but the nearest, farthest first
+// (with its entry distance in stack_t when kShrinks), and moves `node` to the nearest. False when
+// the ray enters none.
+template <bool kShrinks>
+CAUSTICA_HDI bool enter_nearest_child(const TriangleBvhView& bvh, const RaySlabs& slabs,
+                                      float t_min, float t_max, uint32_t& node, uint32_t* stack,
+                                      float* stack_t, int& top) {
+  const OrderedNode n = load_ordered_node(bvh.nodes + node, slabs);
+  float t[4], key[4];
+  uint32_t child[4];
+  // No box is entered past t_max but by the slack on its far distance, which costs a visit at
+  // most: the entry distances need no comparison with t_max before the sort.
+  intersect_children(n, slabs, t_min, t_max, t);
+  sort_near_first<kShrinks>(n.child, t, key, child);
+  for (int c = 3; c >= 1; --c) {
+    if (key[c] != INFINITY) {
+      stack[top] = child[c];
+      if constexpr (kShrinks) stack_t[top] = key[c];
+      ++top;
+    }
+  }
+  if (key[0] == INFINITY) return false;
+  node = child[0];
+  return true;
+}
+
 // Walks the leaves along `ray` nearest first: `test(sorted)` tests one triangle, may shrink t_max
 // (a closest hit, kShrinks) and returns true to end the walk (an any hit). Leaves wait on the
 // stack with the subtrees, in the same near-first order, and a ray walks nodes until it holds a
@@ -119,23 +145,8 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
   };
   while (true) {
     while (!is_leaf(node)) {
-      const OrderedNode n = load_ordered_node(bvh.nodes + node, slabs);
-      float t[4], key[4];
-      uint32_t child[4];
-      // No box is entered past t_max but by the slack on its far distance, which costs a visit
-      // at most: the entry distances need no comparison with t_max before the sort.
-      intersect_children(n, slabs, t_min, t_max, t);
-      sort_near_first<kShrinks>(n.child, t, key, child);
-      for (int c = 3; c >= 1; --c) {
-        if (key[c] != INFINITY) {
-          stack[top] = child[c];
-          if constexpr (kShrinks) stack_t[top] = key[c];
-          ++top;
-        }
-      }
-      if (key[0] != INFINITY) {
-        node = child[0];
-      } else if (!pop()) {
+      if (!enter_nearest_child<kShrinks>(bvh, slabs, t_min, t_max, node, stack, stack_t, top) &&
+          !pop()) {
         return;
       }
     }
@@ -244,25 +255,20 @@ __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray
   uint32_t node = 0;
   bool busy = slab_entry(r.slabs, bvh.bounds, r.t_min, r.t_max) <= r.t_max;
   unsigned blocked = 0;  // the same in every lane of the group: owners whose ray is blocked
+  // Takes the top entry; with none left the lane is idle.
+  auto pop = [&] {
+    busy = top > bottom;
+    if (busy) node = stack[--top];
+    return busy;
+  };
   while (true) {
     bool found = false;
     if ((blocked >> r.owner) & 1u) busy = false;  // found blocked at the last meeting
     if (busy) {
       while (!is_leaf(node)) {
-        const OrderedNode n = load_ordered_node(bvh.nodes + node, r.slabs);
-        float t[4], key[4];
-        uint32_t child[4];
-        intersect_children(n, r.slabs, r.t_min, r.t_max, t);
-        sort_near_first<false>(n.child, t, key, child);
-        for (int c = 3; c >= 1; --c) {
-          if (key[c] != INFINITY) stack[top++] = child[c];
-        }
-        if (key[0] != INFINITY) {
-          node = child[0];
-        } else if (top > bottom) {
-          node = stack[--top];
-        } else {
-          busy = false;
+        if (!enter_nearest_child<false>(bvh, r.slabs, r.t_min, r.t_max, node, stack, nullptr,
+                                        top) &&
+            !pop()) {
           break;
         }
       }
@@ -275,11 +281,7 @@ __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray
             break;
           }
         }
-        if (top > bottom) {
-          node = stack[--top];
-        } else {
-          busy = false;
-        }
+        pop();
       }
     }
     // Three votes, none waiting on another's answer, so that their latencies overlap: a lane
