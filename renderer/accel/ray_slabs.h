@@ -68,8 +68,21 @@ CAUSTICA_HDI float slab_entry(const RaySlabs& s, float enter_x, float enter_y, f
   const float tx1 = fmaf(leave_x, s.inv.x, s.leave_offset.x);
   const float ty1 = fmaf(leave_y, s.inv.y, s.leave_offset.y);
   const float tz1 = fmaf(leave_z, s.inv.z, s.leave_offset.z);
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  // Hopper's three-way integer min and max, one instruction each, on the distances' bits: with
+  // t_min >= 0, as every ray here has, the integers order the distances that decide as floats
+  // do. Where some distance is negative (a plane behind the origin) the integer max is still the
+  // largest non-negative one, t_min at least, and the integer min is some negative distance,
+  // which puts the box behind the ray, as the float min does; -0 orders below every negative,
+  // which at most visits a box more. The decisions are the CPU's (GpuParity.BoxEntriesAreTheCpus).
+  const float t_near = __int_as_float(
+      __vimax3_s32(__float_as_int(tx0), __float_as_int(ty0), __float_as_int(max_f(tz0, t_min))));
+  const float t_far = __int_as_float(
+      __vimin3_s32(__float_as_int(tx1), __float_as_int(ty1), __float_as_int(min_f(tz1, t_max))));
+#else
   const float t_near = max_f(max_f(tx0, ty0), max_f(tz0, t_min));
   const float t_far = min_f(min_f(tx1, ty1), min_f(tz1, t_max));
+#endif
   return t_near <= t_far * 1.00000024f ? t_near : INFINITY;
 }
 

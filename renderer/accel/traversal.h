@@ -185,8 +185,7 @@ CAUSTICA_HDI bool any_hit_alone(const TriangleBvhView& bvh, const Ray& ray) {
   const float t_min = ray.t_min, t_max = ray.t_max;
   bool blocked = false;
   detail::walk_leaves<false>(bvh, ray, t_max, [&](uint32_t sorted) {
-    float t, u, v;
-    blocked = intersect_triangle(wray, bvh.triangles[sorted], t_min, t_max, t, u, v);
+    blocked = triangle_blocks(wray, bvh.triangles[sorted], t_min, t_max);
     return blocked;
   });
   return blocked;
@@ -275,8 +274,7 @@ __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray
       if (busy) {
         const uint32_t first = leaf_first(node), end = first + leaf_count(node);
         for (uint32_t i = first; i < end; ++i) {
-          float th, u, v;
-          if (intersect_triangle(r.wray, bvh.triangles[i], r.t_min, r.t_max, th, u, v)) {
+          if (triangle_blocks(r.wray, bvh.triangles[i], r.t_min, r.t_max)) {
             found = true;
             break;
           }

@@ -11,6 +11,7 @@ namespace caustica {
 struct Ray {
   Vec3f origin;
   Vec3f direction;
+  // Never negative: a GPU's box tests order distances as integers (ray_slabs.h).
   float t_min = 0.0f;
   float t_max = FLT_MAX;
 };

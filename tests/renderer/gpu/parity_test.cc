@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "renderer/accel/camera_tiles.h"
+#include "renderer/accel/ray_slabs.h"
 #include "renderer/accel/triangle_bvh.h"
 #include "renderer/base/morton.h"
 #include "renderer/engine.h"
@@ -309,6 +310,56 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
     EXPECT_TRUE(same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256),
                            camera_hits(*both.gpu, g_bvh, eye, 256)));
   }
+}
+
+// Box entries (slab_entry) on both backends for random rays and boxes: boxes ahead, behind and
+// around the origin, empty slots (Aabb{}), rays along an axis, open and bounded segments. The GPU
+// orders the distances as integers (ray_slabs.h); its answers must be the CPU's.
+struct BoxCase {
+  Vec3f origin, direction;
+  Aabb box;
+  float t_min, t_max;
+};
+
+std::vector<float> box_entries(Backend& backend, const std::vector<BoxCase>& cases) {
+  Buffer<BoxCase> in = upload(backend, cases);
+  Buffer<float> out(backend, cases.size());
+  const BoxCase* c = in.data();
+  float* t = out.data();
+  parallel_for(backend, cases.size(), [=] CAUSTICA_HD(size_t i) {
+    t[i] = slab_entry(ray_slabs(c[i].origin, c[i].direction), c[i].box, c[i].t_min, c[i].t_max);
+  });
+  return out.download();
+}
+
+TEST(GpuParity, BoxEntriesAreTheCpus) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<BoxCase> cases(200000);
+  for (size_t i = 0; i < cases.size(); ++i) {
+    BoxCase& c = cases[i];
+    c.origin = Vec3f(u(rng), u(rng), u(rng)) * 10.0f;
+    const Vec3f centre = Vec3f(u(rng), u(rng), u(rng)) * 10.0f;
+    const Vec3f half = Vec3f(1.5f + u(rng), 1.5f + u(rng), 1.5f + u(rng)) * 1.5f;
+    // Towards a point near the box, away from it (the box behind), or anywhere.
+    const Vec3f aim = centre + half * Vec3f(u(rng), u(rng), u(rng)) * 1.5f - c.origin;
+    c.direction = i % 4 == 0 ? Vec3f(u(rng), u(rng), u(rng)) : (i % 4 == 1 ? -aim : aim);
+    if (i % 10 == 0) c.direction[i / 10 % 3] = 0.0f;
+    c.direction = normalize(c.direction);
+    if (i % 20 != 0) c.box = Aabb{centre - half, centre + half};  // else the empty Aabb{}
+    c.t_min = i % 3 == 0 ? 10.0f * (1.0f + u(rng)) : 0.0f;
+    c.t_max = i % 2 == 0 ? FLT_MAX : c.t_min + 15.0f * (1.0f + u(rng));
+  }
+  BothBackends both;
+  const std::vector<float> cpu = box_entries(*both.cpu, cases), gpu = box_entries(*both.gpu, cases);
+  size_t entered = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    ASSERT_EQ(cpu[i], gpu[i]) << "case " << i;  // +0 and -0 compare equal
+    entered += cpu[i] != INFINITY;
+  }
+  EXPECT_GT(entered, cases.size() / 10);
+  EXPECT_LT(entered, cases.size() * 9 / 10);
 }
 
 // Shadow rays from a point light above the soup to points on its triangles and to random points,
