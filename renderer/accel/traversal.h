@@ -92,8 +92,8 @@ CAUSTICA_HDI bool enter_nearest_child(const TriangleBvhView& bvh, const RaySlabs
   const OrderedNode n = load_ordered_node(bvh.nodes + node, slabs);
   float t[4], key[4];
   uint32_t child[4];
-  // No box is entered past t_max but by the slack on its far distance, which costs a visit at
-  // most: the entry distances need no comparison with t_max before the sort.
+  // No box is entered past t_max (slab_entry clips its far distance there): the entry distances
+  // need no comparison with t_max before the sort.
   intersect_children(n, slabs, t_min, t_max, t);
   sort_near_first<kShrinks>(n.child, t, key, child);
   for (int c = 3; c >= 1; --c) {
@@ -121,7 +121,7 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
                               Test test) {
   if (bvh.count == 0) return;
   // In registers: `ray` may be a reference into global memory, read again at every node.
-  const RaySlabs slabs = ray_slabs(ray.origin, ray.direction);
+  const RaySlabs slabs = ray_slabs(ray.origin, ray.direction, bvh.bounds);
   const float t_min = ray.t_min;
   if (slab_entry(slabs, bvh.bounds, t_min, t_max) > t_max) return;
   if (bvh.count == 1) {
@@ -247,8 +247,8 @@ __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray
   const unsigned group = __activemask();
   unsigned lane;
   asm("mov.u32 %0, %%laneid;" : "=r"(lane));
-  SharedAnyHitRay r{ray_slabs(ray.origin, ray.direction), WatertightRay(ray), ray.t_min, ray.t_max,
-                    lane};
+  SharedAnyHitRay r{ray_slabs(ray.origin, ray.direction, bvh.bounds), WatertightRay(ray), ray.t_min,
+                    ray.t_max, lane};
   uint32_t stack[kMaxGivenEntries + kTraversalStackSize];
   int bottom = 0, top = 0;  // the entries are stack[bottom, top)
   uint32_t node = 0;

@@ -34,7 +34,7 @@ Interval exact_interval(const Aabb& b, Vec3f origin, Vec3f inv, float t_min, flo
 // roundings themselves: under 2^-20 |o / d|). Returns +1 for a hit, -1 for a miss, 0 when too
 // close to call.
 int check(const Aabb& b, Vec3f origin, Vec3f direction, float t_min, float t_max) {
-  const RaySlabs s = ray_slabs(origin, direction);
+  const RaySlabs s = ray_slabs(origin, direction, b);
   const Vec3f inv = safe_reciprocal(direction);
   const Interval exact = exact_interval(b, origin, inv, t_min, t_max);
   const float got = slab_entry(s, b, t_min, t_max);
@@ -80,31 +80,35 @@ TEST(RaySlabs, NeverMissesABoxFarFromTheWorldOrigin) {
   EXPECT_GT(misses, 10000);
 }
 
+// An entry distance no later than `exact` and earlier by no more than the bound on the rounding
+// (2^-21 of the distances' terms, at most 1e-5 here).
+void expect_entry(float got, float exact) {
+  EXPECT_LE(got, exact);
+  EXPECT_GE(got, exact - 1e-5f);
+}
+
 TEST(RaySlabs, AxisParallelRays) {
   // A zero component: the slab of that axis either holds the origin (no bound) or not (a miss).
   const Aabb box{Vec3f(-1.0f, 2.0f, -1.0f), Vec3f(1.0f, 3.0f, 1.0f)};
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(0.5f, 0.0f, -0.5f), Vec3f(0, 1, 0)), box, 0.0f, 10.0f),
-            2.0f);
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(1.5f, 0.0f, 0.0f), Vec3f(0, 1, 0)), box, 0.0f, 10.0f),
-            INFINITY);
+  auto entry = [&](Vec3f origin, Vec3f direction, float t_min, float t_max) {
+    return slab_entry(ray_slabs(origin, direction, box), box, t_min, t_max);
+  };
+  expect_entry(entry(Vec3f(0.5f, 0.0f, -0.5f), Vec3f(0, 1, 0), 0.0f, 10.0f), 2.0f);
+  EXPECT_EQ(entry(Vec3f(1.5f, 0.0f, 0.0f), Vec3f(0, 1, 0), 0.0f, 10.0f), INFINITY);
   // On the slab's plane itself: touching counts as entering.
-  EXPECT_LE(slab_entry(ray_slabs(Vec3f(1.0f, 0.0f, 1.0f), Vec3f(0, 1, 0)), box, 0.0f, 10.0f), 2.0f);
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, -1, 0)), box, 0.0f, 10.0f),
-            INFINITY);
+  EXPECT_LE(entry(Vec3f(1.0f, 0.0f, 1.0f), Vec3f(0, 1, 0), 0.0f, 10.0f), 2.0f);
+  EXPECT_EQ(entry(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, -1, 0), 0.0f, 10.0f), INFINITY);
   // Out of [t_min, t_max].
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, 1, 0)), box, 0.0f, 1.5f),
-            INFINITY);
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, 1, 0)), box, 3.5f, 10.0f),
-            INFINITY);
+  EXPECT_EQ(entry(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, 1, 0), 0.0f, 1.5f), INFINITY);
+  EXPECT_EQ(entry(Vec3f(0.0f, 0.0f, 0.0f), Vec3f(0, 1, 0), 3.5f, 10.0f), INFINITY);
 }
 
 TEST(RaySlabs, HugeCoordinateOnAParallelAxisStillHits) {
   // o / d overflows on x (o.x = 1e20, d.x = 0): that axis bounds nothing, and the box is found.
   const Aabb box{Vec3f(0.99e20f, 5.0f, -1.0f), Vec3f(1.01e20f, 6.0f, 1.0f)};
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(1e20f, 0.0f, 0.0f), Vec3f(0, 1, 0)), box, 0.0f, 100.0f),
-            5.0f);
-  EXPECT_EQ(slab_entry(ray_slabs(Vec3f(1e20f, 0.0f, 0.0f), Vec3f(0, 1, 0)), box, 0.0f, 4.0f),
-            INFINITY);
+  const RaySlabs s = ray_slabs(Vec3f(1e20f, 0.0f, 0.0f), Vec3f(0, 1, 0), box);
+  expect_entry(slab_entry(s, box, 0.0f, 100.0f), 5.0f);
+  EXPECT_EQ(slab_entry(s, box, 0.0f, 4.0f), INFINITY);
 }
 
 // A 4-wide node's empty slots hold Aabb{} (lower corner FLT_MAX, upper -FLT_MAX) and the
@@ -126,7 +130,10 @@ TEST(RaySlabs, EveryRayMissesTheEmptyBox) {
     }
     if (length(direction) < 1e-3f) continue;
     direction = normalize(direction);
-    ASSERT_EQ(slab_entry(ray_slabs(origin, direction), empty, -INFINITY, INFINITY), INFINITY) << i;
+    const Aabb within{Vec3f(-far), Vec3f(far)};  // the structure the empty slot belongs to
+    ASSERT_EQ(slab_entry(ray_slabs(origin, direction, within), empty, -INFINITY, INFINITY),
+              INFINITY)
+        << i;
   }
 }
 
@@ -141,7 +148,8 @@ TEST(RaySlabs, OrderedNodeRowsFollowTheDirectionSigns) {
     node.upper_z[c] = 20.5f + c;
     node.child[c] = uint32_t(c);
   }
-  const OrderedNode n = load_ordered_node(&node, ray_slabs(Vec3f(0.0f), Vec3f(1.0f, -1.0f, 0.0f)));
+  const OrderedNode n = load_ordered_node(
+      &node, ray_slabs(Vec3f(0.0f), Vec3f(1.0f, -1.0f, 0.0f), Aabb{Vec3f(-100.0f), Vec3f(100.0f)}));
   for (int c = 0; c < 4; ++c) {
     EXPECT_EQ(n.enter[0][c], node.lower_x[c]);
     EXPECT_EQ(n.leave[0][c], node.upper_x[c]);

@@ -321,13 +321,18 @@ struct BoxCase {
   float t_min, t_max;
 };
 
+// The bounds every case's box lies in, but the empty ones (ray_slabs' `within`).
+constexpr Aabb kBoxCaseBounds{Vec3f(-20.0f), Vec3f(20.0f)};
+
 std::vector<float> box_entries(Backend& backend, const std::vector<BoxCase>& cases) {
   Buffer<BoxCase> in = upload(backend, cases);
   Buffer<float> out(backend, cases.size());
   const BoxCase* c = in.data();
   float* t = out.data();
+  const Aabb within = kBoxCaseBounds;
   parallel_for(backend, cases.size(), [=] CAUSTICA_HD(size_t i) {
-    t[i] = slab_entry(ray_slabs(c[i].origin, c[i].direction), c[i].box, c[i].t_min, c[i].t_max);
+    t[i] = slab_entry(ray_slabs(c[i].origin, c[i].direction, within), c[i].box, c[i].t_min,
+                      c[i].t_max);
   });
   return out.download();
 }
