@@ -84,8 +84,9 @@ CAUSTICA_HDI float slab_entry(const RaySlabs& s, float enter_x, float enter_y, f
   // t_min >= 0, as every ray here has, the integers order the distances that decide as floats
   // do. Where some distance is negative (a plane behind the origin) the integer max is still the
   // largest non-negative one, t_min at least, and the integer min is some negative distance,
-  // which puts the box behind the ray, as the float min does; -0 orders below every negative,
-  // which at most visits a box more. The decisions are the CPU's (GpuParity.BoxEntriesAreTheCpus).
+  // which puts the box behind the ray, as the float min does. Only an exit distance of exactly
+  // -0 orders differently (below every negative), which visits a box more at most; otherwise the
+  // decisions are the CPU's (GpuParity.BoxEntriesAreTheCpus).
   const float t_near = __int_as_float(
       __vimax3_s32(__float_as_int(tx0), __float_as_int(ty0), __float_as_int(max_f(tz0, t_min))));
   const float t_far = __int_as_float(
