@@ -79,8 +79,10 @@ struct RebuildReport {
 
 struct SceneStats {
   size_t triangles = 0;
-  size_t structure_nodes = 0;  // 4-wide nodes of the triangle structure
+  StructureKind structure = kDefaultStructure;
+  size_t structure_nodes = 0;  // nodes of the triangle structure, in its own layout
   size_t structure_bytes = 0;
+  double structure_sah_cost = 0;  // SAH cost of the structure, C_T = C_I = 1 (accel/structure.h)
   size_t photon_map_bytes = 0;
   size_t device_bytes = 0;  // everything this engine holds: structure, lights, photon maps, film
   size_t lights = 0;

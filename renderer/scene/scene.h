@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "renderer/accel/structure_kind.h"
 #include "renderer/base/vec.h"
 
 namespace caustica {
@@ -65,6 +66,8 @@ struct RenderSettings {
   uint32_t area_light_samples = 4;  // shadow rays per diffuse hit for area lights
   uint32_t passes = 1;              // progressive passes, fresh photons each
   uint32_t seed = 1;
+  // The triangle structure rays are traced through; changing it rebuilds the geometry.
+  StructureKind structure = kDefaultStructure;
 };
 
 struct Scene {
