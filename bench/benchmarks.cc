@@ -27,6 +27,7 @@
 namespace caustica {
 
 absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& o) {
+  if (o.mesh.extension() == ".json") return load_scene(o.mesh);
   std::vector<std::string> shapes;
   for (int i = 0; i < o.copies; ++i)
     shapes.push_back(absl::StrFormat(
@@ -64,30 +65,10 @@ absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& 
   return make_backend(*kind, size_t(16) << 30);
 }
 
-absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
-  absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
-  if (!scene.ok()) return scene.status();
-  const std::string name =
-      o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
-  absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
-  if (!made.ok()) return made.status();
-  Backend* backend = made->get();
-  ResidentScene resident = ResidentScene::upload(*backend, *scene);
-  const uint32_t tris = uint32_t(resident.triangle_count());
-  const TriangleVertices* input = resident.view().triangles;
-
-  if (wanted(o, "lbvh_build")) {
-    // The LBVH itself (codes, sort, hierarchy with bounds), then with the 4-wide collapse that
-    // traversal uses.
-    Measurement m = measure(o, *backend, [&] { build_triangle_lbvh(*backend, input, tris); });
-    report.line("lbvh_build", name, tris / (m.median * 1e3), "Mtris/s", &m, o.runs);
-    Measurement s = measure(o, *backend, [&] { build_triangle_bvh(*backend, input, tris); });
-    report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
-  }
-  report.line("triangle_structure_bytes_per_triangle", name, double(resident.bvh().bytes()) / tris,
-              "B/tri");
-
-  const TriangleBvhView bvh = resident.view().bvh;
+// The ray benchmarks through `bvh`, the view of the structure under test (a StructureView).
+template <typename Structure>
+void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bvh,
+                    const std::string& name, Reporter& report) {
   const PinholeCamera camera = PinholeCamera::from(framing_camera(bvh.bounds, o.width, o.height));
   const size_t pixels = size_t(o.width) * o.height;
   Buffer<Hit> hits(*backend, pixels);
@@ -176,12 +157,49 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& report) {
     });
     report.line("incoherent_rays", name, count / (m.median * 1e3), "Mrays/s", &m, o.runs);
   }
+}
+
+absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
+  absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
+  if (!scene.ok()) return scene.status();
+  const std::string name =
+      o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
+  absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
+  if (!made.ok()) return made.status();
+  Backend* backend = made->get();
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  const uint32_t tris = uint32_t(resident.triangle_count());
+  const TriangleVertices* input = resident.view().triangles;
+
+  if (wanted(o, "lbvh_build")) {
+    // The LBVH alone (codes, sort, hierarchy with bounds), which every structure's build is
+    // measured against.
+    Measurement m = measure(o, *backend, [&] { build_triangle_lbvh(*backend, input, tris); });
+    all.line("lbvh_build", name, tris / (m.median * 1e3), "Mtris/s", &m, o.runs);
+  }
+  for (StructureKind kind : o.structures) {
+    Reporter report = all.for_structure(structure_kind_name(kind));
+    resident.rebuild_structure(kind);
+    if (wanted(o, "lbvh_build")) {
+      // Everything the structure's traversal reads, built from the triangles in memory.
+      Measurement s =
+          measure(o, *backend, [&] { (void)build_structure(*backend, kind, input, tris); });
+      report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
+      report.line("structure_build_ms", name, s.median, "ms", &s, o.runs);
+    }
+    const StructureStats& stats = resident.structure().stats();
+    report.line("triangle_structure_bytes_per_triangle", name, double(stats.bytes) / tris, "B/tri");
+    report.line("structure_sah_cost", name, stats.sah_cost, "SAH");
+    resident.structure().visit(
+        [&](const auto& view) { ray_benchmarks(o, backend, view, name, report); });
+  }
   return absl::OkStatus();
 }
 
-absl::Status photon_benchmarks(const BenchOptions& o, Reporter& report) {
+absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, Reporter& report) {
   absl::StatusOr<Scene> scene = load_scene(o.photon_scene);
   if (!scene.ok()) return scene.status();
+  scene->settings.structure = structure;
   const std::string name = o.photon_scene.parent_path().filename().string();
   absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
   if (!made.ok()) return made.status();
@@ -299,7 +317,10 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }
   if (!o.photon_scene.empty() && any_of({"photon_pass", "frame"})) {
-    if (absl::Status s = photon_benchmarks(o, report); !s.ok()) return s;
+    for (StructureKind kind : o.structures) {
+      Reporter with_structure = report.for_structure(structure_kind_name(kind));
+      if (absl::Status s = photon_benchmarks(o, kind, with_structure); !s.ok()) return s;
+    }
   }
   if (any_of(serving_benchmark_names())) {
     if (absl::Status s = run_serving_benchmarks(o, report); !s.ok()) return s;

@@ -26,12 +26,15 @@ struct BenchOptions {
   uint32_t k = 64;
   uint32_t photons_per_leaf = 0;  // 0: what the engine takes for the device and k
   std::string device = "cpu";     // serving benchmarks: the server's --device
+  // The triangle structures to measure, each in turn (--structure NAME|all).
+  std::vector<StructureKind> structures = {kDefaultStructure};
 };
 
 // The names run_benchmarks knows, in the order it runs them.
 std::vector<std::string> benchmark_names();
 
-// The mesh (and its copies) as a scene: one diffuse material and a light above it.
+// The mesh (and its copies) as a scene: one diffuse material and a light above it. A scene file
+// (.json) is loaded as it is.
 absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& options);
 
 absl::Status run_benchmarks(const BenchOptions& options, std::ostream& json_lines);

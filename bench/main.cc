@@ -33,10 +33,31 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device,
                  "backend to measure; the serving benchmarks pass it to the server they start")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  std::vector<std::string> structures;
+  app.add_option("--structure", structures,
+                 "triangle structures to measure, each in turn: all, or any of " +
+                     caustica::structure_kind_list() + " (default " +
+                     caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
+      ->check([](const std::string& name) -> std::string {
+        if (name == "all" || caustica::parse_structure_kind(name)) return "";
+        return "unknown structure '" + name + "' (expected all, " +
+               caustica::structure_kind_list() + ")";
+      });
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera,
                "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");
   CLI11_PARSE(app, argc, argv);
+  if (!structures.empty()) {
+    options.structures.clear();
+    for (const std::string& name : structures) {
+      if (name == "all") {
+        options.structures.assign(std::begin(caustica::kStructureKinds),
+                                  std::end(caustica::kStructureKinds));
+        break;
+      }
+      options.structures.push_back(*caustica::parse_structure_kind(name));
+    }
+  }
 
   absl::Status status = print_camera ? caustica::print_ray_camera(options, std::cout)
                                      : caustica::run_benchmarks(options, std::cout);

@@ -57,12 +57,23 @@ class Reporter {
  public:
   Reporter(std::ostream& out, std::string device) : out_(out), device_(std::move(device)) {}
   // The same output, labelled with another device (the server's, for the serving figures).
-  Reporter for_device(std::string device) const { return Reporter(out_, std::move(device)); }
+  Reporter for_device(std::string device) const {
+    Reporter r(out_, std::move(device));
+    r.structure_ = structure_;
+    return r;
+  }
+  // The same output, each line naming the triangle structure it measured.
+  Reporter for_structure(std::string structure) const {
+    Reporter r(out_, device_);
+    r.structure_ = std::move(structure);
+    return r;
+  }
   void line(const std::string& name, const std::string& scene, double value,
             const std::string& unit, const Measurement* m = nullptr, int runs = 0) {
     out_ << absl::StrFormat(
         R"({"name": "%s", "scene": "%s", "device": "%s", "value": %.6g, "unit": "%s")", name, scene,
         device_, value, unit);
+    if (!structure_.empty()) out_ << absl::StrFormat(R"(, "structure": "%s")", structure_);
     if (m != nullptr)
       out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
                               m->median, m->min, m->max, runs);
@@ -73,6 +84,7 @@ class Reporter {
  private:
   std::ostream& out_;
   std::string device_;
+  std::string structure_;
 };
 
 }  // namespace caustica

@@ -239,13 +239,26 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||
                               settings.seed != old.seed;
+  const bool structure_change = settings.structure != old.structure;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
+    if (structure_change) {
+      // The photons traced ahead went through the old structure: they are traced again through
+      // the new one, as after any geometry change.
+      st.prepared.reset();
+      auto start = std::chrono::steady_clock::now();
+      st.resident->rebuild_structure(settings.structure);
+      st.backend->synchronize();
+      st.last_build_ms = elapsed_ms(start);
+      report.timings.structure_build_ms = st.last_build_ms;
+      ++st.epochs.geometry;
+    }
     st.scene.settings = settings;
     st.film->clear();
     ++st.epochs.settings;
-    report.rebuilt = {"film"};
-    if (photons_change) st.prepare_photons(report);
+    report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
+                                      : std::vector<std::string>{"film"};
+    if (photons_change || structure_change) st.prepare_photons(report);
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
@@ -311,8 +324,11 @@ SceneStats Engine::scene_stats() const {
   SceneStats s;
   if (!st.resident) return s;
   s.triangles = st.resident->triangle_count();
-  s.structure_nodes = st.resident->bvh().node_count();
-  s.structure_bytes = st.resident->bvh().bytes();
+  const StructureStats& structure = st.resident->structure().stats();
+  s.structure = structure.kind;
+  s.structure_nodes = structure.nodes;
+  s.structure_bytes = structure.bytes;
+  s.structure_sah_cost = structure.sah_cost;
   s.photon_map_bytes = st.last_photon_map_bytes;
   s.device_bytes = st.resident->bytes() + (st.film ? st.film->bytes() : 0) +
                    (st.prepared ? st.prepared->caustic.bytes() + st.prepared->global.bytes() : 0);

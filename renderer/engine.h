@@ -102,7 +102,9 @@ class Engine {
   absl::StatusOr<RebuildReport> set_lights(const std::vector<Light>& lights);
   // Restarts accumulation; a new resolution reallocates the film.
   absl::StatusOr<RebuildReport> set_camera(const Camera& camera);
-  // Restarts accumulation; settings that change the photons re-trace them as set_lights does.
+  // Restarts accumulation; settings that change the photons re-trace them as set_lights does. A new
+  // structure is built over the same triangles (a geometry change: its epoch moves, "geometry" is
+  // reported) and the photons are traced through it.
   absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings);
 
   using Progress = std::function<void(uint32_t done, uint32_t total)>;

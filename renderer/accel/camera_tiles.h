@@ -3,6 +3,8 @@
 // share each node test across 16 rays; on a GPU the warp already is the packet.
 #pragma once
 
+#include <type_traits>
+
 #include "renderer/accel/packet_traversal.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/pixel_blocks.h"
@@ -10,23 +12,10 @@
 
 namespace caustica {
 
-// `direction(pixel)` (a CAUSTICA_HD functor, pixel = y * width + x) gives each ray's direction
-// from `origin`; hits[pixel] receives its closest hit.
+// The CPU's way for the 4-wide BVH: square packets of kPacketRays rays share each node test.
 template <typename Direction>
-void trace_camera_tiles(Backend& backend, const TriangleBvhView& bvh, Vec3f origin, int width,
-                        int height, Direction direction, Hit* hits) {
-  if (backend.kind() == DeviceKind::kCuda) {
-    // One ray per thread, each warp covering an 8x4 block of pixels so that its rays stay
-    // coherent; a thread-private packet of 16 rays would only cost registers (813 against 2594
-    // Mrays/s on an H100, dragon 1024x1024).
-    const PixelBlocks blocks(width, height);
-    parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
-      size_t pixel;
-      if (!blocks.pixel_of(thread, pixel)) return;
-      hits[pixel] = closest_hit(bvh, Ray{origin, direction(pixel)});
-    });
-    return;
-  }
+void trace_camera_packets(Backend& backend, const TriangleBvhView& bvh, Vec3f origin, int width,
+                          int height, Direction direction, Hit* hits) {
   const int tiles_x = (width + kPacketTile - 1) / kPacketTile;
   const int tiles_y = (height + kPacketTile - 1) / kPacketTile;
   parallel_for(backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
@@ -44,6 +33,28 @@ void trace_camera_tiles(Backend& backend, const TriangleBvhView& bvh, Vec3f orig
     Hit packet_hits[kPacketRays];
     closest_hit_packet(bvh, packet, packet_hits);
     for (int i = 0; i < packet.count; ++i) hits[pixels[i]] = packet_hits[i];
+  });
+}
+
+// `direction(pixel)` (a CAUSTICA_HD functor, pixel = y * width + x) gives each ray's direction
+// from `origin`; hits[pixel] receives its closest hit in `structure` (a StructureView,
+// structure.h). On the CPU the 4-wide BVH traces packets; otherwise one ray per thread, each GPU
+// warp covering an 8x4 block of pixels so that its rays stay coherent (a thread-private packet
+// of 16 rays would only cost registers there).
+template <typename Structure, typename Direction>
+void trace_camera_tiles(Backend& backend, const Structure& structure, Vec3f origin, int width,
+                        int height, Direction direction, Hit* hits) {
+  if constexpr (std::is_same_v<Structure, TriangleBvhView>) {
+    if (backend.kind() != DeviceKind::kCuda) {
+      trace_camera_packets(backend, structure, origin, width, height, direction, hits);
+      return;
+    }
+  }
+  const PixelBlocks blocks(width, height);
+  parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+    size_t pixel;
+    if (!blocks.pixel_of(thread, pixel)) return;
+    hits[pixel] = closest_hit(structure, Ray{origin, direction(pixel)});
   });
 }
 

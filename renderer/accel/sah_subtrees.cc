@@ -189,7 +189,8 @@ CAUSTICA_HDI void finish_range(BvhNode* nodes, uint32_t* root, Aabb* box, uint32
 }  // namespace
 
 void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list, uint32_t count,
-                            Buffer<TriangleVertices>& triangles, Buffer<uint32_t>& triangle_ids) {
+                            Buffer<TriangleVertices>& triangles, Buffer<uint32_t>& triangle_ids,
+                            bool root_listed) {
   if (count == 0) return;
   const uint32_t n = bvh.leaf_count;
   Buffer<Aabb> boxes(backend, n);
@@ -264,7 +265,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
   });
   triangles = std::move(moved);
   triangle_ids = std::move(moved_ids);
-  if (n <= kSahSubtreeTriangles) backend.copy_to_host(&bvh.root, root, sizeof(uint32_t));
+  if (root_listed) backend.copy_to_host(&bvh.root, root, sizeof(uint32_t));
 }
 
 }  // namespace caustica

@@ -67,7 +67,9 @@ struct ListSmallSubtrees {
 
 // Rebuilds each listed subtree of `bvh` (`count` of them, in the backend's memory) by SAH, and
 // moves `triangles` and `triangle_ids` (both in leaf order) within each range to the new order.
+// `root_listed`: whether the root is among them (parent kNoParent), so that bvh.root changes.
 void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list, uint32_t count,
-                            Buffer<TriangleVertices>& triangles, Buffer<uint32_t>& triangle_ids);
+                            Buffer<TriangleVertices>& triangles, Buffer<uint32_t>& triangle_ids,
+                            bool root_listed);
 
 }  // namespace caustica

@@ -340,10 +340,11 @@ CAUSTICA_HDI Ray shadow_ray(Vec3f surface, Vec3f light, float light_gap) {
              length_d};
 }
 
-// True when anything blocks that segment.
-CAUSTICA_HDI bool segment_blocked(const TriangleBvhView& bvh, Vec3f surface, Vec3f light,
+// True when anything in `structure` (any StructureView, structure.h) blocks that segment.
+template <typename Structure>
+CAUSTICA_HDI bool segment_blocked(const Structure& structure, Vec3f surface, Vec3f light,
                                   float light_gap) {
-  return any_hit(bvh, shadow_ray(surface, light, light_gap));
+  return any_hit(structure, shadow_ray(surface, light, light_gap));
 }
 
 }  // namespace caustica

@@ -7,7 +7,7 @@
 
 namespace caustica {
 
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count) {
   return build_triangle_lbvh(backend, triangles, count, backend_curve(backend));
 }
@@ -16,9 +16,9 @@ namespace {
 
 // The LBVH, with `on_node` called for each internal node as build_bvh_from_sorted_codes does.
 template <typename OnNode>
-TriangleLbvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
+BinaryTriangleBvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                         Curve curve, OnNode on_node) {
-  TriangleLbvh out;
+  BinaryTriangleBvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
   if (count == 0) {
@@ -57,7 +57,7 @@ TriangleLbvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uin
 
 }  // namespace
 
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count, Curve curve) {
   return build_lbvh(backend, triangles, count, curve, IgnoreNodes{});
 }
@@ -67,23 +67,23 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
   return build_triangle_bvh(backend, triangles, count, backend_curve(backend));
 }
 
-TriangleLbvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
                                     uint32_t count, Curve curve) {
   Buffer<SmallSubtree> small(backend, count / 2 + 1);
   Buffer<uint32_t> listed(backend, 1);
   backend.fill_bytes(listed.data(), 0, sizeof(uint32_t));
-  TriangleLbvh lbvh = build_lbvh(backend, triangles, count, curve,
+  BinaryTriangleBvh lbvh = build_lbvh(backend, triangles, count, curve,
                                  ListSmallSubtrees{small.data(), listed.data(), count});
   uint32_t small_count = 0;
   if (count >= 2) backend.copy_to_host(&small_count, listed.data(), sizeof(uint32_t));
   rebuild_small_subtrees(backend, lbvh.bvh, small.data(), small_count, lbvh.triangles,
-                         lbvh.triangle_ids);
+                         lbvh.triangle_ids, count <= kSahSubtreeTriangles);
   return lbvh;
 }
 
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                                Curve curve) {
-  TriangleLbvh lbvh = build_sah_refined_lbvh(backend, triangles, count, curve);
+  BinaryTriangleBvh lbvh = build_sah_refined_lbvh(backend, triangles, count, curve);
   TriangleBvh out;
   out.bvh = collapse_to_bvh4(backend, lbvh.bvh);
   out.triangles = std::move(lbvh.triangles);

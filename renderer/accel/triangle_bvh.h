@@ -21,8 +21,9 @@ struct TriangleBvhView {
   Aabb bounds;
 };
 
-// The binary LBVH and the triangles in its leaf order.
-struct TriangleLbvh {
+// A binary BVH over triangles (an LBVH, or one built by SAH from the root) and the triangles in
+// its leaf order.
+struct BinaryTriangleBvh {
   Bvh bvh;
   Buffer<TriangleVertices> triangles;
   Buffer<uint32_t> triangle_ids;
@@ -43,14 +44,14 @@ struct TriangleBvh {
 
 // Builds the binary LBVH from triangles already in the backend's memory (`count` of them), along
 // `curve`, by default the backend's (backend_curve).
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count, Curve curve);
-TriangleLbvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                  uint32_t count);
 
 // The LBVH with its small subtrees rebuilt by SAH (sah_subtrees.h): the same layout, leaves in a
 // new order.
-TriangleLbvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
+BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
                                     uint32_t count, Curve curve);
 
 // The refined LBVH collapsed to 4-wide nodes: what traversal uses.

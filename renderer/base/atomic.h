@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstring>
 
 #include "renderer/base/hd.h"
 
@@ -32,6 +33,45 @@ CAUSTICA_HDI uint32_t atomic_fetch_add(uint32_t* p, uint32_t v) {
 #else
   return std::atomic_ref<uint32_t>(*p).fetch_add(v, std::memory_order_relaxed);
 #endif
+}
+
+// Lowers `*p` to `v` when `v` is smaller, and raises it when larger; relaxed, for reductions
+// whose result is read only after the launch that made them.
+CAUSTICA_HDI void atomic_min(uint32_t* p, uint32_t v) {
+#if defined(__CUDA_ARCH__)
+  atomicMin(p, v);
+#else
+  std::atomic_ref<uint32_t> a(*p);
+  uint32_t old = a.load(std::memory_order_relaxed);
+  while (v < old && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
+  }
+#endif
+}
+
+CAUSTICA_HDI void atomic_max(uint32_t* p, uint32_t v) {
+#if defined(__CUDA_ARCH__)
+  atomicMax(p, v);
+#else
+  std::atomic_ref<uint32_t> a(*p);
+  uint32_t old = a.load(std::memory_order_relaxed);
+  while (v > old && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
+  }
+#endif
+}
+
+// A float's bits mapped to an unsigned integer of the same order (every float but NaN), so that
+// integer atomics take minima and maxima of floats.
+CAUSTICA_HDI uint32_t ordered_bits(float f) {
+  uint32_t bits;
+  memcpy(&bits, &f, sizeof bits);
+  return bits ^ ((bits >> 31) != 0 ? 0xffffffffu : 0x80000000u);
+}
+
+CAUSTICA_HDI float from_ordered_bits(uint32_t ordered) {
+  const uint32_t bits = ordered ^ ((ordered >> 31) != 0 ? 0x80000000u : 0xffffffffu);
+  float f;
+  memcpy(&f, &bits, sizeof f);
+  return f;
 }
 
 }  // namespace caustica

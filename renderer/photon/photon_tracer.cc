@@ -67,10 +67,11 @@ CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f sce
   return e;
 }
 
-}  // namespace
-
-TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
-                            const PhotonTraceSettings& settings) {
+// trace_photons with the paths traced through `structure`, the view of the scene's structure.
+template <typename Structure>
+TracedPhotons trace_photons_through(const Structure& structure, Backend& backend,
+                                    const ResidentScene& resident,
+                                    const PhotonTraceSettings& settings) {
   TracedPhotons out;
   out.caustic.bind(backend);
   out.global.bind(backend);
@@ -135,7 +136,7 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
     };
     // One hit of the current path; false when the path ends there.
     auto trace_bounce = [&]() -> bool {
-      Hit hit = closest_hit(scene.bvh, ray);
+      Hit hit = closest_hit(structure, ray);
       if (!hit.valid()) return false;
       SurfaceHit sh = surface_at(scene, hit);
       const DeviceMaterial& m = scene.materials[sh.material];
@@ -196,6 +197,15 @@ TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
   compact(caustic_flags, out.caustic);
   compact(global_flags, out.global);
   return out;
+}
+
+}  // namespace
+
+TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
+                            const PhotonTraceSettings& settings) {
+  return resident.structure().visit([&](const auto& structure) {
+    return trace_photons_through(structure, backend, resident, settings);
+  });
 }
 
 }  // namespace caustica

@@ -38,10 +38,10 @@ struct GatherRequest {
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
 // pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput)` is
 // called at every diffuse hit in a fixed order; emitted light seen along the tree is returned.
-template <typename OnDiffuse>
-CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray& camera_ray,
-                                      const Hit& first_hit, uint32_t max_depth,
-                                      OnDiffuse on_diffuse) {
+template <typename Structure, typename OnDiffuse>
+CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
+                                      const Ray& camera_ray, const Hit& first_hit,
+                                      uint32_t max_depth, OnDiffuse on_diffuse) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
@@ -50,7 +50,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Ray&
   Vec3f emitted(0.0f);
   while (top > 0) {
     PendingRay pr = stack[--top];
-    Hit hit = first ? first_hit : closest_hit(scene.bvh, pr.ray);
+    Hit hit = first ? first_hit : closest_hit(structure, pr.ray);
     first = false;
     if (!hit.valid()) continue;  // black background
     SurfaceHit sh = surface_at(scene, hit);
@@ -198,9 +198,14 @@ uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested)
   return gathers_count(device, k) ? 16u : 8u;
 }
 
-void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
-                 const PhotonMap& global_map, const PinholeCamera& camera,
-                 const ShadingSettings& settings, Film& film) {
+namespace {
+
+// The render pass with rays traced through `structure`, the view of the scene's structure.
+template <typename Structure>
+void render_pass_through(const Structure& structure, Backend& backend,
+                         const ResidentScene& resident, const PhotonMap& caustic_map,
+                         const PhotonMap& global_map, const PinholeCamera& camera,
+                         const ShadingSettings& settings, Film& film) {
   const ResidentSceneView scene = resident.view();
   const PhotonMapView caustics = caustic_map.view();
   const PhotonMapView global = global_map.view();
@@ -225,7 +230,7 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
   Buffer<Hit> primary_hits(backend, pixels);
   Hit* primary = primary_hits.data();
   trace_camera_tiles(
-      backend, scene.bvh, camera.origin, width, height,
+      backend, structure, camera.origin, width, height,
       [=] CAUSTICA_HD(size_t pixel) {
         Sampler s(seed, uint32_t(pixel), pass);
         return camera_ray(pixel, s).direction;
@@ -262,10 +267,11 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
       Vec3f direct(0.0f);
       uint32_t made = 0;
       Vec3f emitted = walk_specular_tree(
-          scene, camera_ray(pixel, s), primary[pixel], max_depth,
+          scene, structure, camera_ray(pixel, s), primary[pixel], max_depth,
           [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
-            direct += throughput * direct_light(scene, sh.position, n, sh.geometric_normal, m.color,
-                                                cfg.area_light_samples, scene_radius, s);
+            direct +=
+                throughput * direct_light(scene, structure, sh.position, n, sh.geometric_normal,
+                                          m.color, cfg.area_light_samples, scene_radius, s);
             const uint32_t slot = atomic_fetch_add(next_request, 1u);
             if (slot < room)
               request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
@@ -341,6 +347,17 @@ void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMa
     accum[pixel] += sum;
   });
   film.add_pass();
+}
+
+}  // namespace
+
+void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
+                 const PhotonMap& global_map, const PinholeCamera& camera,
+                 const ShadingSettings& settings, Film& film) {
+  resident.structure().visit([&](const auto& structure) {
+    render_pass_through(structure, backend, resident, caustic_map, global_map, camera, settings,
+                        film);
+  });
 }
 
 }  // namespace caustica

@@ -43,15 +43,17 @@ void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& 
                  const ShadingSettings& settings, Film& film);
 
 // Direct light at a diffuse point: every point, spot and directional light with one shadow ray
-// each, and `area_samples` shadow rays to area lights chosen by power. `normal` faces the viewer.
-CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
-                                Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
-                                float scene_radius, Sampler& s) {
+// each through `structure`, and `area_samples` shadow rays to area lights chosen by power.
+// `normal` faces the viewer.
+template <typename Structure>
+CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
+                                Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
+                                uint32_t area_samples, float scene_radius, Sampler& s) {
   Vec3f sum(0.0f);
   const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
   auto visible = [&](Vec3f light_point, Vec3f wi) {
-    return !segment_blocked(scene.bvh, offset_origin(p, geometric_normal, wi), light_point, 1e-3f);
+    return !segment_blocked(structure, offset_origin(p, geometric_normal, wi), light_point, 1e-3f);
   };
   for (uint32_t i = 0; i < scene.light_count; ++i) {
     const DeviceLight& l = scene.lights[i];

@@ -112,9 +112,23 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.light_cdf_.bind(backend);
   r.area_light_index_.bind(backend);
   r.area_light_cdf_.bind(backend);
-  r.bvh_ = build_triangle_bvh(backend, r.triangles_.data(), uint32_t(n));
+  r.structure_ =
+      build_structure(backend, scene.settings.structure, r.triangles_.data(), uint32_t(n));
   r.set_lights(scene.lights);
   return r;
+}
+
+void ResidentScene::rebuild_structure(StructureKind kind) {
+  const StructureKind previous = structure_.kind();
+  const uint32_t n = uint32_t(triangles_.size());
+  structure_ = TriangleStructure();  // frees the old one before the new one is built
+  try {
+    structure_ = build_structure(*backend_, kind, triangles_.data(), n);
+  } catch (const std::bad_alloc&) {
+    // The old structure fitted before: the scene keeps rendering with it.
+    structure_ = build_structure(*backend_, previous, triangles_.data(), n);
+    throw;
+  }
 }
 
 void ResidentScene::set_lights(std::span<const Light> lights) {
@@ -149,7 +163,6 @@ void ResidentScene::rebuild_light_tables() {
 
 ResidentSceneView ResidentScene::view() const {
   ResidentSceneView v;
-  v.bvh = bvh_.view();
   v.triangles = triangles_.data();
   v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
   v.material_ids = material_ids_.data();
@@ -168,7 +181,7 @@ ResidentSceneView ResidentScene::view() const {
 size_t ResidentScene::bytes() const {
   return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() + materials_.bytes() +
          lights_.bytes() + light_cdf_.bytes() + area_light_index_.bytes() +
-         area_light_cdf_.bytes() + bvh_.bytes();
+         area_light_cdf_.bytes() + structure_.stats().bytes;
 }
 
 }  // namespace caustica

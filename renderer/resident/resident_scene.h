@@ -6,7 +6,7 @@
 #include <span>
 
 #include "absl/status/statusor.h"
-#include "renderer/accel/traversal.h"
+#include "renderer/accel/structure.h"
 #include "renderer/base/sampling.h"
 #include "renderer/scene/scene.h"
 
@@ -40,9 +40,9 @@ struct LightSample {
   float pdf_area;  // area lights: 1 / area
 };
 
-// Plain pointers for kernels.
+// Plain pointers for kernels: everything of the scene but its structure, whose view kernels take
+// beside this one (structure.h).
 struct ResidentSceneView {
-  TriangleBvhView bvh;
   const TriangleVertices* triangles;  // original order
   const Vec3f* corner_normals;        // 3 per triangle, or nullptr when no mesh has normals
   const uint32_t* material_ids;       // per triangle
@@ -124,16 +124,19 @@ CAUSTICA_HDI float spot_falloff(const DeviceLight& l, Vec3f direction_from_light
 
 class ResidentScene {
  public:
-  // Uploads geometry and materials and builds the triangle structure.
+  // Uploads geometry and materials and builds the triangle structure the scene's settings name.
   static ResidentScene upload(Backend& backend, const Scene& scene);
+  // Replaces the triangle structure by one of `kind` over the same triangles. When that runs out of
+  // memory the old kind is built again before the error goes on.
+  void rebuild_structure(StructureKind kind);
   // Replaces the non-geometric lights (area lights follow the geometry and stay).
   void set_lights(std::span<const Light> lights);
 
   ResidentSceneView view() const;
-  const TriangleBvh& bvh() const { return bvh_; }
+  const TriangleStructure& structure() const { return structure_; }
   size_t triangle_count() const { return triangles_.size(); }
   size_t bytes() const;
-  Aabb bounds() const { return bvh_.bvh.bounds; }
+  Aabb bounds() const { return structure_.bounds(); }
   float radius() const { return 0.5f * length(bounds().extent()); }
 
  private:
@@ -151,7 +154,7 @@ class ResidentScene {
   Buffer<float> area_light_cdf_;
   float total_power_ = 0;
   float area_light_power_ = 0;
-  TriangleBvh bvh_;
+  TriangleStructure structure_;
 };
 
 }  // namespace caustica

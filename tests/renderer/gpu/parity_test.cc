@@ -18,6 +18,7 @@
 
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/ray_slabs.h"
+#include "renderer/accel/structure.h"
 #include "renderer/accel/triangle_bvh.h"
 #include "renderer/base/morton.h"
 #include "renderer/engine.h"
@@ -264,10 +265,11 @@ bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
 
 // Closest hits of rays from a camera at `eye` through a width x width image of the soup, traced
 // as packets the way the renderer's primary stage does.
-std::vector<Hit> camera_hits(Backend& backend, const TriangleBvh& bvh, Vec3f eye, int width) {
+template <typename Structure>
+std::vector<Hit> camera_hits(Backend& backend, const Structure& structure, Vec3f eye, int width) {
   Buffer<Hit> hits(backend, size_t(width) * width);
   trace_camera_tiles(
-      backend, bvh.view(), eye, width, width,
+      backend, structure, eye, width, width,
       [=] CAUSTICA_HD(size_t pixel) {
         const float x = (float(pixel % width) + 0.5f) / float(width) - 0.5f;
         const float y = (float(pixel / width) + 0.5f) / float(width) - 0.5f;
@@ -287,8 +289,8 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
   const uint32_t n = uint32_t(soup.size());
   for (Curve curve : {Curve::kMorton, Curve::kHilbert}) {
     SCOPED_TRACE(curve == Curve::kMorton ? "Morton" : "Hilbert");
-    TriangleLbvh c_lbvh = build_triangle_lbvh(*both.cpu, c_soup.data(), n, curve);
-    TriangleLbvh g_lbvh = build_triangle_lbvh(*both.gpu, g_soup.data(), n, curve);
+    BinaryTriangleBvh c_lbvh = build_triangle_lbvh(*both.cpu, c_soup.data(), n, curve);
+    BinaryTriangleBvh g_lbvh = build_triangle_lbvh(*both.gpu, g_soup.data(), n, curve);
     EXPECT_EQ(c_lbvh.bvh.root, g_lbvh.bvh.root);
     EXPECT_TRUE(same_bytes(c_lbvh.bvh.nodes.download(), g_lbvh.bvh.nodes.download()));
     EXPECT_EQ(c_lbvh.triangle_ids.download(), g_lbvh.triangle_ids.download());
@@ -296,8 +298,8 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
     // The small subtrees rebuilt by SAH (sah_subtrees.h), and a soup small enough to be rebuilt
     // whole.
     for (uint32_t count : {n, 200u}) {
-      TriangleLbvh c_sah = build_sah_refined_lbvh(*both.cpu, c_soup.data(), count, curve);
-      TriangleLbvh g_sah = build_sah_refined_lbvh(*both.gpu, g_soup.data(), count, curve);
+      BinaryTriangleBvh c_sah = build_sah_refined_lbvh(*both.cpu, c_soup.data(), count, curve);
+      BinaryTriangleBvh g_sah = build_sah_refined_lbvh(*both.gpu, g_soup.data(), count, curve);
       EXPECT_EQ(c_sah.bvh.root, g_sah.bvh.root) << count;
       EXPECT_TRUE(same_bytes(c_sah.bvh.nodes.download(), g_sah.bvh.nodes.download())) << count;
       EXPECT_EQ(c_sah.triangle_ids.download(), g_sah.triangle_ids.download()) << count;
@@ -307,8 +309,8 @@ TEST(GpuParity, TriangleStructureAndPrimaryHitsAreIdentical) {
     TriangleBvh g_bvh = build_triangle_bvh(*both.gpu, g_soup.data(), n, curve);
     EXPECT_TRUE(same_bytes(c_bvh.bvh.nodes.download(), g_bvh.bvh.nodes.download()));
     const Vec3f eye(0.0f, 0.0f, -30.0f);
-    EXPECT_TRUE(same_bytes(camera_hits(*both.cpu, c_bvh, eye, 256),
-                           camera_hits(*both.gpu, g_bvh, eye, 256)));
+    EXPECT_TRUE(same_bytes(camera_hits(*both.cpu, c_bvh.view(), eye, 256),
+                           camera_hits(*both.gpu, g_bvh.view(), eye, 256)));
   }
 }
 
@@ -371,13 +373,13 @@ TEST(GpuParity, BoxEntriesAreTheCpus) {
 // traced with any_hit by the lanes that call it: on the GPU those lanes share their walks
 // (traversal.h). Lanes that skip the call (every third one here) and a last warp only partly
 // filled (the count is not a multiple of 32) leave the others a smaller group.
-std::vector<uint8_t> shadow_answers(Backend& backend, const TriangleBvh& bvh,
+template <typename Structure>
+std::vector<uint8_t> shadow_answers(Backend& backend, const Structure& view,
                                     const std::vector<Ray>& rays) {
   Buffer<Ray> r = upload(backend, rays);
   Buffer<uint8_t> answers(backend, rays.size());
   const Ray* ray = r.data();
   uint8_t* out = answers.data();
-  const TriangleBvhView view = bvh.view();
   parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
     out[i] = 2;  // neither answer: a ray left out keeps it
     if (i % 3 != 1) out[i] = any_hit(view, ray[i]);
@@ -415,8 +417,71 @@ TEST(GpuParity, ShadowRaysSharingWalksAnswerWhatLoneWalksAnswer) {
   const size_t blocked = std::count(expected.begin(), expected.end(), uint8_t(1));
   EXPECT_GT(blocked, rays.size() / 10);
   EXPECT_LT(blocked, rays.size() * 9 / 10);
-  EXPECT_EQ(shadow_answers(*both.cpu, c_bvh, rays), expected);
-  EXPECT_EQ(shadow_answers(*both.gpu, g_bvh, rays), expected);
+  EXPECT_EQ(shadow_answers(*both.cpu, c_bvh.view(), rays), expected);
+  EXPECT_EQ(shadow_answers(*both.gpu, g_bvh.view(), rays), expected);
+}
+
+// Shadow rays from a light above `bounds` to random points in it and on the soup's triangles.
+std::vector<Ray> shadow_rays_over(const std::vector<TriangleVertices>& soup, const Aabb& bounds,
+                                  int count, uint32_t seed) {
+  const Vec3f light = bounds.center() + Vec3f(0.0f, length(bounds.extent()), 0.0f);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Ray> rays;
+  for (int i = 0; i < count; ++i) {
+    Vec3f target = bounds.lower + bounds.extent() * Vec3f(u(rng), u(rng), u(rng));
+    if (i % 2 == 0) {
+      const TriangleVertices& t = soup[rng() % soup.size()];
+      target = (t.p0 + t.p1 + t.p2) * (1.0f / 3.0f);
+    }
+    rays.push_back(shadow_ray(target + (light - target) * 1e-4f, light, 0.0f));
+  }
+  return rays;
+}
+
+// Every structure's builder takes the same decisions on both backends (integer keys and stable
+// sorts, exact minima, maxima and counts, the same float operations), so the structures agree bit
+// for bit, and so do their closest and any hits.
+TEST(GpuParity, EveryStructureIsTheSameOnBothBackends) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  std::vector<TriangleVertices> room;
+  for (const Mesh& m : scene->meshes)
+    for (size_t t = 0; t < m.triangle_count(); ++t)
+      room.push_back({m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
+                      m.positions[m.indices[3 * t + 2]]});
+  for (const std::vector<TriangleVertices>& soup : {random_soup(120000, 21), room}) {
+    Buffer<TriangleVertices> c_soup = upload(*both.cpu, soup), g_soup = upload(*both.gpu, soup);
+    const uint32_t n = uint32_t(soup.size());
+    for (StructureKind kind : kStructureKinds) {
+      SCOPED_TRACE(std::string(structure_kind_name(kind)) + ", " + std::to_string(n) +
+                   " triangles");
+      const TriangleStructure c = build_structure(*both.cpu, kind, c_soup.data(), n);
+      const TriangleStructure g = build_structure(*both.gpu, kind, g_soup.data(), n);
+      ASSERT_EQ(c.stats().nodes, g.stats().nodes);
+      EXPECT_EQ(c.stats().bytes, g.stats().bytes);
+      EXPECT_NEAR(c.stats().sah_cost, g.stats().sah_cost, 1e-5 * c.stats().sah_cost);
+      c.visit([&](const TriangleBvhView& cv) {
+        g.visit([&](const TriangleBvhView& gv) {
+          std::vector<Bvh4Node> g_nodes(g.stats().nodes);
+          both.gpu->copy_to_host(g_nodes.data(), gv.nodes, g_nodes.size() * sizeof(Bvh4Node));
+          EXPECT_EQ(0, std::memcmp(g_nodes.data(), cv.nodes, g_nodes.size() * sizeof(Bvh4Node)));
+          std::vector<uint32_t> g_ids(n);
+          both.gpu->copy_to_host(g_ids.data(), gv.triangle_ids, n * sizeof(uint32_t));
+          EXPECT_EQ(0, std::memcmp(g_ids.data(), cv.triangle_ids, n * sizeof(uint32_t)));
+          const Vec3f eye =
+              cv.bounds.center() - Vec3f(0.0f, 0.0f, 1.5f * length(cv.bounds.extent()));
+          EXPECT_TRUE(same_bytes(camera_hits(*both.cpu, cv, eye, 256),
+                                 camera_hits(*both.gpu, gv, eye, 256)));
+          const std::vector<Ray> rays = shadow_rays_over(soup, cv.bounds, 50001, 9);
+          EXPECT_EQ(shadow_answers(*both.cpu, cv, rays), shadow_answers(*both.gpu, gv, rays));
+        });
+      });
+    }
+  }
 }
 
 constexpr uint32_t kNnQueries = 4096, kNnMaxK = 64;

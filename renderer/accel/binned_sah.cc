@@ -1,0 +1,370 @@
+#include "renderer/accel/binned_sah.h"
+
+#include <cfloat>
+
+#include "renderer/accel/sah_subtrees.h"
+#include "renderer/base/atomic.h"
+#include "renderer/parallel/parallel_for.h"
+
+namespace caustica {
+namespace {
+
+constexpr uint32_t kNoNode = 0xffffffffu;
+
+// Sorted triangles per thread when the bins' counts and bounds are reduced: a thread flushes its
+// running bin into the node's table when the bin changes, so a chunk costs one set of atomics per
+// bin it spans.
+constexpr uint32_t kBinReductionChunk = 64;
+
+// Past this many data-parallel levels (a run of very uneven splits), the nodes still large are
+// finished by the per-node stage.
+constexpr int kMaxDataParallelLevels = 48;
+
+// A node of the data-parallel stage: sorted positions [first, last], the box of its triangles and
+// of their centroids, and the slot that is to point to it (child `side` of internal node
+// `parent`, or the root when parent is kNoParent).
+struct LargeNode {
+  uint32_t first, last;
+  uint32_t parent, side;
+  Aabb box, centroids;
+};
+
+// One bin of one node, its bounds as ordered bits (atomic.h) so that atomics reduce them.
+struct BinCell {
+  uint32_t count;
+  uint32_t lower[3], upper[3];
+  uint32_t centroid_lower[3], centroid_upper[3];
+};
+
+// How a node splits: positions [first, mid] to the left, with each side's boxes.
+struct NodeSplit {
+  uint32_t mid;
+  Aabb left, right, left_centroids, right_centroids;
+};
+
+// The axis a node bins along, and the affine map from a centroid coordinate to its bin.
+struct BinMap {
+  int axis;
+  float low, scale;
+
+  CAUSTICA_HDI static BinMap of(const Aabb& centroids) {
+    const Vec3f e = centroids.extent();
+    const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
+    // Zeidan's b = K (1 - eps) (c - low) / extent keeps the highest centroid in the last bin.
+    return {axis, centroids.lower[axis], float(kBinnedSahBins) * (1.0f - 1e-6f) / e[axis]};
+  }
+  CAUSTICA_HDI uint32_t bin(const Aabb& box) const {
+    const int b = int((box.center()[axis] - low) * scale);
+    return b < 0 ? 0u : b < int(kBinnedSahBins) ? uint32_t(b) : kBinnedSahBins - 1;
+  }
+};
+
+// Whether the centroids are too close together to bin: all at one point, or so near that the
+// bin scale overflows.
+CAUSTICA_HDI bool degenerate(const Aabb& centroids) {
+  const Vec3f e = centroids.extent();
+  const float longest = e.x >= e.y && e.x >= e.z ? e.x : e.y >= e.z ? e.y : e.z;
+  return !(float(kBinnedSahBins) / longest <= FLT_MAX);
+}
+
+CAUSTICA_HDI void flush_bin(BinCell& cell, uint32_t count, const Aabb& box, const Aabb& centroids) {
+  atomic_fetch_add(&cell.count, count);
+  for (int a = 0; a < 3; ++a) {
+    atomic_min(&cell.lower[a], ordered_bits(box.lower[a]));
+    atomic_max(&cell.upper[a], ordered_bits(box.upper[a]));
+    atomic_min(&cell.centroid_lower[a], ordered_bits(centroids.lower[a]));
+    atomic_max(&cell.centroid_upper[a], ordered_bits(centroids.upper[a]));
+  }
+}
+
+CAUSTICA_HDI void read_bin(const BinCell& cell, Aabb& box, Aabb& centroids) {
+  for (int a = 0; a < 3; ++a) {
+    box.lower[a] = from_ordered_bits(cell.lower[a]);
+    box.upper[a] = from_ordered_bits(cell.upper[a]);
+    centroids.lower[a] = from_ordered_bits(cell.centroid_lower[a]);
+    centroids.upper[a] = from_ordered_bits(cell.centroid_upper[a]);
+  }
+}
+
+// The cheapest of the node's bins - 1 candidate splits by SAH (left count x left area + right
+// count x right area); a sorted node has at least two bins in use, so one exists.
+CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
+  Aabb box[kBinnedSahBins], centroids[kBinnedSahBins];
+  uint32_t count[kBinnedSahBins];
+  for (uint32_t b = 0; b < kBinnedSahBins; ++b) {
+    count[b] = cells[b].count;
+    read_bin(cells[b], box[b], centroids[b]);
+  }
+  float right_area[kBinnedSahBins];
+  Aabb right;
+  uint32_t right_count = 0;
+  for (int b = int(kBinnedSahBins) - 1; b > 0; --b) {
+    right.extend(box[b]);
+    right_count += count[b];
+    right_area[b] = float(right_count) * right.half_area();
+  }
+  float best_cost = INFINITY;
+  uint32_t best_bin = 0, best_left = 0, left_count = 0;
+  Aabb left;
+  for (uint32_t b = 0; b + 1 < kBinnedSahBins; ++b) {
+    left.extend(box[b]);
+    left_count += count[b];
+    const uint32_t n = node.last - node.first + 1;
+    if (left_count == 0 || left_count == n) continue;
+    const float cost = float(left_count) * left.half_area() + right_area[b + 1];
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_bin = b;
+      best_left = left_count;
+    }
+  }
+  if (best_cost == INFINITY) {
+    // Unreachable for finite boxes; in the middle, with the node's bounds on each side, and the
+    // level cap ends the descent.
+    const uint32_t mid = node.first + (node.last - node.first + 1) / 2 - 1;
+    return {mid, node.box, node.box, node.centroids, node.centroids};
+  }
+  NodeSplit split{node.first + best_left - 1, Aabb{}, Aabb{}, Aabb{}, Aabb{}};
+  for (uint32_t b = 0; b < kBinnedSahBins; ++b) {
+    if (count[b] == 0) continue;
+    if (b <= best_bin) {
+      split.left.extend(box[b]);
+      split.left_centroids.extend(centroids[b]);
+    } else {
+      split.right.extend(box[b]);
+      split.right_centroids.extend(centroids[b]);
+    }
+  }
+  return split;
+}
+
+CAUSTICA_HDI uint32_t bits_for(uint32_t values) {
+  uint32_t bits = 0;
+  while (bits < 32 && (uint64_t(1) << bits) < values) ++bits;
+  return bits;
+}
+
+// Whether a child of `size` triangles with these centroids goes on to the next data-parallel
+// level (else: a leaf when it is one triangle, or the per-node stage).
+CAUSTICA_HDI bool stays_large(uint32_t size, const Aabb& centroids, bool last_level) {
+  return !last_level && size > kSahSubtreeTriangles && !degenerate(centroids);
+}
+
+}  // namespace
+
+BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
+                                       uint32_t count) {
+  BinaryTriangleBvh out;
+  out.bvh.nodes.bind(backend);
+  out.triangles.bind(backend);
+  out.triangle_ids.bind(backend);
+  out.bvh.leaf_count = count;
+  if (count == 0) return out;
+
+  // Per sorted position: the triangle there and its box, moved together as nodes sort.
+  Buffer<uint32_t> orders(backend, count);
+  Buffer<Aabb> boxes(backend, count), centroid_points(backend, count);
+  uint32_t* order = orders.data();
+  Aabb* box = boxes.data();
+  Aabb* centroid_point = centroid_points.data();
+  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
+    order[i] = uint32_t(i);
+    box[i] = triangle_bounds(triangles[i]);
+    centroid_point[i] = Aabb{box[i].center(), box[i].center()};
+  });
+  out.bvh.bounds = backend.reduce_bounds(box, count);
+  const Aabb root_centroids = backend.reduce_bounds(centroid_point, count);
+  centroid_points = Buffer<Aabb>(backend, 0);
+
+  out.bvh.nodes.resize_discard(count > 1 ? count - 1 : 0);
+  BvhNode* nodes = out.bvh.nodes.data();
+  Buffer<uint32_t> root_word(backend, 1);
+  uint32_t* root = root_word.data();
+  Buffer<SmallSubtree> small_list(backend, count / 2 + 1);
+  Buffer<uint32_t> small_counter(backend, 1);
+  backend.fill_bytes(small_counter.data(), 0, sizeof(uint32_t));
+  SmallSubtree* small = small_list.data();
+  uint32_t* small_count_word = small_counter.data();
+
+  const bool root_large = stays_large(count, root_centroids, false);
+  bool root_listed = false;
+  if (count >= 2 && !root_large) {
+    const uint32_t last = count - 1;
+    parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) {
+      small[0] = {kNoParent, 0, 0, last};
+      *small_count_word = 1;
+    });
+    root_listed = true;
+  }
+
+  if (root_large) {
+    Buffer<LargeNode> level_nodes(backend, 1), next_nodes(backend, 0);
+    level_nodes.upload(
+        std::vector<LargeNode>{{0, count - 1, kNoParent, 0, out.bvh.bounds, root_centroids}});
+    // Per element of the stage (a triangle of a large node): its position and node.
+    Buffer<uint32_t> element_pos(backend, count), element_node(backend, count);
+    uint32_t* first_pos = element_pos.data();
+    uint32_t* first_node = element_node.data();
+    parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
+      first_pos[i] = uint32_t(i);
+      first_node[i] = 0;
+    });
+    Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count),
+        next_node(backend, count);
+    Buffer<uint8_t> keep(backend, count);
+    Buffer<uint32_t> moved_orders(backend, count);
+    Buffer<Aabb> moved_boxes(backend, count);
+    Buffer<BinCell> cells(backend, 0);
+    Buffer<NodeSplit> splits(backend, 0);
+    Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
+    uint32_t node_count = 1, element_count = count;
+    for (int level = 0; node_count > 0; ++level) {
+      const bool last_level = level + 1 >= kMaxDataParallelLevels;
+      const uint32_t m = element_count;
+      const LargeNode* level_node = level_nodes.data();
+      uint32_t* pos = element_pos.data();
+      uint32_t* node_of = element_node.data();
+      uint32_t* key = keys.data();
+      uint32_t* value = values.data();
+
+      // Bins along each node's longest centroid axis, then one sort puts every node's triangles in
+      // bin order; the sort is stable and nodes are numbered in position order, so each node's
+      // triangles stay within its positions.
+      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+        const uint32_t j = node_of[i];
+        key[i] = j << kBinnedSahLogBins | BinMap::of(level_node[j].centroids).bin(box[pos[i]]);
+        value[i] = uint32_t(i);
+      });
+      backend.sort_pairs(key, value, m, int(bits_for(node_count) + kBinnedSahLogBins));
+      uint32_t* moved_order = moved_orders.data();
+      Aabb* moved_box = moved_boxes.data();
+      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+        moved_order[i] = order[pos[value[i]]];
+        moved_box[i] = box[pos[value[i]]];
+      });
+      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+        order[pos[i]] = moved_order[i];
+        box[pos[i]] = moved_box[i];
+      });
+
+      // The bins' counts and bounds, over chunks of the sorted elements.
+      cells.resize_discard(size_t(node_count) * kBinnedSahBins);
+      BinCell* cell = cells.data();
+      parallel_for(backend, cells.size(), [=] CAUSTICA_HD(size_t c) {
+        BinCell& b = cell[c];
+        b.count = 0;
+        for (int a = 0; a < 3; ++a) {
+          b.lower[a] = b.centroid_lower[a] = ordered_bits(FLT_MAX);
+          b.upper[a] = b.centroid_upper[a] = ordered_bits(-FLT_MAX);
+        }
+      });
+      const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
+      parallel_for(backend, chunks, [=] CAUSTICA_HD(size_t c) {
+        const uint32_t begin = uint32_t(c * kBinReductionChunk);
+        const uint32_t end = begin + kBinReductionChunk < m ? begin + kBinReductionChunk : m;
+        uint32_t run_key = key[begin], run_count = 0;
+        Aabb run_box, run_centroids;
+        for (uint32_t i = begin; i < end; ++i) {
+          if (key[i] != run_key) {
+            flush_bin(cell[run_key], run_count, run_box, run_centroids);
+            run_key = key[i];
+            run_count = 0;
+            run_box = run_centroids = Aabb{};
+          }
+          const Aabb b = moved_box[i];
+          ++run_count;
+          run_box.extend(b);
+          run_centroids.extend(b.center());
+        }
+        flush_bin(cell[run_key], run_count, run_box, run_centroids);
+      });
+
+      // Each node's split; its slot, leaf children and small children are written at once, and
+      // its large children counted for the next level.
+      splits.resize_discard(node_count);
+      continuing.resize_discard(node_count);
+      NodeSplit* split_of = splits.data();
+      uint32_t* more = continuing.data();
+      parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
+        const LargeNode n = level_node[j];
+        const NodeSplit s = sweep_bins(n, cell + j * kBinnedSahBins);
+        split_of[j] = s;
+        if (n.parent == kNoParent) {
+          *root = s.mid;
+        } else {
+          nodes[n.parent].child[n.side] = BvhChild{n.box.lower, s.mid, n.box.upper};
+        }
+        uint32_t large = 0;
+        const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
+        const Aabb child_box[2] = {s.left, s.right};
+        const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
+        for (uint32_t side = 0; side < 2; ++side) {
+          const uint32_t size = last[side] - first[side] + 1;
+          const Aabb& b = child_box[side];
+          if (stays_large(size, child_centroids[side], last_level)) {
+            ++large;
+          } else if (size == 1) {
+            nodes[s.mid].child[side] = BvhChild{b.lower, kLeafFlag | first[side], b.upper};
+          } else {
+            // The per-node stage reads the range's box from its slot.
+            nodes[s.mid].child[side] = BvhChild{b.lower, kNoNode, b.upper};
+            small[atomic_fetch_add(small_count_word, 1u)] = {s.mid, side, first[side], last[side]};
+          }
+        }
+        more[j] = large;
+      });
+      const uint32_t next_count = backend.exclusive_scan(more, more, node_count);
+      next_nodes.resize_discard(next_count);
+      child_next.resize_discard(2 * size_t(node_count));
+      LargeNode* next_node_list = next_nodes.data();
+      uint32_t* child_index = child_next.data();
+      parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
+        const LargeNode n = level_node[j];
+        const NodeSplit s = split_of[j];
+        uint32_t slot = more[j];
+        const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
+        const Aabb child_box[2] = {s.left, s.right};
+        const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
+        for (uint32_t side = 0; side < 2; ++side) {
+          const uint32_t size = last[side] - first[side] + 1;
+          if (stays_large(size, child_centroids[side], last_level)) {
+            next_node_list[slot] = {first[side], last[side],      s.mid,
+                                    side,        child_box[side], child_centroids[side]};
+            child_index[2 * j + side] = slot++;
+          } else {
+            child_index[2 * j + side] = kNoNode;
+          }
+        }
+      });
+      // The elements of large children, in position order, with their new nodes.
+      uint8_t* kept = keep.data();
+      uint32_t* new_node = next_node.data();
+      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+        const uint32_t j = key[i] >> kBinnedSahLogBins;
+        const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
+        new_node[i] = child_index[2 * j + side];
+        kept[i] = new_node[i] != kNoNode;
+      });
+      element_count = uint32_t(backend.select_flagged(pos, kept, m, next_pos.data()));
+      backend.select_flagged(new_node, kept, m, node_of);
+      std::swap(element_pos, next_pos);
+      std::swap(level_nodes, next_nodes);
+      node_count = next_count;
+    }
+  }
+
+  // The triangles in leaf order, then the small nodes finished by the per-node stage.
+  out.triangles.resize_discard(count);
+  out.triangle_ids = std::move(orders);
+  TriangleVertices* sorted = out.triangles.data();
+  const uint32_t* ids = out.triangle_ids.data();
+  parallel_for(backend, count, [=] CAUSTICA_HD(size_t p) { sorted[p] = triangles[ids[p]]; });
+  uint32_t small_count = 0;
+  backend.copy_to_host(&small_count, small_count_word, sizeof(uint32_t));
+  if (root_large) backend.copy_to_host(&out.bvh.root, root, sizeof(uint32_t));
+  rebuild_small_subtrees(backend, out.bvh, small, small_count, out.triangles, out.triangle_ids,
+                         root_listed);
+  return out;
+}
+
+}  // namespace caustica

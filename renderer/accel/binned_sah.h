@@ -1,0 +1,29 @@
+// A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4; Wald 2007), in two
+// stages:
+// - Nodes of more than kSahSubtreeTriangles triangles are split level by level over all of them
+//   at once, data-parallel over their triangles: each triangle takes a bin along its node's
+//   longest centroid axis, one stable radix sort by (node << log2 bins | bin) puts every node's
+//   triangles in bin order (so a split is a position and the children need no partition pass),
+//   the bins' counts and bounds are reduced over chunks of the sorted run, and one thread per
+//   node sweeps the bins for the cheapest split.
+// - Smaller nodes are finished a node per thread by the SAH subtree builder the LBVH uses
+//   (sah_subtrees.h), with bins on all three axes.
+// The tree keeps the radix tree's layout (internal node k splits between leaf positions k and
+// k + 1), so it collapses to 4-wide nodes like the LBVH (bvh4.h). Every decision is an integer
+// or an exact float operation (minima, maxima, counts), so each backend builds the same tree.
+#pragma once
+
+#include "renderer/accel/triangle_bvh.h"
+
+namespace caustica {
+
+// Bins along a node's longest centroid axis in the data-parallel stage, as a power of two
+// (docs/structures.md, "binned-sah").
+constexpr int kBinnedSahLogBins = 5;
+constexpr uint32_t kBinnedSahBins = 1u << kBinnedSahLogBins;
+
+// The binary SAH BVH over `count` triangles in the backend's memory.
+BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
+                                       uint32_t count);
+
+}  // namespace caustica

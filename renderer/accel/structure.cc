@@ -1,0 +1,76 @@
+#include "renderer/accel/structure.h"
+
+#include <chrono>
+
+#include "renderer/accel/binned_sah.h"
+#include "renderer/parallel/parallel_for.h"
+
+namespace caustica {
+namespace {
+
+// The binned SAH BVH collapsed to 4-wide nodes, the layout the LBVH's traversal reads.
+TriangleBvh build_binned_sah_bvh4(Backend& backend, const TriangleVertices* triangles,
+                                  uint32_t count) {
+  BinaryTriangleBvh binary = build_binned_sah_bvh(backend, triangles, count);
+  TriangleBvh out;
+  out.bvh = collapse_to_bvh4(backend, binary.bvh);
+  out.triangles = std::move(binary.triangles);
+  out.triangle_ids = std::move(binary.triangle_ids);
+  return out;
+}
+
+TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
+                               const TriangleVertices* triangles, uint32_t count) {
+  switch (kind) {
+    case StructureKind::kLbvh4:
+      return build_triangle_bvh(backend, triangles, count);
+    case StructureKind::kBinnedSah:
+      return build_binned_sah_bvh4(backend, triangles, count);
+  }
+  throw DeviceError("build_structure: unknown structure kind");
+}
+
+}  // namespace
+
+TriangleStructure build_structure(Backend& backend, StructureKind kind,
+                                  const TriangleVertices* triangles, uint32_t count) {
+  const auto start = std::chrono::steady_clock::now();
+  TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count);
+  backend.synchronize();
+  StructureStats stats;
+  stats.kind = kind;
+  stats.build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats.nodes = bvh.node_count();
+  stats.bytes = bvh.bytes();
+  stats.sah_cost = sah_cost(backend, bvh);
+  return TriangleStructure(std::move(bvh), stats);
+}
+
+double sah_cost(Backend& backend, const TriangleBvh& bvh) {
+  const float root_area = bvh.bvh.bounds.half_area();
+  const uint32_t triangles = bvh.bvh.triangle_count;
+  if (triangles == 0 || !(root_area > 0.0f)) return double(triangles);
+  if (triangles == 1) return 1.0;
+  // Per node: its children's terms relative to the root's area (C_T for an inner child, C_I per
+  // triangle of a leaf); the root itself adds 1.
+  const size_t n = bvh.bvh.nodes.size();
+  Buffer<float> terms(backend, n);
+  float* term = terms.data();
+  const Bvh4Node* nodes = bvh.bvh.nodes.data();
+  const float inv_root = 1.0f / root_area;
+  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+    const Bvh4Node& node = nodes[i];
+    float sum = 0.0f;
+    for (int c = 0; c < 4; ++c) {
+      const uint32_t child = node.child[c];
+      if (child == kEmptyChild) continue;
+      const float area = node.child_bounds(c).half_area() * inv_root;
+      sum += is_leaf(child) ? float(leaf_count(child)) * area : area;
+    }
+    term[i] = sum;
+  });
+  return 1.0 + backend.reduce_sum(term, n);
+}
+
+}  // namespace caustica

@@ -1,0 +1,81 @@
+// The seam where ray-tracing structures plug in, after pbrt-v4's CreateAccelerator and Embree's
+// builder factory: a scene names a StructureKind (structure_kind.h), build_structure runs that
+// kind's builder on any backend, and a TriangleStructure owns what it built.
+//
+// Every structure has a device view, a small struct of plain pointers copied by value into
+// kernels, that meets the StructureView contract below in CAUSTICA_HD code. Kernels are
+// templates over the view type: TriangleStructure::visit hands the caller the view of the
+// structure's layout, so the dispatch on the kind happens once per launch on the host and never
+// per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
+// the same (lbvh4 and binned-sah both end in 4-wide nodes) share one view type and so one
+// instantiation of every kernel.
+#pragma once
+
+#include <concepts>
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+#include <variant>
+
+#include "renderer/accel/structure_kind.h"
+#include "renderer/accel/traversal.h"
+#include "renderer/accel/triangle_bvh.h"
+
+namespace caustica {
+
+// What a structure's device view answers: the box of everything it holds, the nearest hit along
+// a ray in (t_min, t_max), and whether anything blocks that open segment. `triangle` in a Hit is
+// the index in the order the builder was given the triangles.
+template <typename View>
+concept StructureView = std::is_trivially_copyable_v<View> && requires(const View& v, Ray r) {
+  { v.bounds } -> std::convertible_to<Aabb>;
+  { closest_hit(v, r) } -> std::same_as<Hit>;
+  { any_hit(v, r) } -> std::same_as<bool>;
+};
+
+static_assert(StructureView<TriangleBvhView>);
+
+// What a builder reports about the structure it built.
+struct StructureStats {
+  StructureKind kind = kDefaultStructure;
+  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4)
+  size_t bytes = 0;  // everything its traversal reads: nodes, triangles, triangle ids
+  // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
+  // plus sum over leaves of triangles x area) over the root's area.
+  double sah_cost = 0;
+  double build_ms = 0;  // wall clock from the triangles in memory to the finished structure
+};
+
+class TriangleStructure {
+ public:
+  TriangleStructure() = default;
+  TriangleStructure(TriangleBvh bvh4, const StructureStats& stats)
+      : layout_(std::move(bvh4)), stats_(stats) {}
+
+  const StructureStats& stats() const { return stats_; }
+  StructureKind kind() const { return stats_.kind; }
+  Aabb bounds() const {
+    return std::visit([](const auto& layout) { return layout.view().bounds; }, layout_);
+  }
+
+  // Calls f(view) with this structure's device view: the one dispatch on the kind a launch makes.
+  template <typename F>
+  decltype(auto) visit(F&& f) const {
+    return std::visit([&](const auto& layout) -> decltype(auto) { return f(layout.view()); },
+                      layout_);
+  }
+
+ private:
+  std::variant<TriangleBvh> layout_;
+  StructureStats stats_;
+};
+
+// Builds a structure of `kind` over `count` triangles already in the backend's memory, and
+// measures it.
+TriangleStructure build_structure(Backend& backend, StructureKind kind,
+                                  const TriangleVertices* triangles, uint32_t count);
+
+// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend.
+double sah_cost(Backend& backend, const TriangleBvh& bvh);
+
+}  // namespace caustica

@@ -1,0 +1,231 @@
+// Every structure kind behind build_structure: what it reports against the tree it built, and its
+// closest and any hits against brute force; the binned SAH builder's own invariants.
+#include "renderer/accel/structure.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "renderer/accel/binned_sah.h"
+#include "renderer/accel/sah_subtrees.h"
+#include "renderer/scene/shapes.h"
+#include "tests/renderer/accel/structure_checks.h"
+#include "tests/renderer/accel/triangle_soup.h"
+
+namespace caustica {
+namespace {
+
+struct BuiltStructure {
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(2) << 30);
+  Buffer<TriangleVertices> input;
+  TriangleStructure structure;
+  BuiltStructure(StructureKind kind, const std::vector<TriangleVertices>& tris)
+      : input(*backend, tris.size()) {
+    input.upload(tris);
+    structure = build_structure(*backend, kind, input.data(), uint32_t(tris.size()));
+  }
+};
+
+std::vector<TriangleVertices> sphere_triangles() {
+  std::vector<TriangleVertices> tris;
+  append_triangles(make_sphere(Vec3f(0.3f, -0.2f, 0.1f), 1.7f, 64, 128), tris);
+  return tris;
+}
+
+class EveryStructure : public ::testing::TestWithParam<StructureKind> {
+ protected:
+  void check(const std::vector<TriangleVertices>& tris, int rays, uint32_t seed,
+             bool aim_at_triangles = false) {
+    BuiltStructure b(GetParam(), tris);
+    b.structure.visit(
+        [&](const auto& view) { check_rays(tris, view, rays, seed, aim_at_triangles); });
+  }
+};
+
+// The SAH cost walked from the root on the host (the builder sums it per node on the backend),
+// with the nodes counted on the way.
+double walked_sah_cost(const TriangleBvhView& v, size_t& nodes) {
+  const double root_area = v.bounds.half_area();
+  double cost = 1.0;
+  nodes = 0;
+  std::function<void(uint32_t)> walk = [&](uint32_t node) {
+    ++nodes;
+    const Bvh4Node& n = v.nodes[node];
+    for (int c = 0; c < 4; ++c) {
+      if (n.child[c] == kEmptyChild) continue;
+      const double area = n.child_bounds(c).half_area() / root_area;
+      if (is_leaf(n.child[c])) {
+        cost += leaf_count(n.child[c]) * area;
+      } else {
+        cost += area;
+        walk(n.child[c]);
+      }
+    }
+  };
+  walk(0);
+  return cost;
+}
+
+TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
+  const std::vector<TriangleVertices> tris = random_soup(5000, 41);
+  BuiltStructure b(GetParam(), tris);
+  const StructureStats& s = b.structure.stats();
+  EXPECT_EQ(s.kind, GetParam());
+  EXPECT_GT(s.build_ms, 0.0);
+  b.structure.visit([&](const TriangleBvhView& v) {
+    size_t nodes = 0;
+    const double cost = walked_sah_cost(v, nodes);
+    EXPECT_EQ(s.nodes, nodes);
+    EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
+    EXPECT_EQ(s.bytes, nodes * sizeof(Bvh4Node) +
+                           tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
+    Aabb all;
+    for (const TriangleVertices& t : tris) all.extend(box_of(t));
+    EXPECT_EQ(v.bounds.lower, all.lower);
+    EXPECT_EQ(v.bounds.upper, all.upper);
+  });
+}
+
+TEST_P(EveryStructure, MatchesBruteForceOnRandomSoup) { check(random_soup(4000, 99), 10000, 1); }
+
+TEST_P(EveryStructure, MatchesBruteForceOnAClosedMesh) { check(sphere_triangles(), 10000, 8); }
+
+TEST_P(EveryStructure, MatchesBruteForceOnBundledScenes) {
+  check(scene_triangles("cornell-caustics"), 10000, 2);
+  check(scene_triangles("cornell-box"), 4000, 3);
+  check(scene_triangles("ring"), 2000, 4);
+}
+
+// Roots that hold only leaves, and sizes around the leaf limit and the two builders' stage limit.
+TEST_P(EveryStructure, MatchesBruteForceOnSmallSoups) {
+  for (size_t n = 1; n <= 3 * kMaxLeafTriangles + 1; ++n) {
+    SCOPED_TRACE(n);
+    check(random_soup(n, uint32_t(100 + n)), 400, uint32_t(n), true);
+  }
+  for (size_t n : {kSahSubtreeTriangles, kSahSubtreeTriangles + 1}) {
+    SCOPED_TRACE(n);
+    check(random_soup(n, uint32_t(n)), 2000, uint32_t(n), true);
+  }
+}
+
+// Identical triangles tie at every hit; no split separates their centroids.
+TEST_P(EveryStructure, MatchesBruteForceWhenEveryTriangleCoincides) {
+  check(std::vector<TriangleVertices>(37, {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0)}), 1000,
+        5, true);
+  check(std::vector<TriangleVertices>(700, {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0)}), 1000,
+        6, true);
+}
+
+TEST_P(EveryStructure, EmptyAndSingleTriangle) {
+  BuiltStructure empty(GetParam(), {});
+  EXPECT_EQ(empty.structure.stats().nodes, 0u);
+  empty.structure.visit([](const auto& v) {
+    EXPECT_FALSE(closest_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}).valid());
+    EXPECT_FALSE(any_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}));
+  });
+  BuiltStructure one(GetParam(), {{Vec3f(-1, -1, 0), Vec3f(1, -1, 0), Vec3f(0, 1, 0)}});
+  one.structure.visit([](const auto& v) {
+    const Hit h = closest_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
+    ASSERT_TRUE(h.valid());
+    EXPECT_FLOAT_EQ(h.t, 1.0f);
+    EXPECT_EQ(h.triangle, 0u);
+    EXPECT_TRUE(any_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}));
+  });
+}
+
+INSTANTIATE_TEST_SUITE_P(Kinds, EveryStructure, ::testing::ValuesIn(kStructureKinds),
+                         [](const ::testing::TestParamInfo<StructureKind>& info) {
+                           std::string name = structure_kind_name(info.param);
+                           for (char& c : name)
+                             if (c == '-') c = '_';
+                           return name;
+                         });
+
+struct BinnedBuild {
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(2) << 30);
+  Buffer<TriangleVertices> input;
+  BinaryTriangleBvh binary;
+  TriangleBvh wide;
+  explicit BinnedBuild(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
+    input.upload(tris);
+    binary = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()));
+    // The collapse consumes its tree's triangles, so it gets a build of its own.
+    BinaryTriangleBvh again = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()));
+    wide.bvh = collapse_to_bvh4(*backend, again.bvh);
+    wide.triangles = std::move(again.triangles);
+    wide.triangle_ids = std::move(again.triangle_ids);
+  }
+};
+
+void check_binned_invariants(const std::vector<TriangleVertices>& tris) {
+  BinnedBuild b(tris);
+  {
+    SCOPED_TRACE("binary");
+    check_binary_invariants(b.binary, tris);
+  }
+  if (::testing::Test::HasFatalFailure()) return;
+  SCOPED_TRACE("collapsed");
+  check_wide_invariants(b.wide, tris);
+}
+
+// Sizes below, at and above the data-parallel stage's limit, and large enough for several of its
+// levels.
+TEST(BinnedSah, InvariantsOnRandomSoups) {
+  for (size_t n : {size_t(2), size_t(3), size_t(kSahSubtreeTriangles),
+                   size_t(kSahSubtreeTriangles + 1), size_t(1000), size_t(40000)}) {
+    SCOPED_TRACE(n);
+    check_binned_invariants(random_soup(n, uint32_t(7 + n)));
+  }
+}
+
+// A large node whose centroids coincide cannot be binned: the per-node stage splits it.
+TEST(BinnedSah, InvariantsWhenEveryCentroidCoincides) {
+  check_binned_invariants(
+      std::vector<TriangleVertices>(1000, {Vec3f(0, 0, 0), Vec3f(1, 0, 0), Vec3f(0, 1, 0)}));
+  // And beside a cloud of ordinary triangles.
+  std::vector<TriangleVertices> mixed = random_soup(3000, 17);
+  mixed.insert(mixed.end(), 600, {Vec3f(2, 2, 2), Vec3f(3, 2, 2), Vec3f(2, 3, 2)});
+  check_binned_invariants(mixed);
+}
+
+TEST(BinnedSah, InvariantsOnBundledSceneAndAClosedMesh) {
+  check_binned_invariants(scene_triangles("cornell-caustics"));
+  check_binned_invariants(sphere_triangles());
+}
+
+// Atomic minima, maxima and counts reduce the bins in any order to the same values, and the sorts
+// are stable: every build is the same tree.
+TEST(BinnedSah, EveryBuildIsTheSameTree) {
+  const std::vector<TriangleVertices> tris = random_soup(60000, 3);
+  BinnedBuild first(tris), second(tris);
+  EXPECT_EQ(first.binary.bvh.root, second.binary.bvh.root);
+  EXPECT_EQ(first.binary.triangle_ids.download(), second.binary.triangle_ids.download());
+  const std::vector<BvhNode> a = first.binary.bvh.nodes.download(),
+                             b = second.binary.bvh.nodes.download();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(BvhNode)));
+}
+
+// SAH from the root places the top splits where the surface is, not where the curve's octree
+// cells are: its inner nodes cost less than the radix tree's on a scanned-like closed surface and
+// on a soup.
+TEST(BinnedSah, InnerNodesCostLessThanTheRadixTrees) {
+  for (const std::vector<TriangleVertices>& tris : {sphere_triangles(), random_soup(40000, 5)}) {
+    BinnedBuild b(tris);
+    auto backend = make_cpu_backend(size_t(1) << 30);
+    Buffer<TriangleVertices> input(*backend, tris.size());
+    input.upload(tris);
+    const BinaryTriangleBvh radix =
+        build_triangle_lbvh(*backend, input.data(), uint32_t(tris.size()));
+    const double binned = internal_area_cost(b.binary), lbvh = internal_area_cost(radix);
+    std::printf("%zu triangles: inner-node SAH binned %.1f, radix tree %.1f\n", tris.size(), binned,
+                lbvh);
+    EXPECT_LT(binned, lbvh);
+  }
+}
+
+}  // namespace
+}  // namespace caustica
