@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "client/connection.h"
 #include "client/scene_source.h"
+#include "renderer/accel/structure_kind.h"
 
 namespace caustica::client {
 
@@ -23,10 +24,11 @@ struct GlobalOptions {
   bool progress = false;  // progress bars on stderr (main sets it when stderr is a terminal)
 };
 
-// scene upload FILE [--name N]: prints the new scene's id.
+// scene upload FILE [--name N] [--structure S]: prints the new scene's id.
 struct SceneUploadOptions {
   std::filesystem::path file;
-  std::string name;  // empty: derived from the file name
+  std::string name;                        // empty: derived from the file name
+  std::optional<StructureKind> structure;  // replaces the file's settings.structure
 };
 absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOptions& options,
                               std::ostream& out);

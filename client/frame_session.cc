@@ -71,6 +71,7 @@ void FrameSession::report_start(std::ostream& out) const {
                            info->name(), info->scene_id(), info->triangles(),
                            mib_text(info->upload_bytes()), info->upload_ms());
     out << absl::StrFormat("build (ms)   %s\n", timings_text(info->last_rebuild().timings()));
+    out << absl::StrFormat("structure    %s\n", structure_text(*info));
   } else {
     out << absl::StrFormat("scene        %s\n", source_->id());
   }

@@ -3,15 +3,44 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include "client/commands.h"
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
+#include "renderer/accel/structure_kind.h"
 
 namespace {
 
 using namespace caustica::client;
+
+// --structure NAME: turns a structure's name into the number its option stores, and refuses an
+// unknown name with the list of known ones.
+CLI::Validator structure_names() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        const std::optional<caustica::StructureKind> kind = caustica::parse_structure_kind(value);
+        if (!kind) {
+          return "unknown structure '" + value + "' (expected " + caustica::structure_kind_list() +
+                 ")";
+        }
+        value = std::to_string(static_cast<uint32_t>(*kind));
+        return {};
+      },
+      "");
+}
+
+// --structure NAME, which sets `structure`; `effect` says what it changes.
+void add_structure_option(CLI::App* command, std::optional<caustica::StructureKind>& structure,
+                          const std::string& effect) {
+  command
+      ->add_option(
+          "--structure", structure,
+          "ray-tracing structure: " + caustica::structure_kind_list() + " (" + effect + ")")
+      ->type_name("NAME")
+      ->transform(structure_names());
+}
 
 // SCENE, --keep, --exposure and the scene overrides of render, stream and animate.
 void add_frame_job(CLI::App* command, FrameJobOptions& job) {
@@ -24,6 +53,7 @@ void add_frame_job(CLI::App* command, FrameJobOptions& job) {
   command->add_option("--height", o.height, "image height in pixels (changes the scene)");
   command->add_option("--photons", o.photons, "photons emitted per pass (changes the scene)");
   command->add_option("--k", o.k, "photons per radiance estimate (changes the scene)");
+  add_structure_option(command, o.structure, "changes the scene");
 }
 
 // -o DIR and --format of the commands that write numbered frames.
@@ -68,6 +98,7 @@ int main(int argc, char** argv) {
   CLI::App* upload_cmd = scene->add_subcommand("upload", "upload a scene file; prints its id");
   upload_cmd->add_option("file", upload.file, "scene file (JSON)")->required();
   upload_cmd->add_option("--name", upload.name, "name shown by scene list");
+  add_structure_option(upload_cmd, upload.structure, "replaces the file's settings.structure");
   on(upload_cmd, "scene upload", [&] { return run_scene_upload(global, upload, std::cout); });
   on(scene->add_subcommand("list", "list the scenes on the server"), "scene list",
      [&] { return run_scene_list(global, std::cout); });

@@ -54,6 +54,12 @@ std::string frame_text(const v1::Frame& f) {
 
 std::string mib_text(uint64_t bytes) { return absl::StrFormat("%.2f MiB", bytes / 1048576.0); }
 
+std::string structure_text(const v1::SceneInfo& s) {
+  return absl::StrFormat("%s, %d nodes, %s, SAH %.1f, built in %.1f ms", s.structure(),
+                         s.structure_nodes(), mib_text(s.structure_bytes()), s.structure_sah_cost(),
+                         s.structure_build_ms());
+}
+
 void print_rebuild_report(std::ostream& out, const v1::RebuildReport& r) {
   out << absl::StrFormat("rebuilt      %s\n",
                          r.rebuilt().empty() ? "nothing" : absl::StrJoin(r.rebuilt(), ", "));
@@ -78,9 +84,10 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
       "bounces %d, area light samples %d, seed %d\n",
       rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::Kernel_Name(rs.kernel()),
       rs.max_depth(), rs.max_photon_bounces(), rs.area_light_samples(), rs.seed());
-  out << absl::StrFormat("memory       structure %d nodes, %s; photon maps %s; device %s\n",
-                         s.structure_nodes(), mib_text(s.structure_bytes()),
-                         mib_text(s.photon_map_bytes()), mib_text(s.device_bytes()));
+  out << absl::StrFormat("structure    %s\n", structure_text(s));
+  out << absl::StrFormat("memory       structure %s; photon maps %s; device %s\n",
+                         mib_text(s.structure_bytes()), mib_text(s.photon_map_bytes()),
+                         mib_text(s.device_bytes()));
   out << absl::StrFormat("upload       %s in %.1f ms\n", mib_text(s.upload_bytes()), s.upload_ms());
   out << absl::StrFormat("film         %d passes\n", s.passes());
   out << absl::StrFormat("epochs       %s\n", epochs_text(s.epochs()));
@@ -125,7 +132,11 @@ void print_stats(std::ostream& out, const v1::Stats& s) {
                              l.count(), l.p50_ms(), l.p90_ms(), l.p99_ms(), l.max_ms());
     }
   }
-  if (!s.scene_stats().empty()) print_scene_table(out, s.scene_stats());
+  if (s.scene_stats().empty()) return;
+  print_scene_table(out, s.scene_stats());
+  for (const v1::SceneInfo& scene : s.scene_stats()) {
+    out << absl::StrFormat("structure    %s: %s\n", scene.scene_id(), structure_text(scene));
+  }
 }
 
 }  // namespace caustica::client

@@ -35,8 +35,10 @@ absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOpti
                               std::ostream& out) {
   absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
   if (!connection.ok()) return connection.status();
+  SceneOverrides overrides;
+  overrides.structure = options.structure;
   absl::StatusOr<UploadedFile> uploaded =
-      upload_scene_file(**connection, options.file, options.name, {}, global.progress);
+      upload_scene_file(**connection, options.file, options.name, overrides, global.progress);
   if (!uploaded.ok()) return uploaded.status();
   if ((*connection)->embedded()) {
     std::cerr << "caustica: scene upload: note: the scene lived on an embedded server that stops "

@@ -7,6 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "client/progress_bar.h"
 #include "client/scene_upload.h"
+#include "proto/wire/scene_wire.h"
 #include "renderer/scene/load_scene.h"
 
 namespace caustica::client {
@@ -21,6 +22,7 @@ void SceneOverrides::apply(Scene& scene) const {
   if (height) scene.camera.height = static_cast<int>(*height);
   if (photons) scene.settings.photons_per_pass = *photons;
   if (k) scene.settings.k_nearest = *k;
+  if (structure) scene.settings.structure = *structure;
 }
 
 v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) const {
@@ -30,6 +32,7 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
   if (height) request.set_height(*height);
   if (photons) request.mutable_settings()->set_photons_per_pass(*photons);
   if (k) request.mutable_settings()->set_k_nearest(*k);
+  if (structure) request.mutable_settings()->set_structure(wire::encode_structure(*structure));
   return request;
 }
 

@@ -1,7 +1,7 @@
 // The SCENE argument of render, stream and animate: the id of a scene on the server, or a scene
 // file, which is then uploaded for the one command and deleted after it (unless kept). Flags that
-// override resolution and photon settings go into the file's scene before upload, or to a scene
-// id through UpdateSettings.
+// override resolution, photon settings and the structure go into the file's scene before upload,
+// or to a scene id through UpdateSettings.
 #pragma once
 
 #include <cstdint>
@@ -13,14 +13,16 @@
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.pb.h"
 #include "client/connection.h"
+#include "renderer/accel/structure_kind.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica::client {
 
 struct SceneOverrides {
   std::optional<uint32_t> width, height, photons, k;
+  std::optional<StructureKind> structure;
 
-  bool empty() const { return !width && !height && !photons && !k; }
+  bool empty() const { return !width && !height && !photons && !k && !structure; }
   void apply(Scene& scene) const;
   v1::UpdateSettingsRequest request(const std::string& scene_id) const;
 };

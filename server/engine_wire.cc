@@ -83,8 +83,11 @@ void describe_state(const Engine& engine, uint32_t film_passes, v1::SceneInfo* i
   *info->mutable_camera() = wire::encode_camera(scene.camera);
   *info->mutable_settings() = wire::encode_settings(scene.settings);
   *info->mutable_epochs() = encode_epochs(engine.epochs());
+  info->set_structure(structure_kind_name(stats.structure));
   info->set_structure_nodes(stats.structure_nodes);
   info->set_structure_bytes(stats.structure_bytes);
+  info->set_structure_build_ms(stats.last_structure_build_ms);
+  info->set_structure_sah_cost(stats.structure_sah_cost);
   info->set_photon_map_bytes(stats.photon_map_bytes);
   info->set_device_bytes(stats.device_bytes);
   info->set_passes(film_passes);

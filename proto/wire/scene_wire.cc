@@ -6,6 +6,9 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <iterator>
+#include <optional>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -49,6 +52,14 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
   }
   return 0;
 }
+
+// The wire's value of every structure: the one place where the two enums are matched, so that a
+// new StructureKind needs a wire value here before it builds.
+constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
+    {StructureKind::kLbvh4, v1::LBVH4},
+    {StructureKind::kBinnedSah, v1::BINNED_SAH},
+};
+static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 
 // One material for the whole mesh: the header names it, and no id per triangle is sent.
 bool has_one_material(const Mesh& mesh) {
@@ -155,7 +166,15 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_max_photon_bounces(s.max_photon_bounces);
   out.set_area_light_samples(s.area_light_samples);
   out.set_seed(s.seed);
+  out.set_structure(encode_structure(s.structure));
   return out;
+}
+
+v1::Structure encode_structure(StructureKind kind) {
+  for (const auto& [structure_kind, wire_structure] : kWireStructures) {
+    if (structure_kind == kind) return wire_structure;
+  }
+  return v1::STRUCTURE_UNSPECIFIED;
 }
 
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name) {
@@ -302,6 +321,13 @@ absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view fiel
   return camera;
 }
 
+std::optional<StructureKind> decode_structure(v1::Structure structure) {
+  for (const auto& [structure_kind, wire_structure] : kWireStructures) {
+    if (wire_structure == structure) return structure_kind;
+  }
+  return std::nullopt;
+}
+
 absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
                                               const RenderSettings& current,
                                               std::string_view field) {
@@ -328,6 +354,14 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
   if (in.has_max_photon_bounces()) s.max_photon_bounces = in.max_photon_bounces();
   if (in.has_area_light_samples()) s.area_light_samples = in.area_light_samples();
   if (in.has_seed()) s.seed = in.seed();
+  if (in.structure() != v1::STRUCTURE_UNSPECIFIED) {
+    const std::optional<StructureKind> structure = decode_structure(in.structure());
+    if (!structure) {
+      return invalid(join_field(field, "structure"),
+                     absl::StrCat(in.structure(), " is not a structure"));
+    }
+    s.structure = *structure;
+  }
   return s;
 }
 

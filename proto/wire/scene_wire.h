@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "caustica/v1/scene.pb.h"
+#include "renderer/accel/structure_kind.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica::wire {
@@ -30,6 +32,7 @@ v1::Material encode_material(const Material& m);
 v1::Light encode_light(const Light& light);
 v1::Camera encode_camera(const Camera& camera);
 v1::RenderSettings encode_settings(const RenderSettings& settings);  // every field set
+v1::Structure encode_structure(StructureKind kind);
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name);
 // Bytes the mesh chunks of `scene` carry in total.
 size_t mesh_bytes(const Scene& scene);
@@ -45,6 +48,8 @@ absl::StatusOr<Light> decode_light(const v1::Light& light, std::string_view fiel
 absl::StatusOr<std::vector<Light>> decode_lights(
     const google::protobuf::RepeatedPtrField<v1::Light>& lights, std::string_view field);
 absl::StatusOr<Camera> decode_camera(const v1::Camera& camera, std::string_view field);
+// nullopt for STRUCTURE_UNSPECIFIED and for values this build does not know.
+std::optional<StructureKind> decode_structure(v1::Structure structure);
 // Applies the fields set in `settings` on top of `current`.
 absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& settings,
                                               const RenderSettings& current,

@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "renderer/accel/structure_kind.h"
 #include "renderer/scene/json_fields.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
@@ -159,6 +160,17 @@ class SceneReader {
         object.read_integer("area_light_samples", kOptional, &s.area_light_samples));
     SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));
     SCENE_RETURN_IF_ERROR(object.read_integer("seed", kOptional, &s.seed));
+    if (object.has("structure")) {
+      std::string structure;
+      SCENE_RETURN_IF_ERROR(object.read("structure", kRequired, &structure));
+      const std::optional<StructureKind> kind = parse_structure_kind(structure);
+      if (!kind) {
+        return invalid_field(object.field_path("structure"),
+                             absl::StrCat("unknown structure '", structure, "' (expected ",
+                                          structure_kind_list(), ")"));
+      }
+      s.structure = *kind;
+    }
     return object.finish();
   }
 

@@ -78,7 +78,12 @@ absl::Status validate_settings(const RenderSettings& s) {
       check_in_range("settings.max_photon_bounces", s.max_photon_bounces, 0, kMaxPhotonBounces));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.area_light_samples", s.area_light_samples, 1, kMaxAreaLightSamples));
-  return check_in_range("settings.passes", s.passes, 1, kMaxPasses);
+  SCENE_RETURN_IF_ERROR(check_in_range("settings.passes", s.passes, 1, kMaxPasses));
+  if (!std::ranges::any_of(kStructureKinds,
+                           [&](StructureKind kind) { return kind == s.structure; })) {
+    return invalid_field("settings.structure", "is not a known structure");
+  }
+  return absl::OkStatus();
 }
 
 namespace {

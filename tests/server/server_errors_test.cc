@@ -235,6 +235,40 @@ TEST_F(ServerTest, BadUpdatesNameTheFieldAndChangeNothing) {
   expect_server_healthy(*server_);
 }
 
+TEST_F(ServerTest, UnknownStructureIsRefusedAndTheSceneKeepsRendering) {
+  const std::string id = upload_scene(*stub_, cornell_box(16, 16, 2000, 16, 1));
+  const v1::SceneInfo before = get_scene(*stub_, id);
+  v1::UpdateSettingsRequest request;
+  request.set_scene_id(id);
+  request.mutable_settings()->set_k_nearest(8);
+  request.mutable_settings()->set_structure(static_cast<v1::Structure>(99));
+  v1::RebuildReport report;
+  {
+    grpc::ClientContext context;
+    set_deadline(context);
+    const grpc::Status status = stub_->UpdateSettings(&context, request, &report);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(status.error_message().find("settings.structure"), std::string::npos)
+        << status.error_message();
+  }
+  // Nothing of the refused request applies, not even its valid k.
+  const v1::SceneInfo after = get_scene(*stub_, id);
+  EXPECT_EQ(after.epochs().SerializeAsString(), before.epochs().SerializeAsString());
+  EXPECT_EQ(after.settings().SerializeAsString(), before.settings().SerializeAsString());
+  EXPECT_EQ(after.structure(), before.structure());
+  EXPECT_EQ(after.structure_nodes(), before.structure_nodes());
+  EXPECT_EQ(after.structure_bytes(), before.structure_bytes());
+  EXPECT_EQ(after.triangles(), before.triangles());
+
+  v1::Frame frame;
+  const grpc::Status rendered =
+      render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &frame);
+  ASSERT_TRUE(rendered.ok()) << rendered.error_message();
+  EXPECT_EQ(frame.epochs().SerializeAsString(), before.epochs().SerializeAsString());
+  EXPECT_GT(mean_rgb(frame_floats(frame)), 0.01) << "the image should not be black";
+  expect_server_healthy(*server_);
+}
+
 class SmallBudgetTest : public ServerTest {
  protected:
   std::vector<std::string> server_args() const override {

@@ -7,9 +7,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "proto/wire/scene_wire.h"
 #include "server/frame_encoding.h"
 #include "tests/server/server_harness.h"
@@ -302,6 +306,96 @@ TEST_F(ServerTest, UpdateCameraAndSettings) {
   EXPECT_NE(moved.data(), frame.data());
 }
 
+TEST_F(ServerTest, UpdateSettingsChangesTheStructure) {
+  const std::string id = upload_scene(*stub_, cornell_box(16, 16, 2000, 16, 2));
+  const v1::SceneInfo before = get_scene(*stub_, id);
+  EXPECT_EQ(before.structure(), "lbvh4") << "the default for a new scene";
+  EXPECT_EQ(before.settings().structure(), v1::LBVH4);
+
+  v1::UpdateSettingsRequest request;
+  request.set_scene_id(id);
+  request.mutable_settings()->set_structure(v1::BINNED_SAH);
+  v1::RebuildReport report;
+  {
+    grpc::ClientContext context;
+    set_deadline(context);
+    const grpc::Status status = stub_->UpdateSettings(&context, request, &report);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  EXPECT_EQ(std::count(report.rebuilt().begin(), report.rebuilt().end(), "geometry"), 1)
+      << "rebuilt: " << absl::StrJoin(report.rebuilt(), ", ");
+  EXPECT_GT(report.timings().structure_build_ms(), 0);
+  EXPECT_GT(report.epochs().geometry(), before.epochs().geometry());
+
+  const v1::SceneInfo after = get_scene(*stub_, id);
+  EXPECT_EQ(after.structure(), "binned-sah");
+  EXPECT_EQ(after.settings().structure(), v1::BINNED_SAH);
+  EXPECT_GT(after.structure_nodes(), 0u);
+  EXPECT_GT(after.structure_bytes(), 0u);
+  EXPECT_GT(after.structure_sah_cost(), 0);
+  EXPECT_GT(after.structure_build_ms(), 0);
+  EXPECT_EQ(after.epochs().geometry(), report.epochs().geometry());
+  EXPECT_EQ(after.settings().k_nearest(), 16u) << "unset settings keep their values";
+
+  v1::Frame frame;
+  const grpc::Status rendered =
+      render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &frame);
+  ASSERT_TRUE(rendered.ok()) << rendered.error_message();
+  EXPECT_EQ(frame.epochs().geometry(), report.epochs().geometry());
+  EXPECT_GT(mean_rgb(frame_floats(frame)), 0.01) << "the image should not be black";
+}
+
+TEST_F(ServerTest, UploadedStructureIsReported) {
+  Scene scene = cornell_box(16, 16, 2000, 16, 2);
+  scene.settings.structure = StructureKind::kBinnedSah;
+  v1::SceneInfo info;
+  const grpc::Status status = upload(*stub_, scene_chunks(scene, "binned"), &info);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(info.structure(), "binned-sah");
+  EXPECT_EQ(info.settings().structure(), v1::BINNED_SAH);
+  EXPECT_GT(info.structure_nodes(), 0u);
+  EXPECT_GT(info.structure_bytes(), 0u);
+  EXPECT_GT(info.structure_sah_cost(), 0);
+  EXPECT_GT(info.structure_build_ms(), 0);
+
+  // GetStats carries the same SceneInfo per scene.
+  v1::Stats stats;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(stub_->GetStats(&context, {}, &stats).ok());
+  }
+  ASSERT_EQ(stats.scene_stats_size(), 1);
+  EXPECT_EQ(stats.scene_stats(0).structure(), "binned-sah");
+  EXPECT_EQ(stats.scene_stats(0).structure_nodes(), info.structure_nodes());
+  EXPECT_EQ(stats.scene_stats(0).structure_sah_cost(), info.structure_sah_cost());
+}
+
+TEST_F(ServerTest, CausticaRenderTakesAStructureByName) {
+  const std::string scene_file = absl::StrCat(CAUSTICA_SCENES_DIR, "/cornell-box/scene.json");
+  auto run = [&](const std::string& structure, const std::string& log_name) {
+    const std::string command =
+        absl::StrCat("'", CAUSTICA_RENDER_BIN, "' '", scene_file, "' -o '",
+                     (server_->dir() / "structure.pfm").string(),
+                     "' --width 16 --height 16 --photons 2000 --k 16 --structure ", structure,
+                     " > '", (server_->dir() / log_name).string(), "' 2>&1");
+    return std::system(command.c_str());
+  };
+  auto read_log = [&](const std::string& log_name) {
+    std::ifstream in(server_->dir() / log_name);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+
+  EXPECT_EQ(run("binned-sah", "binned.log"), 0) << read_log("binned.log");
+  const std::string log = read_log("binned.log");
+  EXPECT_NE(log.find("structure    binned-sah, "), std::string::npos) << log;
+  EXPECT_NE(log.find(", SAH "), std::string::npos) << log;
+
+  EXPECT_NE(run("kd-tree", "bad.log"), 0);
+  const std::string bad = read_log("bad.log");
+  EXPECT_NE(bad.find("unknown structure 'kd-tree' (expected lbvh4, binned-sah)"), std::string::npos)
+      << bad;
+}
+
 TEST_F(ServerTest, ListGetAndDeleteScenes) {
   const Scene scene = cornell_box(16, 16, 2000, 16, 2);
   const std::string first = upload_scene(*stub_, scene, "first");
@@ -329,7 +423,10 @@ TEST_F(ServerTest, ListGetAndDeleteScenes) {
   EXPECT_EQ(info.camera().width(), 16u);
   EXPECT_EQ(info.settings().photons_per_pass(), 2000u);
   EXPECT_EQ(info.upload_bytes(), wire::mesh_bytes(scene));
+  EXPECT_EQ(info.structure(), "lbvh4");
   EXPECT_GT(info.structure_nodes(), 0u);
+  EXPECT_GT(info.structure_bytes(), 0u);
+  EXPECT_GT(info.structure_build_ms(), 0);
   EXPECT_GT(info.device_bytes(), 0u);
   EXPECT_GE(info.epochs().geometry(), 1u);
 

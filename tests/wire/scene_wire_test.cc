@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 
+#include "renderer/accel/structure_kind.h"
 #include "renderer/scene/load_scene.h"
 #include "renderer/scene/scene_limits.h"
 
@@ -86,6 +88,50 @@ TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
   EXPECT_EQ(back->camera.vertical_fov_deg, scene.camera.vertical_fov_deg);
   EXPECT_EQ(back->settings.photons_per_pass, scene.settings.photons_per_pass);
   EXPECT_EQ(back->settings.kernel, scene.settings.kernel);
+  EXPECT_EQ(back->settings.structure, scene.settings.structure);
+}
+
+TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
+  for (const StructureKind kind : kStructureKinds) {
+    RenderSettings settings;
+    settings.structure = kind;
+    const v1::RenderSettings encoded = encode_settings(settings);
+    EXPECT_NE(encoded.structure(), v1::STRUCTURE_UNSPECIFIED) << structure_kind_name(kind);
+    // Applied on top of every other kind, so that the value comes from the wire.
+    for (const StructureKind current : kStructureKinds) {
+      RenderSettings before;
+      before.structure = current;
+      absl::StatusOr<RenderSettings> applied = apply_settings(encoded, before, "settings");
+      ASSERT_TRUE(applied.ok()) << applied.status();
+      EXPECT_EQ(applied->structure, kind) << structure_kind_name(kind);
+    }
+  }
+  EXPECT_EQ(encode_structure(StructureKind::kLbvh4), v1::LBVH4);
+  EXPECT_EQ(encode_structure(StructureKind::kBinnedSah), v1::BINNED_SAH);
+  EXPECT_EQ(decode_structure(v1::LBVH4), StructureKind::kLbvh4);
+  EXPECT_EQ(decode_structure(v1::BINNED_SAH), StructureKind::kBinnedSah);
+  EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
+}
+
+TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {
+  RenderSettings current;
+  current.structure = StructureKind::kBinnedSah;
+  v1::RenderSettings update;
+  update.set_k_nearest(8);
+  ASSERT_EQ(update.structure(), v1::STRUCTURE_UNSPECIFIED);
+  absl::StatusOr<RenderSettings> applied = apply_settings(update, current, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->structure, StructureKind::kBinnedSah);
+  EXPECT_EQ(applied->k_nearest, 8u);
+}
+
+TEST(SceneWire, UnknownStructureIsRefusedNamingTheField) {
+  v1::RenderSettings update;
+  update.set_structure(static_cast<v1::Structure>(7));
+  absl::StatusOr<RenderSettings> applied = apply_settings(update, RenderSettings{}, "settings");
+  EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(applied.status().message()),
+              HasSubstr("settings.structure: 7 is not a structure"));
 }
 
 TEST(SceneWire, ChunkChecksumIsZlibCrc32) {
@@ -219,6 +265,12 @@ INSTANTIATE_TEST_SUITE_P(
         BadUpload{"material out of range",
                   [](auto& c) { c[0].mutable_header()->mutable_meshes(0)->set_material(42); },
                   absl::StatusCode::kInvalidArgument, "material: 42 is out of range"},
+        BadUpload{"unknown structure",
+                  [](auto& c) {
+                    c[0].mutable_header()->mutable_settings()->set_structure(
+                        static_cast<v1::Structure>(3));
+                  },
+                  absl::StatusCode::kInvalidArgument, "settings.structure"},
         BadUpload{"no header at all", [](auto& c) { c.clear(); },
                   absl::StatusCode::kInvalidArgument, "ended before the scene header"},
         BadUpload{"second header", [](auto& c) { c.push_back(c[0]); },

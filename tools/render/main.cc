@@ -2,9 +2,33 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <cstdint>
 #include <iostream>
+#include <optional>
+#include <string>
 
+#include "renderer/accel/structure_kind.h"
 #include "tools/render/render_job.h"
+
+namespace {
+
+// --structure NAME: turns a structure's name into the number its option stores, and refuses an
+// unknown name with the list of known ones.
+CLI::Validator structure_names() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        const std::optional<caustica::StructureKind> kind = caustica::parse_structure_kind(value);
+        if (!kind) {
+          return "unknown structure '" + value + "' (expected " + caustica::structure_kind_list() +
+                 ")";
+        }
+        value = std::to_string(static_cast<uint32_t>(*kind));
+        return {};
+      },
+      "");
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   caustica::RenderJob job;
@@ -21,6 +45,12 @@ int main(int argc, char** argv) {
   app.add_option("--k", job.k, "photons per radiance estimate (k nearest)");
   app.add_option("--passes", job.passes, "progressive passes, fresh photons each");
   app.add_option("--seed", job.seed, "random seed; the same seed gives the same image");
+  app.add_option("--structure", job.structure,
+                 "ray-tracing structure: " + caustica::structure_kind_list() +
+                     " (default: the scene's, else " +
+                     caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
+      ->type_name("NAME")
+      ->transform(structure_names());
   app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
   CLI11_PARSE(app, argc, argv);
   job.show_progress = isatty(STDERR_FILENO);

@@ -26,6 +26,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   if (job.k) rs.k_nearest = *job.k;
   if (job.passes) rs.passes = *job.passes;
   if (job.seed) rs.seed = *job.seed;
+  if (job.structure) rs.structure = *job.structure;
 
   absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({});
   if (!engine.ok()) return engine.status();
@@ -50,9 +51,10 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
                          job.scene.string(), summary.stats.triangles, summary.stats.lights,
                          summary.load_ms);
   log << absl::StrFormat("device       %s, %d threads\n", device.name, device.compute_units);
-  log << absl::StrFormat("structure    LBVH %d nodes, %.1f MiB, built in %.2f ms\n",
+  log << absl::StrFormat("structure    %s, %d nodes, %.1f MiB, SAH %.1f, built in %.2f ms\n",
+                         structure_kind_name(summary.stats.structure),
                          summary.stats.structure_nodes, summary.stats.structure_bytes / 1048576.0,
-                         summary.stats.last_structure_build_ms);
+                         summary.stats.structure_sah_cost, summary.stats.last_structure_build_ms);
   log << absl::StrFormat(
       "photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
       rs.photons_per_pass, report->caustic_photons, report->global_photons);

@@ -8,6 +8,7 @@
 #include <ostream>
 
 #include "absl/status/statusor.h"
+#include "renderer/accel/structure_kind.h"
 #include "renderer/engine.h"
 
 namespace caustica {
@@ -17,6 +18,7 @@ struct RenderJob {
   std::filesystem::path output;
   std::optional<int> width, height;
   std::optional<uint32_t> photons, k, passes, seed;
+  std::optional<StructureKind> structure;
   float exposure_stops = 0.0f;
   bool show_progress = false;  // progress line on stderr
 };

@@ -169,6 +169,12 @@ std::vector<Edit> edits() {
       {"UnknownKernel",
        {set_settings(R"({"kernel": "gauss"})")},
        {"settings.kernel: unknown kernel"}},
+      {"UnknownStructure",
+       {set_settings(R"({"structure": "kd-tree"})")},
+       {"settings.structure: unknown structure 'kd-tree'", "(expected lbvh4, binned-sah)"}},
+      {"StructureNotString",
+       {set_settings(R"({"structure": 1})")},
+       {"settings.structure: expected a string"}},
       // Geometry.
       {"IndexOutOfRange",
        {{floor,

@@ -2,6 +2,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
+#include "renderer/accel/structure_kind.h"
 #include "renderer/scene/load_scene.h"
 #include "renderer/scene/mesh_file.h"
 #include "tests/renderer/scene/scene_test_util.h"
@@ -11,6 +13,7 @@ namespace {
 
 using ::caustica::testing::find_material;
 using ::caustica::testing::find_mesh;
+using ::caustica::testing::message_of;
 using ::caustica::testing::scene_data;
 using ::caustica::testing::triangle_cross;
 using ::caustica::testing::Vec3Near;
@@ -166,6 +169,45 @@ TEST_F(MeshesSceneTest, MeshFileLightsFollowSceneLightsAndTheTransform) {
   ASSERT_NE(gltf_lamp, nullptr);
   EXPECT_THAT(gltf_lamp->name, HasSubstr("shapes[5] 'gltf' (lights.glb: mesh 'Tri'"));
   EXPECT_THAT(gltf_lamp->positions[0], Vec3Near(Vec3f(0, 0, 98), 1e-5f));
+}
+
+// A scene with one light and one triangle, its settings `settings`.
+absl::StatusOr<Scene> scene_with_settings(const std::string& settings) {
+  const std::string text = absl::StrCat(R"({
+    "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+    "settings": )",
+                                        settings, R"(,
+    "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+    "shapes": [{"type": "triangles", "material": "grey",
+                "vertices": [[0, 0, 0], [1, 0, 0], [0, 0, 1]], "indices": [0, 2, 1]}]
+  })");
+  return parse_scene(text, scene_data("good"), "inline.json");
+}
+
+TEST(ParseScene, StructureByName) {
+  const absl::StatusOr<Scene> lbvh4 = scene_with_settings(R"({"structure": "lbvh4"})");
+  ASSERT_TRUE(lbvh4.ok()) << lbvh4.status();
+  EXPECT_EQ(lbvh4->settings.structure, StructureKind::kLbvh4);
+  const absl::StatusOr<Scene> binned = scene_with_settings(R"({"structure": "binned-sah"})");
+  ASSERT_TRUE(binned.ok()) << binned.status();
+  EXPECT_EQ(binned->settings.structure, StructureKind::kBinnedSah);
+}
+
+TEST(ParseScene, StructureDefaultsToLbvh4) {
+  const absl::StatusOr<Scene> scene = scene_with_settings(R"({"k": 8})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->settings.structure, StructureKind::kLbvh4);
+  EXPECT_EQ(kDefaultStructure, StructureKind::kLbvh4);
+}
+
+TEST(ParseScene, UnknownStructureNamesTheFieldAndTheValidNames) {
+  const absl::StatusOr<Scene> scene = scene_with_settings(R"({"structure": "bvh2"})");
+  ASSERT_FALSE(scene.ok());
+  EXPECT_EQ(scene.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(scene.status()), HasSubstr("settings.structure"));
+  EXPECT_THAT(message_of(scene.status()), HasSubstr("'bvh2'"));
+  EXPECT_THAT(message_of(scene.status()), HasSubstr(structure_kind_list()));
 }
 
 TEST(ParseScene, ResolvesMeshPathsAgainstBaseDir) {

@@ -92,6 +92,9 @@ TEST(ValidateScene, UnknownEnumValuesAreRejected) {
   scene = minimal_scene();
   scene.settings.kernel = static_cast<Kernel>(5);
   EXPECT_THAT(error_of(scene), HasSubstr("settings.kernel"));
+  scene = minimal_scene();
+  scene.settings.structure = static_cast<StructureKind>(9);
+  EXPECT_THAT(error_of(scene), HasSubstr("settings.structure: is not a known structure"));
 }
 
 TEST(ValidateScene, EmissiveTriangleCountsAsLight) {

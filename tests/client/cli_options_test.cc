@@ -1,0 +1,52 @@
+// The caustica binary's flags that are checked while parsing, before any server is involved.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <string>
+
+namespace {
+
+using ::testing::HasSubstr;
+
+struct ClientRun {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+// Runs `caustica ARGS`; ARGS need no quoting.
+ClientRun run_client(const std::string& args) {
+  const std::string command = std::string("'") + CAUSTICA_CLIENT_BIN + "' " + args + " 2>&1";
+  ClientRun run;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return run;
+  char buffer[4096];
+  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) run.output.append(buffer, n);
+  const int status = pclose(pipe);
+  if (WIFEXITED(status)) run.exit_code = WEXITSTATUS(status);
+  return run;
+}
+
+TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
+  for (const char* args :
+       {"scene upload scene.json --structure kd-tree", "render s-1 -o out.png --structure kd-tree",
+        "stream s-1 -o out --structure kd-tree"}) {
+    const ClientRun run = run_client(args);
+    EXPECT_NE(run.exit_code, 0) << args;
+    EXPECT_THAT(run.output, HasSubstr("--structure"));
+    EXPECT_THAT(run.output, HasSubstr("unknown structure 'kd-tree' (expected lbvh4, binned-sah)"))
+        << args;
+  }
+}
+
+TEST(ClientOptions, HelpListsTheStructures) {
+  for (const char* args : {"scene upload --help", "render --help"}) {
+    const ClientRun run = run_client(args);
+    EXPECT_EQ(run.exit_code, 0) << args;
+    EXPECT_THAT(run.output, HasSubstr("--structure"));
+    EXPECT_THAT(run.output, HasSubstr("lbvh4, binned-sah")) << args;
+  }
+}
+
+}  // namespace

@@ -1,0 +1,39 @@
+// The scene overrides of render, stream, animate and scene upload: what they change in a scene
+// file's scene before upload and what they ask of UpdateSettings for a scene id.
+#include <gtest/gtest.h>
+
+#include "client/scene_source.h"
+#include "renderer/accel/structure_kind.h"
+
+namespace caustica::client {
+namespace {
+
+TEST(SceneOverrides, StructureChangesTheSceneBeforeUpload) {
+  SceneOverrides overrides;
+  EXPECT_TRUE(overrides.empty());
+  overrides.structure = StructureKind::kBinnedSah;
+  EXPECT_FALSE(overrides.empty()) << "a structure alone is an override";
+  Scene scene;
+  scene.settings.k_nearest = 32;
+  overrides.apply(scene);
+  EXPECT_EQ(scene.settings.structure, StructureKind::kBinnedSah);
+  EXPECT_EQ(scene.settings.k_nearest, 32u) << "what is not overridden stays";
+}
+
+TEST(SceneOverrides, StructureGoesToUpdateSettings) {
+  SceneOverrides overrides;
+  overrides.structure = StructureKind::kBinnedSah;
+  const v1::UpdateSettingsRequest request = overrides.request("s-1");
+  EXPECT_EQ(request.scene_id(), "s-1");
+  EXPECT_EQ(request.settings().structure(), v1::BINNED_SAH);
+  EXPECT_FALSE(request.settings().has_k_nearest());
+  EXPECT_EQ(request.width(), 0u);
+
+  overrides.structure = StructureKind::kLbvh4;
+  EXPECT_EQ(overrides.request("s-1").settings().structure(), v1::LBVH4);
+  EXPECT_EQ(SceneOverrides{}.request("s-1").settings().structure(), v1::STRUCTURE_UNSPECIFIED)
+      << "no override keeps the scene's structure";
+}
+
+}  // namespace
+}  // namespace caustica::client
