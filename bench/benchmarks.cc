@@ -162,8 +162,10 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
 absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
   absl::StatusOr<Scene> scene = load_bench_mesh_scene(o);
   if (!scene.ok()) return scene.status();
-  const std::string name =
-      o.mesh.filename().string() + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
+  // A scene file is named by its folder, as the photon benchmarks name theirs.
+  const std::string file = o.mesh.extension() == ".json" ? o.mesh.parent_path().filename().string()
+                                                         : o.mesh.filename().string();
+  const std::string name = file + (o.copies > 1 ? absl::StrFormat(" x%d", o.copies) : "");
   absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
   if (!made.ok()) return made.status();
   Backend* backend = made->get();

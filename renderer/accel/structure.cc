@@ -20,10 +20,10 @@ TriangleBvh build_binned_sah_bvh4(Backend& backend, const TriangleVertices* tria
 }
 
 TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
-                               const TriangleVertices* triangles, uint32_t count) {
+                               const TriangleVertices* triangles, uint32_t count, Curve curve) {
   switch (kind) {
     case StructureKind::kLbvh4:
-      return build_triangle_bvh(backend, triangles, count);
+      return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
       return build_binned_sah_bvh4(backend, triangles, count);
   }
@@ -34,8 +34,13 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
 
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count) {
+  return build_structure(backend, kind, triangles, count, backend_curve(backend));
+}
+
+TriangleStructure build_structure(Backend& backend, StructureKind kind,
+                                  const TriangleVertices* triangles, uint32_t count, Curve curve) {
   const auto start = std::chrono::steady_clock::now();
-  TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count);
+  TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count, curve);
   backend.synchronize();
   StructureStats stats;
   stats.kind = kind;

@@ -71,9 +71,12 @@ class TriangleStructure {
 };
 
 // Builds a structure of `kind` over `count` triangles already in the backend's memory, and
-// measures it.
+// measures it. Kinds that order triangles along a space-filling curve (lbvh4) take `curve`, by
+// default the backend's own (backend_curve), which differs between the CPU and a GPU.
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count);
+TriangleStructure build_structure(Backend& backend, StructureKind kind,
+                                  const TriangleVertices* triangles, uint32_t count, Curve curve);
 
 // The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend.
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
