@@ -10,26 +10,11 @@
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
 #include "renderer/accel/structure_kind.h"
+#include "tools/cli/structure_option.h"
 
 namespace {
 
 using namespace caustica::client;
-
-// --structure NAME: turns a structure's name into the number its option stores, and refuses an
-// unknown name with the list of known ones.
-CLI::Validator structure_names() {
-  return CLI::Validator(
-      [](std::string& value) -> std::string {
-        const std::optional<caustica::StructureKind> kind = caustica::parse_structure_kind(value);
-        if (!kind) {
-          return "unknown structure '" + value + "' (expected " + caustica::structure_kind_list() +
-                 ")";
-        }
-        value = std::to_string(static_cast<uint32_t>(*kind));
-        return {};
-      },
-      "");
-}
 
 // --structure NAME, which sets `structure`; `effect` says what it changes.
 void add_structure_option(CLI::App* command, std::optional<caustica::StructureKind>& structure,
@@ -39,7 +24,7 @@ void add_structure_option(CLI::App* command, std::optional<caustica::StructureKi
           "--structure", structure,
           "ray-tracing structure: " + caustica::structure_kind_list() + " (" + effect + ")")
       ->type_name("NAME")
-      ->transform(structure_names());
+      ->transform(caustica::structure_names());
 }
 
 // SCENE, --keep, --exposure and the scene overrides of render, stream and animate.

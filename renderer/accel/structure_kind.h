@@ -51,4 +51,12 @@ inline std::string structure_kind_list() {
   return out;
 }
 
+// "unknown structure 'NAME' (expected lbvh4, binned-sah)", with `also_accepted` ("all, ") before
+// the kinds where a tool takes more names.
+inline std::string unknown_structure_message(std::string_view name,
+                                             std::string_view also_accepted = "") {
+  return "unknown structure '" + std::string(name) + "' (expected " + std::string(also_accepted) +
+         structure_kind_list() + ")";
+}
+
 }  // namespace caustica

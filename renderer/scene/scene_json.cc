@@ -165,9 +165,7 @@ class SceneReader {
       SCENE_RETURN_IF_ERROR(object.read("structure", kRequired, &structure));
       const std::optional<StructureKind> kind = parse_structure_kind(structure);
       if (!kind) {
-        return invalid_field(object.field_path("structure"),
-                             absl::StrCat("unknown structure '", structure, "' (expected ",
-                                          structure_kind_list(), ")"));
+        return invalid_field(object.field_path("structure"), unknown_structure_message(structure));
       }
       s.structure = *kind;
     }

@@ -7,28 +7,8 @@
 #include <optional>
 #include <string>
 
-#include "renderer/accel/structure_kind.h"
+#include "tools/cli/structure_option.h"
 #include "tools/render/render_job.h"
-
-namespace {
-
-// --structure NAME: turns a structure's name into the number its option stores, and refuses an
-// unknown name with the list of known ones.
-CLI::Validator structure_names() {
-  return CLI::Validator(
-      [](std::string& value) -> std::string {
-        const std::optional<caustica::StructureKind> kind = caustica::parse_structure_kind(value);
-        if (!kind) {
-          return "unknown structure '" + value + "' (expected " + caustica::structure_kind_list() +
-                 ")";
-        }
-        value = std::to_string(static_cast<uint32_t>(*kind));
-        return {};
-      },
-      "");
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   caustica::RenderJob job;
@@ -50,7 +30,7 @@ int main(int argc, char** argv) {
                      " (default: the scene's, else " +
                      caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
       ->type_name("NAME")
-      ->transform(structure_names());
+      ->transform(caustica::structure_names());
   app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
   CLI11_PARSE(app, argc, argv);
   job.show_progress = isatty(STDERR_FILENO);
