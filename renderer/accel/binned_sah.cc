@@ -29,6 +29,17 @@ struct LargeNode {
   Aabb box, centroids;
 };
 
+// A triangle whose box has more than this share of its node's box area takes the node's last bin
+// (kHugeBin), whatever its centroid: a room's walls, binned by centroid among the furniture's
+// triangles, widened every node they fell in to the size of the room down to their leaves, and
+// rays entered all of those (docs/structures.md, "binned-sah"). The sweep's last candidate then
+// splits the huge triangles from the rest.
+constexpr float kHugeShare = 0.25f;
+constexpr uint32_t kHugeBin = kBinnedSahBins;
+// Bins per node, the huge one included, and the key bits that number them.
+constexpr uint32_t kNodeBins = kBinnedSahBins + 1;
+constexpr int kKeyBinBits = kBinnedSahLogBins + 1;
+
 // One bin of one node, its bounds as ordered bits (atomic.h) so that atomics reduce them.
 struct BinCell {
   uint32_t count;
@@ -36,10 +47,13 @@ struct BinCell {
   uint32_t centroid_lower[3], centroid_upper[3];
 };
 
-// How a node splits: positions [first, mid] to the left, with each side's boxes.
+// How a node splits: positions [first, mid] to the left, with each side's boxes; not `binned`
+// when no candidate has triangles on both sides (every one of them huge), and the per-node stage
+// splits it instead.
 struct NodeSplit {
   uint32_t mid;
   Aabb left, right, left_centroids, right_centroids;
+  bool binned = true;
 };
 
 // The axis a node bins along, and the affine map from a centroid coordinate to its bin.
@@ -53,7 +67,9 @@ struct BinMap {
     // Zeidan's b = K (1 - eps) (c - low) / extent keeps the highest centroid in the last bin.
     return {axis, centroids.lower[axis], float(kBinnedSahBins) * (1.0f - 1e-6f) / e[axis]};
   }
-  CAUSTICA_HDI uint32_t bin(const Aabb& box) const {
+  // The bin of a triangle's box in a node whose box has half area `node_half_area`.
+  CAUSTICA_HDI uint32_t bin(const Aabb& box, float node_half_area) const {
+    if (box.half_area() > kHugeShare * node_half_area) return kHugeBin;
     const int b = int((box.center()[axis] - low) * scale);
     return b < 0 ? 0u : b < int(kBinnedSahBins) ? uint32_t(b) : kBinnedSahBins - 1;
   }
@@ -65,6 +81,11 @@ CAUSTICA_HDI bool degenerate(const Aabb& centroids) {
   const Vec3f e = centroids.extent();
   const float longest = e.x >= e.y && e.x >= e.z ? e.x : e.y >= e.z ? e.y : e.z;
   return !(float(kBinnedSahBins) / longest <= FLT_MAX);
+}
+
+// The bin table entry of a sort key: node j's bins are kNodeBins consecutive cells.
+CAUSTICA_HDI uint32_t cell_of(uint32_t key) {
+  return (key >> kKeyBinBits) * kNodeBins + (key & ((1u << kKeyBinBits) - 1u));
 }
 
 CAUSTICA_HDI void flush_bin(BinCell& cell, uint32_t count, const Aabb& box, const Aabb& centroids) {
@@ -86,19 +107,20 @@ CAUSTICA_HDI void read_bin(const BinCell& cell, Aabb& box, Aabb& centroids) {
   }
 }
 
-// The cheapest of the node's bins - 1 candidate splits by SAH (left count x left area + right
-// count x right area); a sorted node has at least two bins in use, so one exists.
+// The cheapest of the node's kNodeBins - 1 candidate splits by SAH (left count x left area + right
+// count x right area). A node whose centroids bin has at least two bins in use, so one exists,
+// unless every triangle in it is huge.
 CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
-  Aabb box[kBinnedSahBins], centroids[kBinnedSahBins];
-  uint32_t count[kBinnedSahBins];
-  for (uint32_t b = 0; b < kBinnedSahBins; ++b) {
+  Aabb box[kNodeBins], centroids[kNodeBins];
+  uint32_t count[kNodeBins];
+  for (uint32_t b = 0; b < kNodeBins; ++b) {
     count[b] = cells[b].count;
     read_bin(cells[b], box[b], centroids[b]);
   }
-  float right_area[kBinnedSahBins];
+  float right_area[kNodeBins];
   Aabb right;
   uint32_t right_count = 0;
-  for (int b = int(kBinnedSahBins) - 1; b > 0; --b) {
+  for (int b = int(kNodeBins) - 1; b > 0; --b) {
     right.extend(box[b]);
     right_count += count[b];
     right_area[b] = float(right_count) * right.half_area();
@@ -106,7 +128,7 @@ CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
   float best_cost = INFINITY;
   uint32_t best_bin = 0, best_left = 0, left_count = 0;
   Aabb left;
-  for (uint32_t b = 0; b + 1 < kBinnedSahBins; ++b) {
+  for (uint32_t b = 0; b + 1 < kNodeBins; ++b) {
     left.extend(box[b]);
     left_count += count[b];
     const uint32_t n = node.last - node.first + 1;
@@ -118,14 +140,9 @@ CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
       best_left = left_count;
     }
   }
-  if (best_cost == INFINITY) {
-    // Unreachable for finite boxes; in the middle, with the node's bounds on each side, and the
-    // level cap ends the descent.
-    const uint32_t mid = node.first + (node.last - node.first + 1) / 2 - 1;
-    return {mid, node.box, node.box, node.centroids, node.centroids};
-  }
+  if (best_cost == INFINITY) return {node.first, Aabb{}, Aabb{}, Aabb{}, Aabb{}, false};
   NodeSplit split{node.first + best_left - 1, Aabb{}, Aabb{}, Aabb{}, Aabb{}};
-  for (uint32_t b = 0; b < kBinnedSahBins; ++b) {
+  for (uint32_t b = 0; b < kNodeBins; ++b) {
     if (count[b] == 0) continue;
     if (b <= best_bin) {
       split.left.extend(box[b]);
@@ -180,6 +197,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   BvhNode* nodes = out.bvh.nodes.data();
   Buffer<uint32_t> root_word(backend, 1);
   uint32_t* root = root_word.data();
+  backend.fill_bytes(root, 0xff, sizeof(uint32_t));  // kNoNode
   Buffer<SmallSubtree> small_list(backend, count / 2 + 1);
   Buffer<uint32_t> small_counter(backend, 1);
   backend.fill_bytes(small_counter.data(), 0, sizeof(uint32_t));
@@ -232,10 +250,11 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // triangles stay within its positions.
       parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
         const uint32_t j = node_of[i];
-        key[i] = j << kBinnedSahLogBins | BinMap::of(level_node[j].centroids).bin(box[pos[i]]);
+        const LargeNode& n = level_node[j];
+        key[i] = j << kKeyBinBits | BinMap::of(n.centroids).bin(box[pos[i]], n.box.half_area());
         value[i] = uint32_t(i);
       });
-      backend.sort_pairs(key, value, m, int(bits_for(node_count) + kBinnedSahLogBins));
+      backend.sort_pairs(key, value, m, int(bits_for(node_count)) + kKeyBinBits);
       uint32_t* moved_order = moved_orders.data();
       Aabb* moved_box = moved_boxes.data();
       parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
@@ -248,7 +267,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       });
 
       // The bins' counts and bounds, over chunks of the sorted elements.
-      cells.resize_discard(size_t(node_count) * kBinnedSahBins);
+      cells.resize_discard(size_t(node_count) * kNodeBins);
       BinCell* cell = cells.data();
       parallel_for(backend, cells.size(), [=] CAUSTICA_HD(size_t c) {
         BinCell& b = cell[c];
@@ -266,7 +285,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
         Aabb run_box, run_centroids;
         for (uint32_t i = begin; i < end; ++i) {
           if (key[i] != run_key) {
-            flush_bin(cell[run_key], run_count, run_box, run_centroids);
+            flush_bin(cell[cell_of(run_key)], run_count, run_box, run_centroids);
             run_key = key[i];
             run_count = 0;
             run_box = run_centroids = Aabb{};
@@ -276,7 +295,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
           run_box.extend(b);
           run_centroids.extend(b.center());
         }
-        flush_bin(cell[run_key], run_count, run_box, run_centroids);
+        flush_bin(cell[cell_of(run_key)], run_count, run_box, run_centroids);
       });
 
       // Each node's split; its slot, leaf children and small children are written at once, and
@@ -287,8 +306,16 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       uint32_t* more = continuing.data();
       parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
         const LargeNode n = level_node[j];
-        const NodeSplit s = sweep_bins(n, cell + j * kBinnedSahBins);
+        const NodeSplit s = sweep_bins(n, cell + j * kNodeBins);
         split_of[j] = s;
+        more[j] = 0;
+        if (!s.binned) {
+          // The root stays unset, which tells the host that the per-node stage builds it.
+          if (n.parent != kNoParent)
+            nodes[n.parent].child[n.side] = BvhChild{n.box.lower, kNoNode, n.box.upper};
+          small[atomic_fetch_add(small_count_word, 1u)] = {n.parent, n.side, n.first, n.last};
+          return;
+        }
         if (n.parent == kNoParent) {
           *root = s.mid;
         } else {
@@ -321,6 +348,10 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
         const LargeNode n = level_node[j];
         const NodeSplit s = split_of[j];
+        if (!s.binned) {
+          child_index[2 * j] = child_index[2 * j + 1] = kNoNode;
+          return;
+        }
         uint32_t slot = more[j];
         const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
         const Aabb child_box[2] = {s.left, s.right};
@@ -340,7 +371,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       uint8_t* kept = keep.data();
       uint32_t* new_node = next_node.data();
       parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
-        const uint32_t j = key[i] >> kBinnedSahLogBins;
+        const uint32_t j = key[i] >> kKeyBinBits;
         const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
         new_node[i] = child_index[2 * j + side];
         kept[i] = new_node[i] != kNoNode;
@@ -361,7 +392,10 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   parallel_for(backend, count, [=] CAUSTICA_HD(size_t p) { sorted[p] = triangles[ids[p]]; });
   uint32_t small_count = 0;
   backend.copy_to_host(&small_count, small_count_word, sizeof(uint32_t));
-  if (root_large) backend.copy_to_host(&out.bvh.root, root, sizeof(uint32_t));
+  if (root_large) {
+    backend.copy_to_host(&out.bvh.root, root, sizeof(uint32_t));
+    root_listed = out.bvh.root == kNoNode;
+  }
   rebuild_small_subtrees(backend, out.bvh, small, small_count, out.triangles, out.triangle_ids,
                          root_listed);
   return out;

@@ -191,6 +191,31 @@ TEST(BinnedSah, InvariantsWhenEveryCentroidCoincides) {
   check_binned_invariants(mixed);
 }
 
+// `n` triangles each nearly as large as their common box, no two alike.
+std::vector<TriangleVertices> huge_triangles(size_t n) {
+  std::vector<TriangleVertices> tris;
+  for (size_t i = 0; i < n; ++i) {
+    const float s = float(i) / float(n);
+    tris.push_back(
+        {Vec3f(-10.0f + s, -10.0f, -s), Vec3f(10.0f, -10.0f + s, s), Vec3f(s, 10.0f, 2.0f * s)});
+  }
+  return tris;
+}
+
+// Huge triangles take a bin of their own: the root splits them from a cloud of small ones, and a
+// node of nothing but huge triangles, which no bin separates, goes to the per-node stage.
+TEST(BinnedSah, InvariantsAndHitsWithHugeTriangles) {
+  std::vector<TriangleVertices> mixed = random_soup(3000, 23);
+  const std::vector<TriangleVertices> huge = huge_triangles(600);
+  mixed.insert(mixed.end(), huge.begin(), huge.end());
+  for (const std::vector<TriangleVertices>& tris : {huge, mixed}) {
+    SCOPED_TRACE(tris.size());
+    check_binned_invariants(tris);
+    BuiltStructure b(StructureKind::kBinnedSah, tris);
+    b.structure.visit([&](const auto& view) { check_rays(tris, view, 3000, 31); });
+  }
+}
+
 TEST(BinnedSah, InvariantsOnBundledSceneAndAClosedMesh) {
   check_binned_invariants(scene_triangles("cornell-caustics"));
   check_binned_invariants(sphere_triangles());
