@@ -2,10 +2,11 @@
 // stages:
 // - Nodes of more than kSahSubtreeTriangles triangles are split level by level over all of them
 //   at once, data-parallel over their triangles: each triangle takes a bin along its node's
-//   longest centroid axis, one stable radix sort by (node << log2 bins | bin) puts every node's
-//   triangles in bin order (so a split is a position and the children need no partition pass),
-//   the bins' counts and bounds are reduced over chunks of the sorted run, and one thread per
-//   node sweeps the bins for the cheapest split.
+//   longest centroid axis (or the node's last bin when it is huge for its node, binned_sah.cc),
+//   one stable radix sort by (node, bin) puts every node's triangles in bin order (so a split is
+//   a position and the children need no partition pass), the bins' counts and bounds are
+//   reduced over chunks of the sorted run, and one thread per node sweeps the bins for the
+//   cheapest split.
 // - Smaller nodes are finished a node per thread by the SAH subtree builder the LBVH uses
 //   (sah_subtrees.h), with bins on all three axes.
 // The tree keeps the radix tree's layout (internal node k splits between leaf positions k and
