@@ -218,7 +218,7 @@ std::vector<uint32_t> morton_codes(Backend& backend, const std::vector<Aabb>& ho
   Buffer<uint32_t> codes(backend, host.size());
   const Aabb* box = boxes.data();
   uint32_t* code = codes.data();
-  parallel_for(backend, host.size(),
+  parallel_for(backend, "morton_codes", host.size(),
                [=] CAUSTICA_HD(size_t i) { code[i] = morton_code(box[i].center(), bounds); });
   return codes.download();
 }
@@ -332,7 +332,7 @@ std::vector<float> box_entries(Backend& backend, const std::vector<BoxCase>& cas
   const BoxCase* c = in.data();
   float* t = out.data();
   const Aabb within = kBoxCaseBounds;
-  parallel_for(backend, cases.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "box_entries", cases.size(), [=] CAUSTICA_HD(size_t i) {
     t[i] = slab_entry(ray_slabs(c[i].origin, c[i].direction, within), c[i].box, c[i].t_min,
                       c[i].t_max);
   });
@@ -380,11 +380,11 @@ std::vector<uint8_t> shadow_answers(Backend& backend, const Structure& view,
   Buffer<uint8_t> answers(backend, rays.size());
   const Ray* ray = r.data();
   uint8_t* out = answers.data();
-  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "shadow_rays_shared_walks", rays.size(), [=] CAUSTICA_HD(size_t i) {
     out[i] = 2;  // neither answer: a ray left out keeps it
     if (i % 3 != 1) out[i] = any_hit(view, ray[i]);
   });
-  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "shadow_rays_lone_walks", rays.size(), [=] CAUSTICA_HD(size_t i) {
     if (i % 3 == 1) out[i] = any_hit(view, ray[i]);
   });
   return answers.download();
@@ -509,7 +509,7 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
   uint32_t* count = counts.data();
   Vec3f* l = radiance.data();
   const PhotonMapView view = map.view();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "photon_search", n, [=] CAUSTICA_HD(size_t i) {
     const uint32_t k = 1 + uint32_t(i % kNnMaxK);
     const float max_radius = i % 3 == 0 ? 0.02f : 1.0f;
     NeighbourPair storage[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
@@ -610,7 +610,7 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
   RadianceEstimate* e = out.data();
   const PhotonMapView view = map.view();
   const SearchGroup group{backend.kind() == DeviceKind::kCuda ? 0xffffffffu : 0u};
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "grouped_estimates", n, [=] CAUSTICA_HD(size_t i) {
     if (binned) {
       uint32_t words[kBinnedWords];
       e[i] = estimate_radiance_binned(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
