@@ -74,7 +74,7 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
   Buffer<Hit> hits(*backend, pixels);
   Hit* hit = hits.data();
   auto trace_primary = [&] {
-    parallel_for(*backend, pixels, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(*backend, "primary_rays_single", pixels, [=] CAUSTICA_HD(size_t i) {
       hit[i] = closest_hit(
           bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
     });
@@ -125,7 +125,7 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
     const Ray* ray = shadow_rays.data();
     uint8_t* out = blocked.data();
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, shadow_list.size(),
+      parallel_for(*backend, "shadow_rays", shadow_list.size(),
                    [=] CAUSTICA_HD(size_t i) { out[i] = any_hit(bvh, ray[i]); });
     });
     report.line("shadow_rays", name, shadow_list.size() / (m.median * 1e3), "Mrays/s", &m, o.runs);
@@ -135,7 +135,7 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
       // as much.
       const size_t count = shadow_list.size();
       Measurement repeated = measure(o, *backend, [&] {
-        parallel_for(*backend, 8 * count,
+        parallel_for(*backend, "shadow_rays_repeated", 8 * count,
                      [=] CAUSTICA_HD(size_t i) { out[i % count] = any_hit(bvh, ray[i % count]); });
       });
       report.line("shadow_rays_repeated", name, 8 * count / (repeated.median * 1e3), "Mrays/s",
@@ -147,7 +147,7 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
     const size_t count = pixels;
     const Aabb b = bvh.bounds;
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, count, [=] CAUSTICA_HD(size_t i) {
+      parallel_for(*backend, "incoherent_rays", count, [=] CAUSTICA_HD(size_t i) {
         Sampler s(7, uint32_t(i), 0);
         Ray r;
         r.origin = b.lower + b.extent() * Vec3f(s.next_float(), s.next_float(), s.next_float());
@@ -187,6 +187,7 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
       Measurement s =
           measure(o, *backend, [&] { (void)build_structure(*backend, kind, input, tris); });
       report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
+      s.kernels.clear();  // reported with the line above
       report.line("structure_build_ms", name, s.median, "ms", &s, o.runs);
     }
     const StructureStats& stats = resident.structure().stats();

@@ -28,6 +28,8 @@ struct BenchOptions {
   std::string device = "cpu";     // serving benchmarks: the server's --device
   // The triangle structures to measure, each in turn (--structure NAME|all).
   std::vector<StructureKind> structures = {kDefaultStructure};
+  // --kernels: after each measured benchmark, its per-launch times (one JSON line per launch name).
+  bool kernels = false;
 };
 
 // The names run_benchmarks knows, in the order it runs them.

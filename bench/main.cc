@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
         return "unknown structure '" + name + "' (expected all, " +
                caustica::structure_kind_list() + ")";
       });
+  app.add_flag("--kernels", options.kernels,
+               "after each measured benchmark, print its launches' times: one JSON line per "
+               "launch name with launches and milliseconds per run, the most time first");
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera,
                "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");

@@ -1,5 +1,6 @@
 // Timing and reporting shared by the benchmarks: warm-up runs, then the median (with min and
-// max) of measured runs, printed as one JSON line per figure.
+// max) of measured runs, printed as one JSON line per figure; with --kernels, also one line per
+// launch name of the measured runs.
 #pragma once
 
 #include <algorithm>
@@ -17,6 +18,8 @@ namespace caustica {
 
 struct Measurement {
   double median, min, max;
+  // With --kernels: the launches of all the measured runs, summed per name, the most time first.
+  std::vector<LaunchTime> kernels;
 };
 
 // Whether --only selects the benchmark `name` (everything when --only is empty).
@@ -26,7 +29,7 @@ inline bool wanted(const BenchOptions& o, const std::string& name) {
 
 inline Measurement summarize(std::vector<double> ms) {
   std::sort(ms.begin(), ms.end());
-  return {ms[ms.size() / 2], ms.front(), ms.back()};
+  return {ms[ms.size() / 2], ms.front(), ms.back(), {}};
 }
 
 // Milliseconds of host-side work `fn` (a round trip to a server) over o.runs runs after
@@ -44,13 +47,24 @@ inline Measurement measure(const BenchOptions& o, const std::function<void()>& f
 }
 
 // Device work is timed by the backend: CUDA events on the GPU, the host clock around
-// synchronisations on the CPU.
+// synchronisations on the CPU. With --kernels the measured runs (not the warm-ups) are also timed
+// per launch, so their figures include what that timing costs.
 inline Measurement measure(const BenchOptions& o, Backend& backend,
                            const std::function<void()>& fn) {
   for (int i = 0; i < o.warmup; ++i) fn();
+  if (o.kernels) {
+    backend.clear_launch_times();
+    backend.set_launch_timing(true);
+  }
   std::vector<double> ms;
   for (int i = 0; i < o.runs; ++i) ms.push_back(backend.time_ms(fn));
-  return summarize(std::move(ms));
+  Measurement m = summarize(std::move(ms));
+  if (o.kernels) {
+    backend.set_launch_timing(false);
+    m.kernels = backend.launch_times();
+    backend.clear_launch_times();
+  }
+  return m;
 }
 
 class Reporter {
@@ -78,7 +92,21 @@ class Reporter {
       out_ << absl::StrFormat(R"(, "median_ms": %.6g, "min_ms": %.6g, "max_ms": %.6g, "runs": %d)",
                               m->median, m->min, m->max, runs);
     out_ << "}\n";
+    if (m != nullptr && runs > 0) kernels(name, scene, *m, runs);
     out_.flush();
+  }
+  // One line per launch name of `m`'s measured runs (--kernels), the most time first, under the
+  // benchmark line `benchmark` that the measurement gave.
+  void kernels(const std::string& benchmark, const std::string& scene, const Measurement& m,
+               int runs) {
+    for (const LaunchTime& k : m.kernels) {
+      out_ << absl::StrFormat(
+          R"({"name": "kernel", "benchmark": "%s", "scene": "%s", "device": "%s", "kernel": "%s", )"
+          R"("launches_per_run": %.6g, "ms_per_run": %.6g)",
+          benchmark, scene, device_, k.name, double(k.launches) / runs, k.total_ms / runs);
+      if (!structure_.empty()) out_ << absl::StrFormat(R"(, "structure": "%s")", structure_);
+      out_ << "}\n";
+    }
   }
 
  private:

@@ -184,7 +184,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   uint32_t* order = orders.data();
   Aabb* box = boxes.data();
   Aabb* centroid_point = centroid_points.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "binned_sah_boxes", count, [=] CAUSTICA_HD(size_t i) {
     order[i] = uint32_t(i);
     box[i] = triangle_bounds(triangles[i]);
     centroid_point[i] = Aabb{box[i].center(), box[i].center()};
@@ -208,7 +208,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   bool root_listed = false;
   if (count >= 2 && !root_large) {
     const uint32_t last = count - 1;
-    parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) {
+    parallel_for(backend, "binned_sah_small_root", 1, [=] CAUSTICA_HD(size_t) {
       small[0] = {kNoParent, 0, 0, last};
       *small_count_word = 1;
     });
@@ -223,7 +223,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
     Buffer<uint32_t> element_pos(backend, count), element_node(backend, count);
     uint32_t* first_pos = element_pos.data();
     uint32_t* first_node = element_node.data();
-    parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, "binned_sah_elements", count, [=] CAUSTICA_HD(size_t i) {
       first_pos[i] = uint32_t(i);
       first_node[i] = 0;
     });
@@ -248,7 +248,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // Bins along each node's longest centroid axis, then one sort puts every node's triangles in
       // bin order; the sort is stable and nodes are numbered in position order, so each node's
       // triangles stay within its positions.
-      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+      parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
         const uint32_t j = node_of[i];
         const LargeNode& n = level_node[j];
         key[i] = j << kKeyBinBits | BinMap::of(n.centroids).bin(box[pos[i]], n.box.half_area());
@@ -257,11 +257,11 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       backend.sort_pairs(key, value, m, int(bits_for(node_count)) + kKeyBinBits);
       uint32_t* moved_order = moved_orders.data();
       Aabb* moved_box = moved_boxes.data();
-      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+      parallel_for(backend, "binned_sah_gather", m, [=] CAUSTICA_HD(size_t i) {
         moved_order[i] = order[pos[value[i]]];
         moved_box[i] = box[pos[value[i]]];
       });
-      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+      parallel_for(backend, "binned_sah_scatter", m, [=] CAUSTICA_HD(size_t i) {
         order[pos[i]] = moved_order[i];
         box[pos[i]] = moved_box[i];
       });
@@ -269,7 +269,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // The bins' counts and bounds, over chunks of the sorted elements.
       cells.resize_discard(size_t(node_count) * kNodeBins);
       BinCell* cell = cells.data();
-      parallel_for(backend, cells.size(), [=] CAUSTICA_HD(size_t c) {
+      parallel_for(backend, "binned_sah_clear_bins", cells.size(), [=] CAUSTICA_HD(size_t c) {
         BinCell& b = cell[c];
         b.count = 0;
         for (int a = 0; a < 3; ++a) {
@@ -278,7 +278,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
         }
       });
       const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
-      parallel_for(backend, chunks, [=] CAUSTICA_HD(size_t c) {
+      parallel_for(backend, "binned_sah_bins", chunks, [=] CAUSTICA_HD(size_t c) {
         const uint32_t begin = uint32_t(c * kBinReductionChunk);
         const uint32_t end = begin + kBinReductionChunk < m ? begin + kBinReductionChunk : m;
         uint32_t run_key = key[begin], run_count = 0;
@@ -304,7 +304,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       continuing.resize_discard(node_count);
       NodeSplit* split_of = splits.data();
       uint32_t* more = continuing.data();
-      parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
+      parallel_for(backend, "binned_sah_split", node_count, [=] CAUSTICA_HD(size_t j) {
         const LargeNode n = level_node[j];
         const NodeSplit s = sweep_bins(n, cell + j * kNodeBins);
         split_of[j] = s;
@@ -345,7 +345,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       child_next.resize_discard(2 * size_t(node_count));
       LargeNode* next_node_list = next_nodes.data();
       uint32_t* child_index = child_next.data();
-      parallel_for(backend, node_count, [=] CAUSTICA_HD(size_t j) {
+      parallel_for(backend, "binned_sah_next_nodes", node_count, [=] CAUSTICA_HD(size_t j) {
         const LargeNode n = level_node[j];
         const NodeSplit s = split_of[j];
         if (!s.binned) {
@@ -370,7 +370,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // The elements of large children, in position order, with their new nodes.
       uint8_t* kept = keep.data();
       uint32_t* new_node = next_node.data();
-      parallel_for(backend, m, [=] CAUSTICA_HD(size_t i) {
+      parallel_for(backend, "binned_sah_partition", m, [=] CAUSTICA_HD(size_t i) {
         const uint32_t j = key[i] >> kKeyBinBits;
         const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
         new_node[i] = child_index[2 * j + side];
@@ -389,7 +389,8 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   out.triangle_ids = std::move(orders);
   TriangleVertices* sorted = out.triangles.data();
   const uint32_t* ids = out.triangle_ids.data();
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t p) { sorted[p] = triangles[ids[p]]; });
+  parallel_for(backend, "binned_sah_leaf_order", count,
+               [=] CAUSTICA_HD(size_t p) { sorted[p] = triangles[ids[p]]; });
   uint32_t small_count = 0;
   backend.copy_to_host(&small_count, small_count_word, sizeof(uint32_t));
   if (root_large) {

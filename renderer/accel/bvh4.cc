@@ -99,7 +99,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
     counts.resize_discard(level_size);
     const Subtree* front = frontier.data();
     uint32_t* count = counts.data();
-    parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, "bvh4_collapse_count", level_size, [=] CAUSTICA_HD(size_t i) {
       Opened o = open_children(nodes, front[i], bounds);
       uint32_t internal = 0;
       for (int c = 0; c < o.count; ++c) internal += !o.child[c].leaf;
@@ -110,7 +110,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
     Subtree* next = next_frontier.data();
     const uint32_t next_base = level_base + level_size;
     const uint32_t base = level_base;
-    parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, "bvh4_collapse_write", level_size, [=] CAUSTICA_HD(size_t i) {
       Opened o = open_children(nodes, front[i], bounds);
       Bvh4Node& w = wide[base + i];
       uint32_t slot = count[i];

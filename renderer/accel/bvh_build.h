@@ -64,7 +64,8 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
     bvh.root = n < 2 ? 0 : s.root;
     return std::move(bvh);
   };
-  if (n == 1) parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { (void)leaf_box(0u); });
+  if (n == 1)
+    parallel_for(backend, "lbvh_single_leaf", 1, [=] CAUSTICA_HD(size_t) { (void)leaf_box(0u); });
   if (n < 2) return finish();
 
   bvh.nodes.resize_discard(n - 1);
@@ -77,7 +78,7 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
   uint32_t* root_out = &summary->root;
   const uint32_t last = n - 1;
 
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t leaf) {
+  parallel_for(backend, "lbvh_hierarchy", n, [=] CAUSTICA_HD(size_t leaf) {
     uint32_t l = uint32_t(leaf), r = uint32_t(leaf);
     uint32_t current = kLeafFlag | uint32_t(leaf);
     Aabb box = leaf_box(uint32_t(leaf));

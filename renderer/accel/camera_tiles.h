@@ -18,7 +18,7 @@ void trace_camera_packets(Backend& backend, const TriangleBvhView& bvh, Vec3f or
                           int height, Direction direction, Hit* hits) {
   const int tiles_x = (width + kPacketTile - 1) / kPacketTile;
   const int tiles_y = (height + kPacketTile - 1) / kPacketTile;
-  parallel_for(backend, size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
+  parallel_for(backend, "camera_packets", size_t(tiles_x) * tiles_y, [=] CAUSTICA_HD(size_t tile) {
     const int tx = int(tile % tiles_x) * kPacketTile, ty = int(tile / tiles_x) * kPacketTile;
     RayPacket packet;
     packet.origin = origin;
@@ -51,7 +51,7 @@ void trace_camera_tiles(Backend& backend, const Structure& structure, Vec3f orig
     }
   }
   const PixelBlocks blocks(width, height);
-  parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+  parallel_for(backend, "camera_rays", blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
     size_t pixel;
     if (!blocks.pixel_of(thread, pixel)) return;
     hits[pixel] = closest_hit(structure, Ray{origin, direction(pixel)});

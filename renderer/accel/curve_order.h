@@ -21,7 +21,7 @@ CurveOrder sort_by_code(Backend& backend, uint32_t n, int end_bit, CodeOf code_o
   CurveOrder out{Buffer<uint32_t>(backend, n), Buffer<uint32_t>(backend, n)};
   uint32_t* code = out.codes.data();
   uint32_t* id = out.order.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "curve_codes", n, [=] CAUSTICA_HD(size_t i) {
     const uint32_t which = id_of(uint32_t(i));
     code[i] = code_of(which);
     id[i] = which;

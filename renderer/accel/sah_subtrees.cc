@@ -199,7 +199,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
   Aabb* box = boxes.data();
   uint32_t* order = orders.data();
   const TriangleVertices* tri = triangles.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "sah_subtree_boxes", n, [=] CAUSTICA_HD(size_t i) {
     box[i] = triangle_bounds(tri[i]);
     order[i] = uint32_t(i);
   });
@@ -212,7 +212,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
   Buffer<PendingRange> ranges(backend, count), next_ranges(backend, 0);
   PendingRange* start = ranges.data();
   const Aabb bounds = bvh.bounds;
-  parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "sah_subtree_ranges", count, [=] CAUSTICA_HD(size_t i) {
     const SmallSubtree s = list[i];
     const Aabb s_box = s.parent == kNoParent ? bounds : nodes[s.parent].child[s.side].bounds();
     start[i] = {s.first, s.last, s.parent, s.side, s_box};
@@ -228,7 +228,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
     const PendingRange* range = ranges.data();
     PendingRange* half = halves.data();
     uint32_t* more = continuing.data();
-    parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, "sah_subtree_level", level_size, [=] CAUSTICA_HD(size_t i) {
       const PendingRange r = range[i];
       if (finished_alone(r)) {
         finish_range(nodes, root, box, order, bounds, r);
@@ -244,7 +244,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
     const uint32_t next_size = backend.exclusive_scan(more, more, level_size);
     next_ranges.resize_discard(next_size);
     PendingRange* next = next_ranges.data();
-    parallel_for(backend, level_size, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, "sah_subtree_next_level", level_size, [=] CAUSTICA_HD(size_t i) {
       if (finished_alone(range[i])) return;
       next[more[i]] = half[2 * i];
       next[more[i] + 1] = half[2 * i + 1];
@@ -259,7 +259,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
   TriangleVertices* to = moved.data();
   uint32_t* to_id = moved_ids.data();
   const uint32_t* id = triangle_ids.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "sah_subtree_reorder", n, [=] CAUSTICA_HD(size_t i) {
     to[i] = tri[order[i]];
     to_id[i] = id[order[i]];
   });

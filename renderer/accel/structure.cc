@@ -64,7 +64,7 @@ double sah_cost(Backend& backend, const TriangleBvh& bvh) {
   float* term = terms.data();
   const Bvh4Node* nodes = bvh.bvh.nodes.data();
   const float inv_root = 1.0f / root_area;
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "sah_cost_terms", n, [=] CAUSTICA_HD(size_t i) {
     const Bvh4Node& node = nodes[i];
     float sum = 0.0f;
     for (int c = 0; c < 4; ++c) {

@@ -31,7 +31,7 @@ BinaryTriangleBvh build_lbvh(Backend& backend, const TriangleVertices* triangles
   Buffer<Aabb> boxes(backend, count);
   Buffer<BvhSummary> summary(backend, 1);
   Aabb* box = boxes.data();
-  parallel_for(backend, count,
+  parallel_for(backend, "lbvh_triangle_boxes", count,
                [=] CAUSTICA_HD(size_t i) { box[i] = triangle_bounds(triangles[i]); });
   backend.reduce_bounds_to(box, count, &summary.data()->bounds);
 

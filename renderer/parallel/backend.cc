@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <string_view>
 
 #include "absl/strings/str_format.h"
 
@@ -36,6 +37,46 @@ double Backend::time_ms(const std::function<void()>& fn) {
   synchronize();
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
       .count();
+}
+
+// The mark is the start on the host clock, in the clock's ticks.
+uint64_t Backend::launch_began(const char*) {
+  return uint64_t(std::chrono::steady_clock::now().time_since_epoch().count());
+}
+
+void Backend::launch_ended(const char* name, uint64_t mark, bool launched) {
+  if (!launched) return;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start{Clock::duration(Clock::rep(mark))};
+  add_launch_time(name, 1, std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+}
+
+void Backend::add_launch_time(const char* name, uint64_t launches, double ms) {
+  std::lock_guard<std::mutex> lock(launch_times_mutex_);
+  auto it = launch_table_.find(std::string_view(name));
+  if (it == launch_table_.end()) it = launch_table_.emplace(name, LaunchTime{name, 0, 0.0}).first;
+  it->second.launches += launches;
+  it->second.total_ms += ms;
+}
+
+std::vector<LaunchTime> Backend::launch_times() {
+  collect_launch_times();
+  std::vector<LaunchTime> times;
+  {
+    std::lock_guard<std::mutex> lock(launch_times_mutex_);
+    for (const auto& [name, time] : launch_table_) times.push_back(time);
+  }
+  std::stable_sort(times.begin(), times.end(), [](const LaunchTime& a, const LaunchTime& b) {
+    return a.total_ms > b.total_ms;
+  });
+  return times;
+}
+
+void Backend::clear_launch_times() {
+  // Times still on the device belong to launches before the clear.
+  collect_launch_times();
+  std::lock_guard<std::mutex> lock(launch_times_mutex_);
+  launch_table_.clear();
 }
 
 }  // namespace caustica

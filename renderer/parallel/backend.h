@@ -6,14 +6,18 @@
 // pointers, so renderer code never dereferences them on the host.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "renderer/base/aabb.h"
@@ -44,6 +48,13 @@ struct DeviceInfo {
   std::string name;
   int compute_units = 0;    // CPU threads or CUDA SMs
   size_t memory_bytes = 0;  // physical memory of the device
+};
+
+// What the launch profiler gathered for one launch name (Backend::launch_times).
+struct LaunchTime {
+  std::string name;
+  uint64_t launches = 0;
+  double total_ms = 0;
 };
 
 class Backend {
@@ -109,15 +120,64 @@ class Backend {
   virtual size_t run_length_encode(const uint32_t* in, size_t n, uint32_t* unique_out,
                                    uint32_t* counts_out) = 0;
 
+  // --- launch timing (opt-in, off by default) ---
+  // While on, every parallel_for and primitive adds its time to a table by launch name: the host
+  // clock around the loop on the CPU, a pair of CUDA events around the kernel on the GPU. While
+  // off, a launch pays one branch for it. Turning it off keeps what was gathered.
+  void set_launch_timing(bool enabled) { launch_timing_.store(enabled, std::memory_order_relaxed); }
+  bool launch_timing() const { return launch_timing_.load(std::memory_order_relaxed); }
+  // Launches and milliseconds summed per name, the most time first. Waits for the device, whose
+  // event times are read only here, so that timing adds no synchronisation to the launches.
+  std::vector<LaunchTime> launch_times();
+  void clear_launch_times();
+
+  // The two ends of one launch named `name` (a string literal), for parallel_for and the backends'
+  // primitives while launch_timing() is on; the mark launch_began returns goes to launch_ended.
+  // `launched` false: nothing ran after all (no room for a launch's scratch), nothing is counted.
+  // The base class times with the host clock, the CPU's launches being done when they return.
+  virtual uint64_t launch_began(const char* name);
+  virtual void launch_ended(const char* name, uint64_t mark, bool launched = true);
+
+  // Runs `launch()` as the launch `name`, bracketed by launch_began and launch_ended while
+  // launch timing is on; returns what it returns.
+  template <typename Launch>
+  decltype(auto) timed_launch(const char* name, Launch&& launch) {
+    if (launch_timing()) [[unlikely]] {
+      const uint64_t mark = launch_began(name);
+      if constexpr (std::is_void_v<decltype(launch())>) {
+        launch();
+        launch_ended(name, mark);
+        return;
+      } else {
+        auto result = launch();
+        launch_ended(name, mark);
+        return result;
+      }
+    }
+    return launch();
+  }
+
  protected:
   virtual void* allocate_raw(size_t bytes) = 0;
   virtual void deallocate_raw(void* p, size_t bytes) = 0;
+
+  // Adds `launches` launches of `name` taking `ms` in all to the table.
+  void add_launch_time(const char* name, uint64_t launches, double ms);
+  // Brings times still on the device into the table (add_launch_time); the CUDA backend's events.
+  virtual void collect_launch_times() {}
 
  private:
   size_t budget_;
   mutable std::mutex memory_mutex_;
   size_t in_use_ = 0;
   size_t peak_ = 0;
+
+  // Launches on one backend come from one thread at a time (its engine's or a benchmark's), so
+  // the lock is uncontended; it is there for launch_times() read from another thread, and is
+  // taken only while timing is on.
+  std::atomic<bool> launch_timing_{false};
+  std::mutex launch_times_mutex_;
+  std::map<std::string, LaunchTime, std::less<>> launch_table_;
 };
 
 // The CPU backend on oneTBB, using every core TBB is allowed.

@@ -34,7 +34,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   Buffer<Aabb> points(backend, n);
   Aabb* point = points.data();
   const Photon* in = photons.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "photon_points", n, [=] CAUSTICA_HD(size_t i) {
     point[i] = Aabb{in[i].position, in[i].position};
   });
   Buffer<BvhSummary> summary(backend, 1);
@@ -52,7 +52,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
   uint32_t* leaf_code = leaf_codes.data();
   const uint32_t* id = sorted_order.order.data();
   const uint32_t* code = sorted_order.codes.data();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "photon_map_leaves", n, [=] CAUSTICA_HD(size_t i) {
     const Photon& ph = in[id[i]];
     position[i] = ph.position;
     flux[i] = {ph.power, encode_octahedral(ph.incoming)};

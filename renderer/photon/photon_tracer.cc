@@ -113,9 +113,10 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
                  : count;
   Buffer<uint32_t> next_path(backend, 1);
   uint32_t* next = next_path.data();
-  parallel_for(backend, 1, [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
+  parallel_for(backend, "photon_next_path", 1,
+               [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
 
-  parallel_for<kWorkersPerMultiprocessor>(backend, workers, [=] CAUSTICA_HD(size_t worker) {
+  const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
     uint32_t path = uint32_t(worker);
     Sampler s(seed, path, pass);
     Ray ray;
@@ -183,7 +184,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
       if (path >= count) return;
       start_path();
     }
-  });
+  };
+  parallel_for<kWorkersPerMultiprocessor>(backend, "photon_trace", workers, trace_paths);
 
   // Compaction: the indices of stored slots, in path order, then a gather.
   auto compact = [&](Buffer<uint8_t>& flags, Buffer<Photon>& into) {
@@ -192,7 +194,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     into.resize_discard(count);
     Photon* dst = into.data();
     const uint32_t* idx = index.data();
-    parallel_for(backend, count, [=] CAUSTICA_HD(size_t i) { dst[i] = slot[idx[i]]; });
+    parallel_for(backend, "photon_compact", count,
+                 [=] CAUSTICA_HD(size_t i) { dst[i] = slot[idx[i]]; });
   };
   compact(caustic_flags, out.caustic);
   compact(global_flags, out.global);

@@ -28,7 +28,7 @@ std::span<const float> Film::resolve_linear() {
   const Vec3f* sum = sum_.data();
   float* out = resolved_.data();
   const float scale = passes_ > 0 ? 1.0f / float(passes_) : 0.0f;
-  parallel_for(*sum_.backend(), n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(*sum_.backend(), "film_resolve_linear", n, [=] CAUSTICA_HD(size_t i) {
     Vec3f c = sum[i] * scale;
     out[4 * i + 0] = c.x;
     out[4 * i + 1] = c.y;
@@ -44,7 +44,7 @@ std::span<const Rgba8> Film::resolve_srgb8(float exposure_stops) {
   const Vec3f* sum = sum_.data();
   Rgba8* out = resolved8_.data();
   const float scale = passes_ > 0 ? std::exp2(exposure_stops) / float(passes_) : 0.0f;
-  parallel_for(*sum_.backend(), n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(*sum_.backend(), "film_resolve_srgb8", n, [=] CAUSTICA_HD(size_t i) {
     Vec3f c = sum[i] * scale;
     auto q = [](float v) { return uint8_t(linear_to_srgb(v) * 255.0f + 0.5f); };
     out[i] = Rgba8{q(c.x), q(c.y), q(c.z), 255};

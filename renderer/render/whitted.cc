@@ -260,7 +260,7 @@ void render_pass_through(const Structure& structure, Backend& backend,
     GatherRequest* request = requests.data();
     const uint32_t room = uint32_t(capacity);
     backend.fill_bytes(next_request, 0, sizeof(uint32_t));
-    parallel_for(backend, blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+    parallel_for(backend, "specular_walk", blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
       size_t pixel;
       if (!blocks.pixel_of(thread, pixel)) return;
       Sampler s(seed, uint32_t(pixel), pass);
@@ -297,7 +297,7 @@ void render_pass_through(const Structure& structure, Backend& backend,
   // estimate summed its photons, the last bit of a few pixels.
   Buffer<uint32_t> requests_in_pixel_order(backend, request_total);
   uint32_t* in_pixel_order = requests_in_pixel_order.data();
-  parallel_for(backend, request_total, [=] CAUSTICA_HD(size_t slot) {
+  parallel_for(backend, "gather_pixel_order", request_total, [=] CAUSTICA_HD(size_t slot) {
     in_pixel_order[offset[request[slot].pixel] + request[slot].order] = uint32_t(slot);
   });
   const CurveOrder request_order = sort_by_code(
@@ -322,15 +322,15 @@ void render_pass_through(const Structure& structure, Backend& backend,
   };
   if (gathers_count(backend.kind(), k)) {
     if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters, kCountingGatherBlockWarps>(
-            backend, threads, kBinnedWords, gather_with(std::true_type{}))) {
+            backend, "gather_counting", threads, kBinnedWords, gather_with(std::true_type{}))) {
       throw DeviceError("render_pass: no room for the gather's scratch");
     }
   } else {
     const auto gather = gather_with(std::false_type{});
     const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
-    if (!parallel_for_with_scratch<NeighbourPair, kHeapGatherRegisters>(backend, threads,
-                                                                        heap_pairs, gather)) {
-      parallel_for(backend, threads, [=] CAUSTICA_HD(size_t thread) {
+    if (!parallel_for_with_scratch<NeighbourPair, kHeapGatherRegisters>(
+            backend, "gather_heaps", threads, heap_pairs, gather)) {
+      parallel_for(backend, "gather_heaps_private", threads, [=] CAUSTICA_HD(size_t thread) {
         NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)];
         gather(thread, heap);
       });
@@ -340,7 +340,7 @@ void render_pass_through(const Structure& structure, Backend& backend,
   // Stage 5: each pixel adds its direct light and its requests' estimates in path order, so the
   // sum is the same on every backend and every run, whatever order the requests were appended in.
   const Vec3f* gathered_at = gathered.data();
-  parallel_for(backend, pixels, [=] CAUSTICA_HD(size_t pixel) {
+  parallel_for(backend, "film_accumulate", pixels, [=] CAUSTICA_HD(size_t pixel) {
     const uint32_t begin = offset[pixel], end = begin + count[pixel];
     Vec3f sum = direct_out[pixel];
     for (uint32_t r = begin; r < end; ++r) sum += gathered_at[r];

@@ -39,7 +39,7 @@ float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
   float* cdf = weights_then_cdf.data();
   float total = backend.exclusive_scan(cdf, cdf, n);
   float inv = total > 0 ? 1.0f / total : 0.0f;
-  parallel_for(backend, n + 1,
+  parallel_for(backend, "light_cdf_normalize", n + 1,
                [=] CAUSTICA_HD(size_t i) { cdf[i] = i == n ? 1.0f : cdf[i] * inv; });
   return total;
 }
@@ -49,7 +49,7 @@ float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
 // in a private member function.)
 void write_light_weights(Backend& backend, const DeviceLight* lights, const uint32_t* subset,
                          size_t n, float scene_radius, float* weight, uint8_t* area_flag) {
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "light_weights", n, [=] CAUSTICA_HD(size_t i) {
     const DeviceLight& light = lights[subset != nullptr ? subset[i] : i];
     weight[i] = light_power(light, scene_radius);
     if (area_flag != nullptr) area_flag[i] = light.type == DeviceLightType::kArea;

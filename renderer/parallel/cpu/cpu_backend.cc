@@ -191,32 +191,42 @@ class CpuBackend final : public Backend {
   }
   void synchronize() override {}
 
+  // Each primitive is one timed launch under its own name (Backend::timed_launch); the ones built
+  // on others call the untimed forms, so that a launch is counted once.
   void sort_pairs(uint32_t* keys, uint32_t* values, size_t n, int end_bit) override {
-    sort_with_scratch(keys, values, n, end_bit);
+    timed_launch("sort_pairs", [&] { sort_with_scratch(keys, values, n, end_bit); });
   }
   void sort_pairs(uint64_t* keys, uint32_t* values, size_t n, int end_bit) override {
-    sort_with_scratch(keys, values, n, end_bit);
+    timed_launch("sort_pairs", [&] { sort_with_scratch(keys, values, n, end_bit); });
   }
   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, size_t n) override {
-    return chunked_exclusive_scan<uint32_t, uint32_t>(in, out, n);
+    return timed_launch("exclusive_scan",
+                        [&] { return chunked_exclusive_scan<uint32_t, uint32_t>(in, out, n); });
   }
   float exclusive_scan(const float* in, float* out, size_t n) override {
-    return chunked_exclusive_scan<float, double>(in, out, n);
+    return timed_launch("exclusive_scan",
+                        [&] { return chunked_exclusive_scan<float, double>(in, out, n); });
   }
   uint64_t reduce_sum(const uint32_t* in, size_t n) override {
-    return parallel_reduce<uint64_t>(in, n, uint64_t{0}, std::plus<uint64_t>());
+    return timed_launch("reduce_sum", [&] {
+      return parallel_reduce<uint64_t>(in, n, uint64_t{0}, std::plus<uint64_t>());
+    });
   }
   double reduce_sum(const float* in, size_t n) override {
-    return parallel_reduce<double>(in, n, 0.0, std::plus<double>());
+    return timed_launch("reduce_sum",
+                        [&] { return parallel_reduce<double>(in, n, 0.0, std::plus<double>()); });
   }
   float reduce_max(const float* in, size_t n) override {
-    return parallel_reduce<float>(in, n, -FLT_MAX, [](float a, float b) { return std::max(a, b); });
+    return timed_launch("reduce_max", [&] {
+      return parallel_reduce<float>(in, n, -FLT_MAX,
+                                    [](float a, float b) { return std::max(a, b); });
+    });
   }
   Aabb reduce_bounds(const Aabb* in, size_t n) override {
-    return parallel_reduce<Aabb>(in, n, Aabb{}, [](Aabb a, const Aabb& b) { return merge(a, b); });
+    return timed_launch("reduce_bounds", [&] { return bounds_of(in, n); });
   }
   void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override {
-    *out = reduce_bounds(in, n);
+    timed_launch("reduce_bounds", [&] { *out = bounds_of(in, n); });
   }
 
   template <typename Key>
@@ -229,36 +239,13 @@ class CpuBackend final : public Backend {
 
   size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,
                         uint32_t* out) override {
-    if (n == 0) return 0;
-    Chunking chunks(n);
-    std::vector<size_t> offsets(chunks.count);
-    for_each_chunk(chunks, [&](size_t c) {
-      size_t k = 0;
-      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) k += flags[i] != 0;
-      offsets[c] = k;
-    });
-    size_t total = 0;
-    for (size_t& o : offsets) total += std::exchange(o, total);
-    for_each_chunk(chunks, [&](size_t c) {
-      size_t k = offsets[c];
-      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i)
-        if (flags[i]) out[k++] = in ? in[i] : uint32_t(i);
-    });
-    return total;
+    return timed_launch("select_flagged", [&] { return select(in, flags, n, out); });
   }
 
   size_t run_length_encode(const uint32_t* in, size_t n, uint32_t* unique_out,
                            uint32_t* counts_out) override {
-    if (n == 0) return 0;
-    std::vector<uint8_t> heads(n);
-    tbb::parallel_for(size_t{0}, n, [&](size_t i) { heads[i] = i == 0 || in[i] != in[i - 1]; });
-    std::vector<uint32_t> starts(n);
-    size_t runs = select_flagged(nullptr, heads.data(), n, starts.data());
-    tbb::parallel_for(size_t{0}, runs, [&](size_t r) {
-      unique_out[r] = in[starts[r]];
-      counts_out[r] = uint32_t((r + 1 < runs ? starts[r + 1] : n) - starts[r]);
-    });
-    return runs;
+    return timed_launch("run_length_encode",
+                        [&] { return encode_runs(in, n, unique_out, counts_out); });
   }
 
  protected:
@@ -300,6 +287,43 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  static Aabb bounds_of(const Aabb* in, size_t n) {
+    return parallel_reduce<Aabb>(in, n, Aabb{}, [](Aabb a, const Aabb& b) { return merge(a, b); });
+  }
+
+  static size_t select(const uint32_t* in, const uint8_t* flags, size_t n, uint32_t* out) {
+    if (n == 0) return 0;
+    Chunking chunks(n);
+    std::vector<size_t> offsets(chunks.count);
+    for_each_chunk(chunks, [&](size_t c) {
+      size_t k = 0;
+      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i) k += flags[i] != 0;
+      offsets[c] = k;
+    });
+    size_t total = 0;
+    for (size_t& o : offsets) total += std::exchange(o, total);
+    for_each_chunk(chunks, [&](size_t c) {
+      size_t k = offsets[c];
+      for (size_t i = chunks.begin(c); i < chunks.end(c); ++i)
+        if (flags[i]) out[k++] = in ? in[i] : uint32_t(i);
+    });
+    return total;
+  }
+
+  static size_t encode_runs(const uint32_t* in, size_t n, uint32_t* unique_out,
+                            uint32_t* counts_out) {
+    if (n == 0) return 0;
+    std::vector<uint8_t> heads(n);
+    tbb::parallel_for(size_t{0}, n, [&](size_t i) { heads[i] = i == 0 || in[i] != in[i - 1]; });
+    std::vector<uint32_t> starts(n);
+    size_t runs = select(nullptr, heads.data(), n, starts.data());
+    tbb::parallel_for(size_t{0}, runs, [&](size_t r) {
+      unique_out[r] = in[starts[r]];
+      counts_out[r] = uint32_t((r + 1 < runs ? starts[r + 1] : n) - starts[r]);
+    });
+    return runs;
+  }
+
   static constexpr size_t kMaxPooledBytes = size_t(2) << 30;
   std::mutex pool_mutex_;
   std::multimap<size_t, void*> pool_;              // free blocks by size

@@ -29,6 +29,7 @@
 #include <mutex>
 #include <new>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 #include "renderer/base/aabb.h"
@@ -179,34 +180,77 @@ class CudaBackend final : public Backend {
     return ms;
   }
 
+  // Each primitive is one timed launch under the name the CPU backend gives it, so that the two
+  // backends' tables compare; its events bracket all it queues (CUB's passes, copies back).
   void sort_pairs(uint32_t* keys, uint32_t* values, size_t n, int end_bit) override {
-    radix_sort(keys, values, n, end_bit);
+    timed_launch("sort_pairs", [&] { radix_sort(keys, values, n, end_bit); });
   }
   void sort_pairs(uint64_t* keys, uint32_t* values, size_t n, int end_bit) override {
-    radix_sort(keys, values, n, end_bit);
+    timed_launch("sort_pairs", [&] { radix_sort(keys, values, n, end_bit); });
   }
   uint32_t exclusive_scan(const uint32_t* in, uint32_t* out, size_t n) override {
-    return scan<uint32_t, uint32_t>(in, out, n);
+    return timed_launch("exclusive_scan", [&] { return scan<uint32_t, uint32_t>(in, out, n); });
   }
   float exclusive_scan(const float* in, float* out, size_t n) override {
-    return scan<float, double>(in, out, n);
+    return timed_launch("exclusive_scan", [&] { return scan<float, double>(in, out, n); });
   }
   uint64_t reduce_sum(const uint32_t* in, size_t n) override {
-    return reduce(in, n, ::cuda::std::plus<uint64_t>(), uint64_t{0});
+    return timed_launch("reduce_sum",
+                        [&] { return reduce(in, n, ::cuda::std::plus<uint64_t>(), uint64_t{0}); });
   }
   double reduce_sum(const float* in, size_t n) override {
-    return reduce(in, n, ::cuda::std::plus<double>(), 0.0);
+    return timed_launch("reduce_sum",
+                        [&] { return reduce(in, n, ::cuda::std::plus<double>(), 0.0); });
   }
-  float reduce_max(const float* in, size_t n) override { return reduce(in, n, MaxOp(), -FLT_MAX); }
+  float reduce_max(const float* in, size_t n) override {
+    return timed_launch("reduce_max", [&] { return reduce(in, n, MaxOp(), -FLT_MAX); });
+  }
   Aabb reduce_bounds(const Aabb* in, size_t n) override {
-    return reduce(in, n, MergeBoundsOp(), Aabb{});
+    return timed_launch("reduce_bounds", [&] { return reduce(in, n, MergeBoundsOp(), Aabb{}); });
   }
   void reduce_bounds_to(const Aabb* in, size_t n, Aabb* out) override {
-    reduce_to(in, n, MergeBoundsOp(), Aabb{}, out);
+    timed_launch("reduce_bounds", [&] { reduce_to(in, n, MergeBoundsOp(), Aabb{}, out); });
   }
 
   size_t select_flagged(const uint32_t* in, const uint8_t* flags, size_t n,
                         uint32_t* out) override {
+    return timed_launch("select_flagged", [&] { return select(in, flags, n, out); });
+  }
+
+  size_t run_length_encode(const uint32_t* in, size_t n, uint32_t* unique_out,
+                           uint32_t* counts_out) override {
+    return timed_launch("run_length_encode",
+                        [&] { return encode_runs(in, n, unique_out, counts_out); });
+  }
+
+  // A pair of events on the stream around the launch; the mark is the pair's place in pending_.
+  uint64_t launch_began(const char* name) override {
+    std::lock_guard<std::mutex> lock(events_mutex_);
+    // Events are read only when the times are asked for; a run that never asks is held to a
+    // bounded number of them by reading what is pending now and then.
+    if (pending_.size() >= kMaxPendingLaunches) collect_pending();
+    PendingLaunch launch{name, take_event(), nullptr};
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(launch.start, stream_));
+    pending_.push_back(launch);
+    return pending_.size() - 1;
+  }
+  void launch_ended(const char*, uint64_t mark, bool launched) override {
+    std::lock_guard<std::mutex> lock(events_mutex_);
+    if (mark >= pending_.size()) return;  // read since it began: the launch goes uncounted
+    PendingLaunch& launch = pending_[mark];
+    if (!launched) return;  // collect_pending gives back the start event
+    launch.stop = take_event();
+    CAUSTICA_CUDA_CHECK(cudaEventRecord(launch.stop, stream_));
+  }
+
+ protected:
+  void collect_launch_times() override {
+    std::lock_guard<std::mutex> lock(events_mutex_);
+    collect_pending();
+  }
+
+ private:
+  size_t select(const uint32_t* in, const uint8_t* flags, size_t n, uint32_t* out) {
     if (n == 0) return 0;
     Buffer<int64_t> selected(*this, 1);
     if (in != nullptr) {
@@ -225,8 +269,7 @@ class CudaBackend final : public Backend {
     return size_t(fetch(selected.data()));
   }
 
-  size_t run_length_encode(const uint32_t* in, size_t n, uint32_t* unique_out,
-                           uint32_t* counts_out) override {
+  size_t encode_runs(const uint32_t* in, size_t n, uint32_t* unique_out, uint32_t* counts_out) {
     if (n == 0) return 0;
     if (n > size_t(INT_MAX)) {
       throw DeviceError(
@@ -257,6 +300,43 @@ class CudaBackend final : public Backend {
 
  private:
   static constexpr size_t kStagingBytes = 256;
+  static constexpr size_t kMaxPendingLaunches = size_t(1) << 14;
+
+  // A timed launch whose events have not been read yet; stop is null until it has ended.
+  struct PendingLaunch {
+    const char* name;
+    cudaEvent_t start, stop;
+  };
+
+  // An event from the pool, made when the pool is empty. Callers hold events_mutex_.
+  cudaEvent_t take_event() {
+    if (free_events_.empty()) {
+      cudaEvent_t event;
+      CAUSTICA_CUDA_CHECK(cudaEventCreate(&event));
+      events_.push_back(event);
+      return event;
+    }
+    const cudaEvent_t event = free_events_.back();
+    free_events_.pop_back();
+    return event;
+  }
+
+  // Waits for the stream, adds each ended launch's time to the table and gives its events back
+  // to the pool. Callers hold events_mutex_.
+  void collect_pending() {
+    if (pending_.empty()) return;
+    CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_));
+    for (const PendingLaunch& launch : pending_) {
+      if (launch.stop != nullptr) {
+        float ms = 0;
+        CAUSTICA_CUDA_CHECK(cudaEventElapsedTime(&ms, launch.start, launch.stop));
+        add_launch_time(launch.name, 1, ms);
+        free_events_.push_back(launch.stop);
+      }
+      free_events_.push_back(launch.start);
+    }
+    pending_.clear();
+  }
 
   // Calls a CUB device-wide algorithm twice, as CUB prescribes: once for the size of its
   // temporary storage, then with storage from this backend's pool.
@@ -345,6 +425,10 @@ class CudaBackend final : public Backend {
   // Idempotent, so the constructor can undo a partial set-up with it.
   void release() noexcept {
     if (stream_ != nullptr) CAUSTICA_CUDA_LOG(cudaStreamSynchronize(stream_));
+    for (cudaEvent_t event : events_) CAUSTICA_CUDA_LOG(cudaEventDestroy(event));
+    events_.clear();
+    free_events_.clear();
+    pending_.clear();
     if (staging_ != nullptr) CAUSTICA_CUDA_LOG(cudaFreeHost(staging_));
     if (pool_ != nullptr) CAUSTICA_CUDA_LOG(cudaMemPoolDestroy(pool_));
     if (stream_ != nullptr) CAUSTICA_CUDA_LOG(cudaStreamDestroy(stream_));
@@ -359,6 +443,11 @@ class CudaBackend final : public Backend {
   cudaMemPool_t pool_ = nullptr;
   void* staging_ = nullptr;  // pinned
   std::mutex staging_mutex_;
+  // Launch timing's events: every one made (destroyed with the backend), those free for reuse,
+  // and the launches whose times are still to be read.
+  std::mutex events_mutex_;
+  std::vector<cudaEvent_t> events_, free_events_;
+  std::vector<PendingLaunch> pending_;
 };
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <memory>
 #include <random>
+#include <string>
 #include <tuple>
 #include <vector>
 
@@ -218,7 +219,7 @@ std::vector<uint32_t> morton_codes(Backend& backend, const std::vector<Aabb>& ho
   Buffer<uint32_t> codes(backend, host.size());
   const Aabb* box = boxes.data();
   uint32_t* code = codes.data();
-  parallel_for(backend, host.size(),
+  parallel_for(backend, "morton_codes", host.size(),
                [=] CAUSTICA_HD(size_t i) { code[i] = morton_code(box[i].center(), bounds); });
   return codes.download();
 }
@@ -229,15 +230,63 @@ TEST_P(GpuParityTest, ParallelForWithScratchGivesEachThreadItsOwn) {
   const size_t n = GetParam();
   for (uint32_t count : {1u, 5u, 64u, 384u}) {
     Buffer<uint32_t> sums(gpu(), n);
-    ASSERT_TRUE(
-        parallel_for_with_scratch<uint32_t>(gpu(), n, count, ScratchCheck{count, sums.data()}));
+    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(gpu(), "scratch_check", n, count,
+                                                    ScratchCheck{count, sums.data()}));
     auto got = sums.download();
     for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
   }
   Buffer<uint32_t> unused(gpu(), 1);
-  EXPECT_FALSE(
-      parallel_for_with_scratch<uint32_t>(gpu(), 64, 1024, ScratchCheck{1024, unused.data()}))
+  EXPECT_FALSE(parallel_for_with_scratch<uint32_t>(gpu(), "scratch_check_too_large", 64, 1024,
+                                                   ScratchCheck{1024, unused.data()}))
       << "32 threads x 1024 x 4 bytes is over 48 KiB";
+}
+
+// A launch body for the timing case below: a functor, extended lambdas not being allowed in
+// TestBody.
+struct AddIndex {
+  uint32_t* out;
+  CAUSTICA_HD void operator()(size_t i) const { out[i] += uint32_t(i); }
+};
+
+// The launch profiler on the GPU: a pair of events per launch, read when the times are asked for
+// (also while launching, past the events it keeps pending); a scratch launch that finds no room
+// runs nothing and is not counted; off stops recording and clear empties the table.
+TEST(GpuParity, LaunchTimingSumsLaunchesPerName) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  std::unique_ptr<Backend> gpu = make_cuda_backend(kBudget);
+  const size_t n = 1 << 20;
+  Buffer<uint32_t> values(*gpu, n), unused(*gpu, 1);
+  values.fill_zero();
+  gpu->set_launch_timing(true);
+  parallel_for(*gpu, "add_once", n, AddIndex{values.data()});
+  parallel_for(*gpu, "add_twice", n, AddIndex{values.data()});
+  parallel_for(*gpu, "add_twice", n, AddIndex{values.data()});
+  EXPECT_FALSE(parallel_for_with_scratch<uint32_t>(*gpu, "no_room", 64, 1024,
+                                                   ScratchCheck{1024, unused.data()}));
+  EXPECT_EQ(gpu->reduce_sum(values.data(), 4), 3u * (0 + 1 + 2 + 3));
+  constexpr uint32_t kMany = 20000;
+  for (uint32_t i = 0; i < kMany; ++i) parallel_for(*gpu, "many", 1, AddIndex{unused.data()});
+  std::vector<LaunchTime> times = gpu->launch_times();
+  auto launches_of = [&](const std::string& name) -> int64_t {
+    for (const LaunchTime& t : times)
+      if (t.name == name) return int64_t(t.launches);
+    return -1;
+  };
+  ASSERT_EQ(times.size(), 4u);
+  EXPECT_EQ(launches_of("add_once"), 1);
+  EXPECT_EQ(launches_of("add_twice"), 2);
+  EXPECT_EQ(launches_of("reduce_sum"), 1);
+  EXPECT_EQ(launches_of("many"), kMany);
+  EXPECT_EQ(launches_of("no_room"), -1);
+  for (const LaunchTime& t : times) EXPECT_GE(t.total_ms, 0.0) << t.name;
+  EXPECT_GE(times[0].total_ms, times[1].total_ms) << "the most time first";
+
+  gpu->set_launch_timing(false);
+  parallel_for(*gpu, "add_once", n, AddIndex{values.data()});
+  times = gpu->launch_times();
+  EXPECT_EQ(launches_of("add_once"), 1);
+  gpu->clear_launch_times();
+  EXPECT_TRUE(gpu->launch_times().empty());
 }
 
 // The page-locked host memory frames come back into (HostBuffer).
@@ -332,7 +381,7 @@ std::vector<float> box_entries(Backend& backend, const std::vector<BoxCase>& cas
   const BoxCase* c = in.data();
   float* t = out.data();
   const Aabb within = kBoxCaseBounds;
-  parallel_for(backend, cases.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "box_entries", cases.size(), [=] CAUSTICA_HD(size_t i) {
     t[i] = slab_entry(ray_slabs(c[i].origin, c[i].direction, within), c[i].box, c[i].t_min,
                       c[i].t_max);
   });
@@ -380,11 +429,11 @@ std::vector<uint8_t> shadow_answers(Backend& backend, const Structure& view,
   Buffer<uint8_t> answers(backend, rays.size());
   const Ray* ray = r.data();
   uint8_t* out = answers.data();
-  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "shadow_rays_shared_walks", rays.size(), [=] CAUSTICA_HD(size_t i) {
     out[i] = 2;  // neither answer: a ray left out keeps it
     if (i % 3 != 1) out[i] = any_hit(view, ray[i]);
   });
-  parallel_for(backend, rays.size(), [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "shadow_rays_lone_walks", rays.size(), [=] CAUSTICA_HD(size_t i) {
     if (i % 3 == 1) out[i] = any_hit(view, ray[i]);
   });
   return answers.download();
@@ -427,7 +476,7 @@ std::vector<Hit> single_ray_hits(Backend& backend, const Structure& structure, V
                                  int width) {
   Buffer<Hit> hits(backend, size_t(width) * width);
   Hit* hit = hits.data();
-  parallel_for(backend, size_t(width) * width, [=] CAUSTICA_HD(size_t pixel) {
+  parallel_for(backend, "single_ray_hits", size_t(width) * width, [=] CAUSTICA_HD(size_t pixel) {
     const float x = (float(pixel % width) + 0.5f) / float(width) - 0.5f;
     const float y = (float(pixel / width) + 0.5f) / float(width) - 0.5f;
     hit[pixel] = closest_hit(structure, Ray{eye, normalize(Vec3f(x, y, 1.0f))});
@@ -525,7 +574,7 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
   uint32_t* count = counts.data();
   Vec3f* l = radiance.data();
   const PhotonMapView view = map.view();
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "photon_search", n, [=] CAUSTICA_HD(size_t i) {
     const uint32_t k = 1 + uint32_t(i % kNnMaxK);
     const float max_radius = i % 3 == 0 ? 0.02f : 1.0f;
     NeighbourPair storage[NeighbourHeap<NeighbourPair*>::pairs_for(kNnMaxK)];
@@ -626,7 +675,7 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
   RadianceEstimate* e = out.data();
   const PhotonMapView view = map.view();
   const SearchGroup group{backend.kind() == DeviceKind::kCuda ? 0xffffffffu : 0u};
-  parallel_for(backend, n, [=] CAUSTICA_HD(size_t i) {
+  parallel_for(backend, "grouped_estimates", n, [=] CAUSTICA_HD(size_t i) {
     if (binned) {
       uint32_t words[kBinnedWords];
       e[i] = estimate_radiance_binned(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,

@@ -200,7 +200,7 @@ TEST_P(PrimitivesTest, ParallelForVisitsEveryIndexOnce) {
   Buffer<uint32_t> hits(*backend, n);
   hits.fill_zero();
   uint32_t* h = hits.data();
-  parallel_for(*backend, n, [=](size_t i) { h[i] += uint32_t(i % 13) + 1; });
+  parallel_for(*backend, "count_visits", n, [=](size_t i) { h[i] += uint32_t(i % 13) + 1; });
   auto got = hits.download();
   for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], i % 13 + 1);
 }
@@ -210,8 +210,8 @@ TEST_P(PrimitivesTest, ParallelForWithScratchGivesEachElementItsOwn) {
   const size_t n = GetParam();
   for (uint32_t count : {1u, 5u, 64u}) {
     Buffer<uint32_t> sums(*backend, n);
-    ASSERT_TRUE(
-        parallel_for_with_scratch<uint32_t>(*backend, n, count, ScratchCheck{count, sums.data()}));
+    ASSERT_TRUE(parallel_for_with_scratch<uint32_t>(*backend, "scratch_check", n, count,
+                                                    ScratchCheck{count, sums.data()}));
     auto got = sums.download();
     for (size_t i = 0; i < n; ++i) ASSERT_EQ(got[i], ScratchCheck::expected_sum(i, count)) << i;
   }
