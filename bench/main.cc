@@ -40,8 +40,7 @@ int main(int argc, char** argv) {
                      caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
       ->check([](const std::string& name) -> std::string {
         if (name == "all" || caustica::parse_structure_kind(name)) return "";
-        return "unknown structure '" + name + "' (expected all, " +
-               caustica::structure_kind_list() + ")";
+        return caustica::unknown_structure_message(name, "all, ");
       });
   app.add_flag("--kernels", options.kernels,
                "after each measured benchmark, print its launches' times: one JSON line per "

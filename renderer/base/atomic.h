@@ -37,14 +37,24 @@ CAUSTICA_HDI uint32_t atomic_fetch_add(uint32_t* p, uint32_t v) {
 
 // Lowers `*p` to `v` when `v` is smaller, and raises it when larger; relaxed, for reductions
 // whose result is read only after the launch that made them.
+#if !defined(__CUDA_ARCH__)
+namespace detail {
+// Stores `v` in `*p` while `replaces(v, old)` holds for the value there.
+template <typename Replaces>
+inline void store_while(uint32_t* p, uint32_t v, Replaces replaces) {
+  std::atomic_ref<uint32_t> a(*p);
+  uint32_t old = a.load(std::memory_order_relaxed);
+  while (replaces(v, old) && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
+  }
+}
+}  // namespace detail
+#endif
+
 CAUSTICA_HDI void atomic_min(uint32_t* p, uint32_t v) {
 #if defined(__CUDA_ARCH__)
   atomicMin(p, v);
 #else
-  std::atomic_ref<uint32_t> a(*p);
-  uint32_t old = a.load(std::memory_order_relaxed);
-  while (v < old && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
-  }
+  detail::store_while(p, v, [](uint32_t a, uint32_t b) { return a < b; });
 #endif
 }
 
@@ -52,10 +62,7 @@ CAUSTICA_HDI void atomic_max(uint32_t* p, uint32_t v) {
 #if defined(__CUDA_ARCH__)
   atomicMax(p, v);
 #else
-  std::atomic_ref<uint32_t> a(*p);
-  uint32_t old = a.load(std::memory_order_relaxed);
-  while (v > old && !a.compare_exchange_weak(old, v, std::memory_order_relaxed)) {
-  }
+  detail::store_while(p, v, [](uint32_t a, uint32_t b) { return a > b; });
 #endif
 }
 

@@ -34,14 +34,6 @@ inline std::vector<TriangleVertices> scene_triangles(const std::string& name) {
   return tris;
 }
 
-inline Aabb box_of(const TriangleVertices& t) {
-  Aabb b;
-  b.extend(t.p0);
-  b.extend(t.p1);
-  b.extend(t.p2);
-  return b;
-}
-
 // The 4-wide collapse: every triangle in exactly one leaf; leaves are runs of 1 to
 // kMaxLeafTriangles sorted triangles whose box is exactly theirs, and a leaf of several has a box
 // of the small size class or no larger than a part of it; child boxes lie inside their parents;
@@ -85,7 +77,7 @@ inline void check_wide_invariants(const TriangleBvh& bvh,
         Aabb tight;
         for (uint32_t i = first; i < first + count; ++i) {
           ++triangle_seen[i];
-          tight.extend(box_of(sorted[i]));
+          tight.extend(triangle_bounds(sorted[i]));
         }
         ASSERT_EQ(child_box.lower, tight.lower) << "leaf at node " << node << " child " << c;
         ASSERT_EQ(child_box.upper, tight.upper) << "leaf at node " << node << " child " << c;
@@ -96,7 +88,7 @@ inline void check_wide_invariants(const TriangleBvh& bvh,
           for (uint32_t split = first + 1; split < first + count; ++split) {
             Aabb low, high;
             for (uint32_t i = first; i < first + count; ++i) {
-              (i < split ? low : high).extend(box_of(sorted[i]));
+              (i < split ? low : high).extend(triangle_bounds(sorted[i]));
             }
             spanned = spanned || low.half_area() >= child_box.half_area() ||
                       high.half_area() >= child_box.half_area();
@@ -196,7 +188,7 @@ inline void check_binary_invariants(const BinaryTriangleBvh& t,
         uint32_t leaf = leaf_index(child);
         ASSERT_LT(leaf, n);
         ++leaf_seen[leaf];
-        Aabb tb = box_of(sorted[leaf]);
+        Aabb tb = triangle_bounds(sorted[leaf]);
         ASSERT_EQ(child_box.lower, tb.lower);
         ASSERT_EQ(child_box.upper, tb.upper);
       } else {

@@ -83,7 +83,7 @@ TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
     EXPECT_EQ(s.bytes, nodes * sizeof(Bvh4Node) +
                            tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
     Aabb all;
-    for (const TriangleVertices& t : tris) all.extend(box_of(t));
+    for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
     EXPECT_EQ(v.bounds.lower, all.lower);
     EXPECT_EQ(v.bounds.upper, all.upper);
   });
