@@ -200,125 +200,163 @@ uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested)
 
 namespace {
 
-// The render pass with rays traced through `structure`, the view of the scene's structure.
-template <typename Structure>
-void render_pass_through(const Structure& structure, Backend& backend,
-                         const ResidentScene& resident, const PhotonMap& caustic_map,
-                         const PhotonMap& global_map, const PinholeCamera& camera,
-                         const ShadingSettings& settings, Film& film) {
-  const ResidentSceneView scene = resident.view();
-  const PhotonMapView caustics = caustic_map.view();
-  const PhotonMapView global = global_map.view();
-  const ShadingSettings cfg = settings;
-  const float scene_radius = resident.radius();
-  const Aabb scene_bounds = resident.bounds();
-  const uint32_t k = cfg.k_nearest < kMaxNearest ? cfg.k_nearest : kMaxNearest;
-  const uint32_t max_depth = cfg.max_depth < kMaxSpecularDepth ? cfg.max_depth : kMaxSpecularDepth;
-  Vec3f* accum = film.accumulator();
-  const int width = camera.width, height = camera.height;
-  const size_t pixels = size_t(width) * height;
-  const uint32_t seed = cfg.seed, pass = cfg.pass;
-  // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
-  auto camera_ray = [=] CAUSTICA_HD(size_t pixel, Sampler & s) {
-    float x = float(pixel % width) + s.next_float();
-    float y = float(pixel / width) + s.next_float();
-    return camera.ray_through(x, y);
-  };
-  const PixelBlocks blocks(width, height);
+// What every stage of one pass reads, copied by value into its kernels.
+struct PassInputs {
+  ResidentSceneView scene;
+  PinholeCamera camera;
+  ShadingSettings cfg;
+  PixelBlocks blocks;
+  size_t pixels;
+  float scene_radius;
+  Aabb scene_bounds;
+  uint32_t max_depth;
 
-  // Stage 1: primary hits (packets on the CPU, a warp per 8x4 pixels on a GPU).
-  Buffer<Hit> primary_hits(backend, pixels);
-  Hit* primary = primary_hits.data();
+  PassInputs(const ResidentScene& resident, const PinholeCamera& camera_in,
+             const ShadingSettings& settings)
+      : scene(resident.view()),
+        camera(camera_in),
+        cfg(settings),
+        blocks(camera_in.width, camera_in.height),
+        pixels(size_t(camera_in.width) * camera_in.height),
+        scene_radius(resident.radius()),
+        scene_bounds(resident.bounds()),
+        max_depth(settings.max_depth < kMaxSpecularDepth ? settings.max_depth : kMaxSpecularDepth) {
+  }
+
+  // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
+  CAUSTICA_HDI Ray camera_ray(size_t pixel, Sampler& s) const {
+    const float x = float(pixel % camera.width) + s.next_float();
+    const float y = float(pixel / camera.width) + s.next_float();
+    return camera.ray_through(x, y);
+  }
+};
+
+// What the specular walks leave for the gathers: per pixel its emitted and direct light and how
+// many requests it made (offsets: where they start in pixel and path order), and the requests.
+struct SpecularPaths {
+  Buffer<Vec3f> direct;
+  Buffer<uint32_t> counts, offsets;
+  Buffer<GatherRequest> requests;
+  uint32_t request_total = 0;
+};
+
+// Stage 1: primary hits (packets on the CPU, a warp per 8x4 pixels on a GPU).
+template <typename Structure>
+Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, const PassInputs& in) {
+  Buffer<Hit> hits(backend, in.pixels);
+  const uint32_t seed = in.cfg.seed, pass = in.cfg.pass;
   trace_camera_tiles(
-      backend, structure, camera.origin, width, height,
+      backend, structure, in.camera.origin, in.camera.width, in.camera.height,
       [=] CAUSTICA_HD(size_t pixel) {
         Sampler s(seed, uint32_t(pixel), pass);
-        return camera_ray(pixel, s).direction;
+        return in.camera_ray(pixel, s).direction;
       },
-      primary);
+      hits.data());
+  return hits;
+}
 
-  // The gathers run apart from the paths that need them (a wavefront, as in pbrt-v4): inside one
-  // per-pixel kernel, a pixel on the glass sphere made its warp wait through half a dozen
-  // gathers while the other lanes idled, and the lanes of a warp searched far-apart photons.
-  // Stage 2 walks each pixel's specular tree once: emitted and direct light (shadow rays) per
-  // pixel, and one gather request per diffuse hit, appended wherever there is room; each request
-  // knows its pixel and its place in the pixel's path order. A pixel makes about one request
-  // (1.1 in cornell-caustics); when a pass needs more room than it was given, stage 2 runs
-  // again with exactly enough (nothing it computes depends on what it wrote before).
-  Buffer<Vec3f> direct_light_of(backend, pixels);
-  Buffer<uint32_t> request_counts(backend, pixels), request_offsets(backend, pixels);
+// Stage 2, with the shadow rays of direct light. The gathers run apart from the paths that need
+// them (a wavefront, as in pbrt-v4): inside one per-pixel kernel, a pixel on the glass sphere
+// made its warp wait through half a dozen gathers while the other lanes idled, and the lanes of a
+// warp searched far-apart photons. Each pixel's specular tree is walked once: emitted and direct
+// light per pixel, and one gather request per diffuse hit, appended wherever there is room; each
+// request knows its pixel and its place in the pixel's path order. A pixel makes about one
+// request (1.1 in cornell-caustics); when a pass needs more room than it was given, the walks run
+// again with exactly enough (nothing they compute depends on what they wrote before).
+template <typename Structure>
+SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
+                                  const PassInputs& in, const Hit* primary) {
+  SpecularPaths out{Buffer<Vec3f>(backend, in.pixels), Buffer<uint32_t>(backend, in.pixels),
+                    Buffer<uint32_t>(backend, in.pixels), Buffer<GatherRequest>(backend, 0)};
   Buffer<uint32_t> appended(backend, 1);
-  Buffer<GatherRequest> requests(backend, 0);
-  Vec3f* direct_out = direct_light_of.data();
-  uint32_t* count = request_counts.data();
-  uint32_t* offset = request_offsets.data();
+  Vec3f* direct_out = out.direct.data();
+  uint32_t* count = out.counts.data();
   uint32_t* next_request = appended.data();
-  size_t capacity = size_t(cfg.gather_requests_per_pixel) * pixels;
-  uint32_t request_total = 0;
+  size_t capacity = size_t(in.cfg.gather_requests_per_pixel) * in.pixels;
   while (true) {
-    requests.resize_discard(capacity);
-    GatherRequest* request = requests.data();
+    out.requests.resize_discard(capacity);
+    GatherRequest* request = out.requests.data();
     const uint32_t room = uint32_t(capacity);
     backend.fill_bytes(next_request, 0, sizeof(uint32_t));
-    parallel_for(backend, "specular_walk", blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
-      size_t pixel;
-      if (!blocks.pixel_of(thread, pixel)) return;
-      Sampler s(seed, uint32_t(pixel), pass);
-      Vec3f direct(0.0f);
-      uint32_t made = 0;
-      Vec3f emitted = walk_specular_tree(
-          scene, structure, camera_ray(pixel, s), primary[pixel], max_depth,
-          [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
-            direct +=
-                throughput * direct_light(scene, structure, sh.position, n, sh.geometric_normal,
-                                          m.color, cfg.area_light_samples, scene_radius, s);
-            const uint32_t slot = atomic_fetch_add(next_request, 1u);
-            if (slot < room)
-              request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
-            ++made;
-          });
-      direct_out[pixel] = emitted + direct;
-      count[pixel] = made;
-    });
-    request_total = backend.exclusive_scan(count, offset, pixels);
-    if (request_total <= capacity) break;
-    capacity = request_total;
+    parallel_for(
+        backend, "specular_walk", in.blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+          size_t pixel;
+          if (!in.blocks.pixel_of(thread, pixel)) return;
+          Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
+          Vec3f direct(0.0f);
+          uint32_t made = 0;
+          Vec3f emitted = walk_specular_tree(
+              in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
+              [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
+                direct += throughput * direct_light(in.scene, structure, sh.position, n,
+                                                    sh.geometric_normal, m.color,
+                                                    in.cfg.area_light_samples, in.scene_radius, s);
+                const uint32_t slot = atomic_fetch_add(next_request, 1u);
+                if (slot < room)
+                  request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
+                ++made;
+              });
+          direct_out[pixel] = emitted + direct;
+          count[pixel] = made;
+        });
+    out.request_total = backend.exclusive_scan(count, out.offsets.data(), in.pixels);
+    if (out.request_total <= capacity) return out;
+    capacity = out.request_total;
   }
-  const GatherRequest* request = requests.data();
+}
 
-  // Stage 3: the requests in Hilbert order of their positions, so that the threads of a warp
-  // search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
-  // 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
-  // 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
-  // The sort keeps equal codes in the order it is given them, and stage 2 appended the requests
-  // in whatever order the walks ended. So they go to the sort in pixel and path order: taken in
-  // append order, requests on one grid cell (pixels that a curved mirror shrinks onto one spot)
-  // met their neighbours in an order that changed from run to run, and with it the order each
-  // estimate summed its photons, the last bit of a few pixels.
-  Buffer<uint32_t> requests_in_pixel_order(backend, request_total);
+// Stage 3: the requests in Hilbert order of their positions, so that the threads of a warp
+// search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
+// 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
+// 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
+// The sort keeps equal codes in the order it is given them, and stage 2 appended the requests
+// in whatever order the walks ended. So they go to the sort in pixel and path order: taken in
+// append order, requests on one grid cell (pixels that a curved mirror shrinks onto one spot)
+// met their neighbours in an order that changed from run to run, and with it the order each
+// estimate summed its photons, the last bit of a few pixels.
+CurveOrder order_gather_requests(Backend& backend, const PassInputs& in,
+                                 const SpecularPaths& paths) {
+  Buffer<uint32_t> requests_in_pixel_order(backend, paths.request_total);
   uint32_t* in_pixel_order = requests_in_pixel_order.data();
-  parallel_for(backend, "gather_pixel_order", request_total, [=] CAUSTICA_HD(size_t slot) {
+  const GatherRequest* request = paths.requests.data();
+  const uint32_t* offset = paths.offsets.data();
+  const Aabb scene_bounds = in.scene_bounds;
+  parallel_for(backend, "gather_pixel_order", paths.request_total, [=] CAUSTICA_HD(size_t slot) {
     in_pixel_order[offset[request[slot].pixel] + request[slot].order] = uint32_t(slot);
   });
-  const CurveOrder request_order = sort_by_code(
-      backend, request_total, 30,
+  return sort_by_code(
+      backend, paths.request_total, 30,
       [=] CAUSTICA_HD(uint32_t i) { return hilbert_code(request[i].position, scene_bounds); },
       [=] CAUSTICA_HD(uint32_t rank) { return in_pixel_order[rank]; });
-  const uint32_t* by_code = request_order.order.data();
+}
 
-  // Stage 4: both photon-map estimates per request, stored in pixel and path order. A GPU warp's
-  // requests are Hilbert neighbours, so its lanes search together. On a GPU from k = 64 on, each
-  // estimate counts in 288 bytes of per-thread scratch at any k; otherwise a neighbour heap lives
-  // in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a private array.
-  Buffer<Vec3f> gathered(backend, request_total);
+// Stage 4: both photon-map estimates per request, stored in pixel and path order. A GPU warp's
+// requests are Hilbert neighbours, so its lanes search together. On a GPU from k = 64 on, each
+// estimate counts in 288 bytes of per-thread scratch at any k; otherwise a neighbour heap lives
+// in fast per-thread scratch where it fits (k up to 192 on a GPU), else in a private array.
+Buffer<Vec3f> gather_photon_estimates(Backend& backend, const PassInputs& in,
+                                      const PhotonMap& caustic_map, const PhotonMap& global_map,
+                                      const SpecularPaths& paths, const uint32_t* by_code) {
+  Buffer<Vec3f> gathered(backend, paths.request_total);
+  const ShadingSettings& cfg = in.cfg;
+  const uint32_t k = cfg.k_nearest < kMaxNearest ? cfg.k_nearest : kMaxNearest;
   const bool gpu = backend.kind() == DeviceKind::kCuda;
   const uint32_t lanes = gpu ? 32 : 1;
   const uint32_t chain = gpu ? 1 : kGatherChain;
-  const size_t threads = GatherEstimates<false>::threads(request_total, lanes, chain);
+  const size_t threads = GatherEstimates<false>::threads(paths.request_total, lanes, chain);
   auto gather_with = [&](auto binned) {
-    return GatherEstimates<decltype(binned)::value>{
-        caustics,      global, request, by_code, offset,         gathered.data(),
-        request_total, lanes,  chain,   k,       cfg.max_radius, cfg.kernel};
+    return GatherEstimates<decltype(binned)::value>{caustic_map.view(),
+                                                    global_map.view(),
+                                                    paths.requests.data(),
+                                                    by_code,
+                                                    paths.offsets.data(),
+                                                    gathered.data(),
+                                                    paths.request_total,
+                                                    lanes,
+                                                    chain,
+                                                    k,
+                                                    cfg.max_radius,
+                                                    cfg.kernel};
   };
   if (gathers_count(backend.kind(), k)) {
     if (!parallel_for_with_scratch<uint32_t, kCountingGatherRegisters, kCountingGatherBlockWarps>(
@@ -336,17 +374,43 @@ void render_pass_through(const Structure& structure, Backend& backend,
       });
     }
   }
+  return gathered;
+}
 
-  // Stage 5: each pixel adds its direct light and its requests' estimates in path order, so the
-  // sum is the same on every backend and every run, whatever order the requests were appended in.
+// Stage 5: each pixel adds its direct light and its requests' estimates in path order, so the
+// sum is the same on every backend and every run, whatever order the requests were appended in.
+void accumulate_film(Backend& backend, const SpecularPaths& paths, const Buffer<Vec3f>& gathered,
+                     Film& film) {
   const Vec3f* gathered_at = gathered.data();
-  parallel_for(backend, "film_accumulate", pixels, [=] CAUSTICA_HD(size_t pixel) {
+  const Vec3f* direct = paths.direct.data();
+  const uint32_t* offset = paths.offsets.data();
+  const uint32_t* count = paths.counts.data();
+  Vec3f* accum = film.accumulator();
+  parallel_for(backend, "film_accumulate", paths.direct.size(), [=] CAUSTICA_HD(size_t pixel) {
     const uint32_t begin = offset[pixel], end = begin + count[pixel];
-    Vec3f sum = direct_out[pixel];
+    Vec3f sum = direct[pixel];
     for (uint32_t r = begin; r < end; ++r) sum += gathered_at[r];
     accum[pixel] += sum;
   });
   film.add_pass();
+}
+
+// The render pass with rays traced through `structure`, the view of the scene's structure.
+template <typename Structure>
+void render_pass_through(const Structure& structure, Backend& backend,
+                         const ResidentScene& resident, const PhotonMap& caustic_map,
+                         const PhotonMap& global_map, const PinholeCamera& camera,
+                         const ShadingSettings& settings, Film& film) {
+  const PassInputs in(resident, camera, settings);
+  SpecularPaths paths;
+  {
+    const Buffer<Hit> primary = trace_camera_rays(backend, structure, in);
+    paths = walk_specular_paths(backend, structure, in, primary.data());
+  }
+  const CurveOrder request_order = order_gather_requests(backend, in, paths);
+  const Buffer<Vec3f> gathered = gather_photon_estimates(backend, in, caustic_map, global_map,
+                                                         paths, request_order.order.data());
+  accumulate_film(backend, paths, gathered, film);
 }
 
 }  // namespace
