@@ -161,6 +161,20 @@ CAUSTICA_HDI uint32_t bits_for(uint32_t values) {
   return bits;
 }
 
+// The node of `nodes` (`count` of them, in position order, disjoint) whose positions hold `p`.
+CAUSTICA_HDI uint32_t node_holding(const LargeNode* nodes, uint32_t count, uint32_t p) {
+  uint32_t lo = 0, hi = count;  // the first node that starts after p is in [lo, hi]
+  while (lo < hi) {
+    const uint32_t mid = (lo + hi) / 2;
+    if (nodes[mid].first <= p) {
+      lo = mid + 1;
+    } else {
+      hi = mid;
+    }
+  }
+  return lo - 1;
+}
+
 // Whether a child of `size` triangles with these centroids goes on to the next data-parallel
 // level (else: a leaf when it is one triangle, or the per-node stage).
 CAUSTICA_HDI bool stays_large(uint32_t size, const Aabb& centroids, bool last_level) {
@@ -219,16 +233,13 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
     Buffer<LargeNode> level_nodes(backend, 1), next_nodes(backend, 0);
     level_nodes.upload(
         std::vector<LargeNode>{{0, count - 1, kNoParent, 0, out.bvh.bounds, root_centroids}});
-    // Per element of the stage (a triangle of a large node): its position and node.
-    Buffer<uint32_t> element_pos(backend, count), element_node(backend, count);
+    // Per element of the stage (a triangle of a large node): its position. Its node follows from
+    // the position (node_holding), which saves a second compaction per level.
+    Buffer<uint32_t> element_pos(backend, count);
     uint32_t* first_pos = element_pos.data();
-    uint32_t* first_node = element_node.data();
-    parallel_for(backend, "binned_sah_elements", count, [=] CAUSTICA_HD(size_t i) {
-      first_pos[i] = uint32_t(i);
-      first_node[i] = 0;
-    });
-    Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count),
-        next_node(backend, count);
+    parallel_for(backend, "binned_sah_elements", count,
+                 [=] CAUSTICA_HD(size_t i) { first_pos[i] = uint32_t(i); });
+    Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count);
     Buffer<uint8_t> keep(backend, count);
     Buffer<uint32_t> moved_orders(backend, count);
     Buffer<Aabb> moved_boxes(backend, count);
@@ -241,7 +252,6 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       const uint32_t m = element_count;
       const LargeNode* level_node = level_nodes.data();
       uint32_t* pos = element_pos.data();
-      uint32_t* node_of = element_node.data();
       uint32_t* key = keys.data();
       uint32_t* value = values.data();
 
@@ -249,7 +259,7 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // bin order; the sort is stable and nodes are numbered in position order, so each node's
       // triangles stay within its positions.
       parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
-        const uint32_t j = node_of[i];
+        const uint32_t j = node_holding(level_node, node_count, pos[i]);
         const LargeNode& n = level_node[j];
         key[i] = j << kKeyBinBits | BinMap::of(n.centroids).bin(box[pos[i]], n.box.half_area());
         value[i] = uint32_t(i);
@@ -367,17 +377,14 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
           }
         }
       });
-      // The elements of large children, in position order, with their new nodes.
+      // The elements of large children, in position order.
       uint8_t* kept = keep.data();
-      uint32_t* new_node = next_node.data();
       parallel_for(backend, "binned_sah_partition", m, [=] CAUSTICA_HD(size_t i) {
         const uint32_t j = key[i] >> kKeyBinBits;
         const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
-        new_node[i] = child_index[2 * j + side];
-        kept[i] = new_node[i] != kNoNode;
+        kept[i] = child_index[2 * j + side] != kNoNode;
       });
       element_count = uint32_t(backend.select_flagged(pos, kept, m, next_pos.data()));
-      backend.select_flagged(new_node, kept, m, node_of);
       std::swap(element_pos, next_pos);
       std::swap(level_nodes, next_nodes);
       node_count = next_count;
