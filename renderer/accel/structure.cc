@@ -8,24 +8,13 @@
 namespace caustica {
 namespace {
 
-// The binned SAH BVH collapsed to 4-wide nodes, the layout the LBVH's traversal reads.
-TriangleBvh build_binned_sah_bvh4(Backend& backend, const TriangleVertices* triangles,
-                                  uint32_t count) {
-  BinaryTriangleBvh binary = build_binned_sah_bvh(backend, triangles, count);
-  TriangleBvh out;
-  out.bvh = collapse_to_bvh4(backend, binary.bvh);
-  out.triangles = std::move(binary.triangles);
-  out.triangle_ids = std::move(binary.triangle_ids);
-  return out;
-}
-
 TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
                                const TriangleVertices* triangles, uint32_t count, Curve curve) {
   switch (kind) {
     case StructureKind::kLbvh4:
       return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
-      return build_binned_sah_bvh4(backend, triangles, count);
+      return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
   }
   throw DeviceError("build_structure: unknown structure kind");
 }

@@ -8,7 +8,7 @@
 namespace caustica {
 
 BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                 uint32_t count) {
+                                      uint32_t count) {
   return build_triangle_lbvh(backend, triangles, count, backend_curve(backend));
 }
 
@@ -17,7 +17,7 @@ namespace {
 // The LBVH, with `on_node` called for each internal node as build_bvh_from_sorted_codes does.
 template <typename OnNode>
 BinaryTriangleBvh build_lbvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
-                        Curve curve, OnNode on_node) {
+                             Curve curve, OnNode on_node) {
   BinaryTriangleBvh out;
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
@@ -58,7 +58,7 @@ BinaryTriangleBvh build_lbvh(Backend& backend, const TriangleVertices* triangles
 }  // namespace
 
 BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                 uint32_t count, Curve curve) {
+                                      uint32_t count, Curve curve) {
   return build_lbvh(backend, triangles, count, curve, IgnoreNodes{});
 }
 
@@ -68,12 +68,12 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
 }
 
 BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                    uint32_t count, Curve curve) {
+                                         uint32_t count, Curve curve) {
   Buffer<SmallSubtree> small(backend, count / 2 + 1);
   Buffer<uint32_t> listed(backend, 1);
   backend.fill_bytes(listed.data(), 0, sizeof(uint32_t));
   BinaryTriangleBvh lbvh = build_lbvh(backend, triangles, count, curve,
-                                 ListSmallSubtrees{small.data(), listed.data(), count});
+                                      ListSmallSubtrees{small.data(), listed.data(), count});
   uint32_t small_count = 0;
   if (count >= 2) backend.copy_to_host(&small_count, listed.data(), sizeof(uint32_t));
   rebuild_small_subtrees(backend, lbvh.bvh, small.data(), small_count, lbvh.triangles,
@@ -83,11 +83,14 @@ BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertice
 
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                                Curve curve) {
-  BinaryTriangleBvh lbvh = build_sah_refined_lbvh(backend, triangles, count, curve);
+  return collapse_triangle_bvh(backend, build_sah_refined_lbvh(backend, triangles, count, curve));
+}
+
+TriangleBvh collapse_triangle_bvh(Backend& backend, BinaryTriangleBvh binary) {
   TriangleBvh out;
-  out.bvh = collapse_to_bvh4(backend, lbvh.bvh);
-  out.triangles = std::move(lbvh.triangles);
-  out.triangle_ids = std::move(lbvh.triangle_ids);
+  out.bvh = collapse_to_bvh4(backend, binary.bvh);
+  out.triangles = std::move(binary.triangles);
+  out.triangle_ids = std::move(binary.triangle_ids);
   return out;
 }
 

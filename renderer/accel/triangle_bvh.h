@@ -45,14 +45,17 @@ struct TriangleBvh {
 // Builds the binary LBVH from triangles already in the backend's memory (`count` of them), along
 // `curve`, by default the backend's (backend_curve).
 BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                 uint32_t count, Curve curve);
+                                      uint32_t count, Curve curve);
 BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                 uint32_t count);
+                                      uint32_t count);
 
 // The LBVH with its small subtrees rebuilt by SAH (sah_subtrees.h): the same layout, leaves in a
 // new order.
 BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
-                                    uint32_t count, Curve curve);
+                                         uint32_t count, Curve curve);
+
+// `binary` collapsed to 4-wide nodes (bvh4.h), taking over its triangles and their ids.
+TriangleBvh collapse_triangle_bvh(Backend& backend, BinaryTriangleBvh binary);
 
 // The refined LBVH collapsed to 4-wide nodes: what traversal uses.
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,

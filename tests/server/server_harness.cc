@@ -123,8 +123,13 @@ int ServerProcess::terminate(double timeout_s) {
 std::string ServerProcess::log() const { return read_file(dir_ / "server.log"); }
 
 Scene cornell_box(int width, int height, uint32_t photons, uint32_t k, uint32_t seed) {
-  absl::StatusOr<Scene> scene =
-      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-box" / "scene.json");
+  return small_scene_from(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-box" / "scene.json",
+                          width, height, photons, k, seed);
+}
+
+Scene small_scene_from(const std::filesystem::path& file, int width, int height, uint32_t photons,
+                       uint32_t k, uint32_t seed) {
+  absl::StatusOr<Scene> scene = load_scene(file);
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return Scene{};
   scene->camera.width = width;

@@ -67,6 +67,9 @@ class ServerTest : public ::testing::Test {
 void set_deadline(grpc::ClientContext& context, double seconds = 60);
 
 // The bundled Cornell box at a test-sized resolution and photon count.
+// A scene file at a test-sized resolution, photon count, k and seed.
+Scene small_scene_from(const std::filesystem::path& file, int width, int height, uint32_t photons,
+                       uint32_t k, uint32_t seed);
 Scene cornell_box(int width, int height, uint32_t photons, uint32_t k, uint32_t seed);
 
 // The UploadScene stream of `scene`: the header, then its mesh chunks.

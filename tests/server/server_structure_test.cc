@@ -43,16 +43,9 @@ std::vector<std::filesystem::path> bundled_scenes() {
 
 // The scene at a test-sized resolution and photon count, tracing through `kind`.
 Scene small_scene(const std::filesystem::path& file, StructureKind kind) {
-  absl::StatusOr<Scene> scene = load_scene(file);
-  EXPECT_TRUE(scene.ok()) << scene.status();
-  if (!scene.ok()) return Scene{};
-  scene->camera.width = kWidth;
-  scene->camera.height = kHeight;
-  scene->settings.photons_per_pass = kPhotons;
-  scene->settings.k_nearest = kK;
-  scene->settings.seed = kSeed;
-  scene->settings.structure = kind;
-  return *std::move(scene);
+  Scene scene = small_scene_from(file, kWidth, kHeight, kPhotons, kK, kSeed);
+  scene.settings.structure = kind;
+  return scene;
 }
 
 // Root-mean-square difference of two RGBA images' colour channels, relative to the reference's

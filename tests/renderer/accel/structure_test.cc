@@ -152,11 +152,9 @@ struct BinnedBuild {
   explicit BinnedBuild(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
     input.upload(tris);
     binary = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()));
-    // The collapse consumes its tree's triangles, so it gets a build of its own.
-    BinaryTriangleBvh again = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()));
-    wide.bvh = collapse_to_bvh4(*backend, again.bvh);
-    wide.triangles = std::move(again.triangles);
-    wide.triangle_ids = std::move(again.triangle_ids);
+    // The collapse takes over its tree's triangles, so it gets a build of its own.
+    wide = collapse_triangle_bvh(
+        *backend, build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size())));
   }
 };
 
