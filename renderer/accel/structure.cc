@@ -15,6 +15,8 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
       return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
       return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+    case StructureKind::kBvh8:
+      break;
   }
   throw DeviceError("build_structure: unknown structure kind");
 }
@@ -29,16 +31,19 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve) {
   const auto start = std::chrono::steady_clock::now();
-  TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count, curve);
-  backend.synchronize();
-  StructureStats stats;
-  stats.kind = kind;
-  stats.build_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  stats.nodes = bvh.node_count();
-  stats.bytes = bvh.bytes();
-  stats.sah_cost = sah_cost(backend, bvh);
-  return TriangleStructure(std::move(bvh), stats);
+  auto measured = [&](auto layout) {
+    backend.synchronize();
+    StructureStats stats;
+    stats.kind = kind;
+    stats.build_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stats.nodes = layout.node_count();
+    stats.bytes = layout.bytes();
+    stats.sah_cost = sah_cost(backend, layout);
+    return TriangleStructure(std::move(layout), stats);
+  };
+  if (kind == StructureKind::kBvh8) return measured(build_bvh8(backend, triangles, count, curve));
+  return measured(build_bvh4_of_kind(backend, kind, triangles, count, curve));
 }
 
 double sah_cost(Backend& backend, const TriangleBvh& bvh) {

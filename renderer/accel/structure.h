@@ -17,6 +17,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/bvh8_traversal.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/accel/triangle_bvh.h"
@@ -34,11 +35,12 @@ concept StructureView = std::is_trivially_copyable_v<View> && requires(const Vie
 };
 
 static_assert(StructureView<TriangleBvhView>);
+static_assert(StructureView<Bvh8View>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;
-  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4)
+  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4, 8-wide for a Bvh8)
   size_t bytes = 0;  // everything its traversal reads: nodes, triangles, triangle ids
   // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
   // plus sum over leaves of triangles x area) over the root's area.
@@ -51,6 +53,8 @@ class TriangleStructure {
   TriangleStructure() = default;
   TriangleStructure(TriangleBvh bvh4, const StructureStats& stats)
       : layout_(std::move(bvh4)), stats_(stats) {}
+  TriangleStructure(Bvh8 bvh8, const StructureStats& stats)
+      : layout_(std::move(bvh8)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
   StructureKind kind() const { return stats_.kind; }
@@ -66,7 +70,7 @@ class TriangleStructure {
   }
 
  private:
-  std::variant<TriangleBvh> layout_;
+  std::variant<TriangleBvh, Bvh8> layout_;
   StructureStats stats_;
 };
 

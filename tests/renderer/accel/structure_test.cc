@@ -46,7 +46,7 @@ class EveryStructure : public ::testing::TestWithParam<StructureKind> {
 };
 
 // The SAH cost walked from the root on the host (the builder sums it per node on the backend),
-// with the nodes counted on the way.
+// with the nodes counted on the way, and the bytes a node takes.
 double walked_sah_cost(const TriangleBvhView& v, size_t& nodes) {
   const double root_area = v.bounds.half_area();
   double cost = 1.0;
@@ -68,6 +68,31 @@ double walked_sah_cost(const TriangleBvhView& v, size_t& nodes) {
   walk(0);
   return cost;
 }
+constexpr size_t node_bytes(const TriangleBvhView&) { return sizeof(Bvh4Node); }
+
+double walked_sah_cost(const Bvh8View& v, size_t& nodes) {
+  const double root_area = v.bounds.half_area();
+  double cost = 1.0;
+  nodes = 0;
+  std::function<void(uint32_t)> walk = [&](uint32_t node) {
+    ++nodes;
+    const Bvh8Node& n = v.nodes[node];
+    uint32_t rank = 0;
+    for (int s = 0; s < 8; ++s) {
+      if (n.meta[s] == 0) continue;
+      const double area = bvh8_child_box(n, s).half_area() / root_area;
+      if (bvh8_slot_is_internal(n.meta[s])) {
+        cost += area;
+        walk(n.child_base + rank++);
+      } else {
+        cost += bvh8_leaf_triangles(n.meta[s]) * area;
+      }
+    }
+  };
+  walk(0);
+  return cost;
+}
+constexpr size_t node_bytes(const Bvh8View&) { return sizeof(Bvh8Node); }
 
 TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
   const std::vector<TriangleVertices> tris = random_soup(5000, 41);
@@ -75,13 +100,13 @@ TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
   const StructureStats& s = b.structure.stats();
   EXPECT_EQ(s.kind, GetParam());
   EXPECT_GT(s.build_ms, 0.0);
-  b.structure.visit([&](const TriangleBvhView& v) {
+  b.structure.visit([&](const auto& v) {
     size_t nodes = 0;
     const double cost = walked_sah_cost(v, nodes);
     EXPECT_EQ(s.nodes, nodes);
     EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
-    EXPECT_EQ(s.bytes, nodes * sizeof(Bvh4Node) +
-                           tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
+    EXPECT_EQ(s.bytes,
+              nodes * node_bytes(v) + tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
     Aabb all;
     for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
     EXPECT_EQ(v.bounds.lower, all.lower);
