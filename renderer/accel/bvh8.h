@@ -28,8 +28,8 @@ constexpr int kBvh8Width = 8;
 constexpr uint32_t kBvh8LeafTriangles = 3;
 // Triangles one node of nothing but leaves can hold.
 constexpr uint32_t kBvh8NodeTriangles = 8 * kBvh8LeafTriangles;
-// Nodes a traversal may hold on its stack; the builder refuses deeper trees (each level pushes
-// one entry at most).
+// Groups a traversal may hold on its stack; the builder refuses trees deeper than half of it
+// (each level pushes one node group at most, and a postponed triangle group).
 constexpr int kBvh8StackSize = 64;
 
 struct alignas(16) Bvh8Node {

@@ -1,4 +1,5 @@
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -31,34 +32,28 @@ CAUSTICA_HDI bool worth_opening(const BvhNode* nodes, const WideChild& e) {
          float(e.size) * e.box.half_area();
 }
 
-// Leaves a child of at most kBvh8NodeTriangles triangles falls into when every part too large for
-// a leaf is split.
-CAUSTICA_HDI int leaf_pieces(const BvhNode* nodes, const WideChild& e) {
-  uint32_t todo[kBvh8NodeTriangles];
-  int top = 0, pieces = 0;
-  todo[top++] = e.id;
-  while (top > 0) {
-    const uint32_t id = todo[--top];
-    const BvhNode& n = nodes[id];
-    for (int c = 0; c < 2; ++c) {
-      if (is_leaf(n.child[c].index) || n.child[c].unused <= kBvh8LeafTriangles) {
-        ++pieces;
-      } else {
-        todo[top++] = n.child[c].index;
-      }
-    }
-  }
-  return pieces;
+// 2^e as a double, from its bits, for e in the normal range.
+CAUSTICA_HDI double power_of_two(int e) {
+  const uint64_t bits = uint64_t(e + 1023) << 52;
+  double d;
+  memcpy(&d, &bits, sizeof d);
+  return d;
 }
 
 // The grid step on one axis: the smallest power of two 2^e with 255 steps covering `extent`,
 // returned as e + 127 (a float's exponent bits), within a normal float's range.
 CAUSTICA_HDI uint32_t grid_exponent(double extent) {
   if (!(extent > 0.0)) return 1;
-  int e = int(ceil(log2(extent / 255.0)));
-  while (ldexp(255.0, e) < extent) ++e;
-  while (e > -126 && ldexp(255.0, e - 1) >= extent) --e;
-  return uint32_t(e < -126 ? -126 : e > 127 ? 127 : e) + 127u;
+  // The exponent of extent / 255 from its bits, then corrected by exact comparisons.
+  const double x = extent / 255.0;
+  uint64_t bits;
+  memcpy(&bits, &x, sizeof bits);
+  int e = int((bits >> 52) & 0x7ff) - 1023 + 1;
+  if (e < -126) e = -126;
+  if (e > 127) e = 127;
+  while (e < 127 && 255.0 * power_of_two(e) < extent) ++e;
+  while (e > -126 && 255.0 * power_of_two(e - 1) >= extent) --e;
+  return uint32_t(e) + 127u;
 }
 
 // Slot assignment after Ylitie et al. sec. 3.1: slot s stands for the ray octant s (bit a set:
@@ -97,6 +92,7 @@ CAUSTICA_HDI void assign_slots(const WideChild* e, int m, const Aabb& box, int s
 
 struct CollapseState {
   const BvhNode* binary;
+  const uint32_t* leaf_pieces;     // per binary node
   const TriangleVertices* sorted;  // the binary tree's leaf order
   const uint32_t* sorted_ids;
   const Aabb* root_box;  // for a single-triangle tree, whose root is a leaf
@@ -144,7 +140,7 @@ CAUSTICA_HDI void make_wide_node(const CollapseState& s, uint32_t w) {
     for (int i = 0; i < m; ++i) {
       if (is_leaf(e[i].id) || e[i].size <= kBvh8LeafTriangles || e[i].size > kBvh8NodeTriangles)
         continue;
-      if (m - 1 + leaf_pieces(s.binary, e[i]) <= 8 && e[i].box.half_area() > best_area) {
+      if (m - 1 + int(s.leaf_pieces[e[i].id]) <= 8 && e[i].box.half_area() > best_area) {
         best_area = e[i].box.half_area();
         best = i;
       }
@@ -196,12 +192,13 @@ CAUSTICA_HDI void make_wide_node(const CollapseState& s, uint32_t w) {
   for (int i = 0; i < m; ++i) in_slot[slot_of[i]] = i;
 
   Bvh8Node out;
-  double step[3];
+  double step[3], inv_step[3];
   for (int a = 0; a < 3; ++a) {
     out.p[a] = box.lower[a];
     const uint32_t bits = grid_exponent(double(box.upper[a]) - double(box.lower[a]));
     out.exponent[a] = uint8_t(bits);
-    step[a] = ldexp(1.0, int(bits) - 127);
+    step[a] = power_of_two(int(bits) - 127);
+    inv_step[a] = power_of_two(127 - int(bits));
   }
   out.imask = 0;
   out.child_base = internal ? atomic_fetch_add(&s.counters[0], internal) : 0;
@@ -225,10 +222,10 @@ CAUSTICA_HDI void make_wide_node(const CollapseState& s, uint32_t w) {
     // quantised box holds the child's.
     for (int a = 0; a < 3; ++a) {
       const double p = out.p[a], lower_c = c.box.lower[a], upper_c = c.box.upper[a];
-      const double slack_lo = (fabs(lower_c) + fabs(p)) * 0x1p-50 / step[a];
-      const double slack_hi = (fabs(upper_c) + fabs(p)) * 0x1p-50 / step[a];
-      const double lo = floor((lower_c - p) / step[a] - slack_lo);
-      const double hi = ceil((upper_c - p) / step[a] + slack_hi);
+      const double slack_lo = (fabs(lower_c) + fabs(p)) * 0x1p-50 * inv_step[a];
+      const double slack_hi = (fabs(upper_c) + fabs(p)) * 0x1p-50 * inv_step[a];
+      const double lo = floor((lower_c - p) * inv_step[a] - slack_lo);
+      const double hi = ceil((upper_c - p) * inv_step[a] + slack_hi);
       lower[a][slot] = uint8_t(lo < 0.0 ? 0.0 : lo > 255.0 ? 255.0 : lo);
       upper[a][slot] = uint8_t(hi < 0.0 ? 0.0 : hi > 255.0 ? 255.0 : hi);
     }
@@ -294,15 +291,21 @@ Bvh8 collapse_to_bvh8(Backend& backend, const ClusteredTriangleBvh& binary) {
   backend.copy_to_device(counters.data(), start, sizeof start);
   backend.copy_to_device(binary_ref.data(), &binary.root, sizeof(uint32_t));
 
-  const CollapseState state{
-      binary.nodes.data(),  binary.triangles.data(), binary.triangle_ids.data(),
-      root_box.data(),      binary_ref.data(),       nodes.data(),
-      out.triangles.data(), out.triangle_ids.data(), counters.data()};
+  const CollapseState state{binary.nodes.data(),
+                            binary.leaf_pieces.data(),
+                            binary.triangles.data(),
+                            binary.triangle_ids.data(),
+                            root_box.data(),
+                            binary_ref.data(),
+                            nodes.data(),
+                            out.triangles.data(),
+                            out.triangle_ids.data(),
+                            counters.data()};
   uint32_t begin = 0, end = 1;
   while (begin < end) {
-    if (++out.depth > uint32_t(kBvh8StackSize)) {
-      throw DeviceError("bvh8: the tree is deeper than the traversal's stack of " +
-                        std::to_string(kBvh8StackSize) + " levels");
+    if (++out.depth > uint32_t(kBvh8StackSize / 2)) {
+      throw DeviceError("bvh8: the tree is deeper than the traversal's stack allows (" +
+                        std::to_string(kBvh8StackSize / 2) + " levels)");
     }
     parallel_for(backend, "bvh8_collapse_level", end - begin,
                  [=] CAUSTICA_HD(size_t i) { make_wide_node(state, begin + uint32_t(i)); });

@@ -75,7 +75,32 @@ CAUSTICA_HDI uint32_t bvh8_row_word(const uint8_t* row, int half) {
   return w;
 }
 
-CAUSTICA_HDI float bvh8_byte(uint32_t word, int j) { return float((word >> (8 * j)) & 0xffu); }
+// Byte j of `word` as a float. On a GPU not by a conversion instruction, which issues at an
+// eighth of the rate of arithmetic and took six per child: the byte goes into the low mantissa
+// bits of 2^23 (one byte permute), and 2^23 comes off again (one exact subtraction).
+CAUSTICA_HDI float bvh8_byte(uint32_t word, int j) {
+#if defined(__CUDA_ARCH__)
+  return __uint_as_float(__byte_perm(word, 0x4b000000u, 0x7540u + uint32_t(j))) - 8388608.0f;
+#else
+  return float((word >> (8 * j)) & 0xffu);
+#endif
+}
+
+// The entry and exit distances of a box from its per-axis ones, clipped to [t_min, t_max]; as
+// slab_entry (ray_slabs.h), Hopper's three-way integer min and max on the bits, which order the
+// distances that decide as floats do when t_min >= 0.
+CAUSTICA_HDI bool bvh8_box_entered(float tx0, float ty0, float tz0, float tx1, float ty1, float tz1,
+                                   float t_min, float t_max) {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  const int t_near =
+      __vimax3_s32(__float_as_int(tx0), __float_as_int(ty0), __float_as_int(fmaxf(tz0, t_min)));
+  const int t_far =
+      __vimin3_s32(__float_as_int(tx1), __float_as_int(ty1), __float_as_int(fminf(tz1, t_max)));
+  return t_near <= t_far;
+#else
+  return fmaxf(fmaxf(tx0, ty0), fmaxf(tz0, t_min)) <= fminf(fminf(tx1, ty1), fminf(tz1, t_max));
+#endif
+}
 
 // Tests the eight slots of `node` (in [t_min, t_max]) and returns the hit mask: internal
 // children's bits at 24 + (slot ^ octant_flip), leaves' triangles at their offsets.
@@ -103,10 +128,8 @@ CAUSTICA_HDI uint32_t bvh8_intersect_node(const Bvh8Node& node, const Bvh8Ray& r
       const float tx1 = fmaf(bvh8_byte(far_x, j), scale[0], leave[0]);
       const float ty1 = fmaf(bvh8_byte(far_y, j), scale[1], leave[1]);
       const float tz1 = fmaf(bvh8_byte(far_z, j), scale[2], leave[2]);
-      const float t_near = fmaxf(fmaxf(tx0, ty0), fmaxf(tz0, t_min));
-      const float t_far = fminf(fminf(tx1, ty1), fminf(tz1, t_max));
       const uint32_t meta = (metas >> (8 * j)) & 0xffu;
-      if (t_near <= t_far) {
+      if (bvh8_box_entered(tx0, ty0, tz0, tx1, ty1, tz1, t_min, t_max)) {
         // An internal child's meta is 0b00111sss: its bit 24 + (s ^ flip); a leaf's top three
         // bits are its triangles, at the offset in the low five; an empty slot's are 0.
         const uint32_t internal = bvh8_slot_is_internal(uint8_t(meta)) ? r.octant_flip : 0u;
@@ -115,6 +138,22 @@ CAUSTICA_HDI uint32_t bvh8_intersect_node(const Bvh8Node& node, const Bvh8Ray& r
     }
   }
   return hits;
+}
+
+// Below this many lanes testing triangles together, a lane postpones its triangles.
+constexpr int kBvh8PostponeLanes = 6;
+
+// A node in five 16-byte loads through the read-only cache.
+CAUSTICA_HDI Bvh8Node bvh8_load_node(const Bvh8Node* p) {
+#if defined(__CUDA_ARCH__)
+  Bvh8Node n;
+  const uint4* from = reinterpret_cast<const uint4*>(p);
+  uint4* to = reinterpret_cast<uint4*>(&n);
+  for (int k = 0; k < 5; ++k) to[k] = __ldg(from + k);
+  return n;
+#else
+  return *p;
+#endif
 }
 
 // Walks `bvh` along `ray`: `test(index)` tests the triangle at leaf-order index `index`, may
@@ -136,7 +175,7 @@ CAUSTICA_HDI void bvh8_walk(const Bvh8View& bvh, const Ray& ray, const float& t_
       const uint32_t slot = (bit - 24u) ^ r.octant_flip;
       const uint32_t index = nodes.base + popcount32(nodes.bits & ((1u << slot) - 1u) & 0xffu);
       if (nodes.bits & 0xff000000u) stack[top++] = nodes;
-      const Bvh8Node node = bvh.nodes[index];
+      const Bvh8Node node = bvh8_load_node(bvh.nodes + index);
       const uint32_t hits = bvh8_intersect_node(node, r, t_min, t_max);
       nodes = {node.child_base, (hits & 0xff000000u) | node.imask};
       triangles = {node.triangle_base, hits & 0x00ffffffu};
@@ -145,6 +184,17 @@ CAUSTICA_HDI void bvh8_walk(const Bvh8View& bvh, const Ray& ray, const float& t_
       nodes = {0, 0};
     }
     while (triangles.bits != 0) {
+#if defined(__CUDA_ARCH__)
+      // Few lanes of the warp testing triangles while the rest wait: a lane with nodes still to
+      // visit puts its triangles on the stack and goes on with the nodes alongside the others
+      // (Ylitie et al. sec. 4). Postponed groups keep to half the stack; node groups, one per
+      // level, to the rest.
+      if ((nodes.bits & 0xff000000u) != 0 && top < kBvh8StackSize / 2 &&
+          __popc(__activemask()) < kBvh8PostponeLanes) {
+        stack[top++] = triangles;
+        break;
+      }
+#endif
       const uint32_t bit = lowest_bit32(triangles.bits);
       triangles.bits &= triangles.bits - 1u;
       if (test(triangles.base + bit)) return;

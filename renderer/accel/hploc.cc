@@ -18,7 +18,8 @@ constexpr uint32_t kNoCluster = 0xfffffffeu;
 struct Cluster {
   Aabb box;
   uint32_t id;
-  uint32_t size;  // triangles
+  uint32_t size;    // triangles
+  uint32_t pieces;  // ClusteredTriangleBvh::leaf_pieces (1 for a leaf)
 };
 
 // The order in which pairs merge: by the area of their merged box, then by their positions, so
@@ -37,6 +38,7 @@ struct ClimbState {
   BvhNode* nodes;
   Aabb* node_boxes;
   uint32_t* node_sizes;
+  uint32_t* leaf_pieces;
   uint32_t* node_count;
   uint32_t* root;
   uint32_t count;
@@ -60,8 +62,9 @@ CAUSTICA_HDI T load_published(const T* p) {
 }
 
 CAUSTICA_HDI Cluster cluster_of(const ClimbState& s, uint32_t id) {
-  if (is_leaf(id)) return {s.leaf_boxes[leaf_index(id)], id, 1};
-  return {load_published(s.node_boxes + id), id, load_published(s.node_sizes + id)};
+  if (is_leaf(id)) return {s.leaf_boxes[leaf_index(id)], id, 1, 1};
+  return {load_published(s.node_boxes + id), id, load_published(s.node_sizes + id),
+          load_published(s.leaf_pieces + id)};
 }
 
 // Writes the node joining clusters a and b (a first) at index `node`.
@@ -70,9 +73,13 @@ CAUSTICA_HDI Cluster join(const ClimbState& s, uint32_t node, const Cluster& a, 
   n.child[0] = BvhChild{a.box.lower, a.id, a.box.upper, a.size};
   n.child[1] = BvhChild{b.box.lower, b.id, b.box.upper, b.size};
   s.nodes[node] = n;
-  const Cluster joined{merge(a.box, b.box), node, a.size + b.size};
+  // A part of at most kHplocLeafTriangles is one piece; a larger one counts its parts'.
+  const uint32_t pieces = (a.size <= kHplocLeafTriangles ? 1u : a.pieces) +
+                          (b.size <= kHplocLeafTriangles ? 1u : b.pieces);
+  const Cluster joined{merge(a.box, b.box), node, a.size + b.size, pieces};
   s.node_boxes[node] = joined.box;
   s.node_sizes[node] = joined.size;
+  s.leaf_pieces[node] = pieces;
   return joined;
 }
 
@@ -248,7 +255,7 @@ __device__ void climb_in_warp(const ClimbState& s, uint32_t leaf) {
       const uint32_t from_right = __shfl_sync(kWholeWarp, right_id, int((lane - left_count) & 31u));
       uint32_t count = left_count + right_count;
       const uint32_t id = lane < left_count ? left_id : from_right;
-      Cluster c{Aabb{}, id, 0};
+      Cluster c{Aabb{}, id, 0, 0};
       if (lane < count) c = cluster_of(s, id);
       count = merge_clusters_in_warp(s, c, count, whole ? 1 : kHplocMaxClusters, lane);
       if (lane < count) s.clusters[first + lane] = c.id;
@@ -269,6 +276,7 @@ ClusteredTriangleBvh build_hploc_bvh(Backend& backend, const TriangleVertices* t
                                      uint32_t count, Curve curve) {
   ClusteredTriangleBvh out;
   out.nodes.bind(backend);
+  out.leaf_pieces.bind(backend);
   out.triangles.bind(backend);
   out.triangle_ids.bind(backend);
   out.count = count;
@@ -310,17 +318,24 @@ ClusteredTriangleBvh build_hploc_bvh(Backend& backend, const TriangleVertices* t
   out.nodes.resize_discard(count - 1);
   Buffer<Aabb> node_boxes(backend, count - 1);
   Buffer<uint32_t> node_sizes(backend, count - 1);
+  out.leaf_pieces.resize_discard(count - 1);
   Buffer<uint32_t> other_end(backend, count - 1);
   backend.fill_bytes(other_end.data(), 0xff, other_end.bytes());
   backend.fill_bytes(&summary.data()->root, 0, sizeof(uint32_t));
   // The node counter lives in the summary's spare word: one copy brings back bounds and root.
   Buffer<uint32_t> node_count(backend, 1);
   backend.fill_bytes(node_count.data(), 0, sizeof(uint32_t));
-  const ClimbState state{order.codes.data(),    leaf_boxes.data(),
-                         other_end.data(),      clusters.data(),
-                         out.nodes.data(),      node_boxes.data(),
-                         node_sizes.data(),     node_count.data(),
-                         &summary.data()->root, count};
+  const ClimbState state{order.codes.data(),
+                         leaf_boxes.data(),
+                         other_end.data(),
+                         clusters.data(),
+                         out.nodes.data(),
+                         node_boxes.data(),
+                         node_sizes.data(),
+                         out.leaf_pieces.data(),
+                         node_count.data(),
+                         &summary.data()->root,
+                         count};
   // Whole warps on a GPU: the lanes past the last triangle help merge.
   const size_t threads =
       backend.kind() == DeviceKind::kCpu ? count : (size_t(count) + 31) / 32 * 32;

@@ -25,12 +25,17 @@ namespace caustica {
 constexpr uint32_t kHplocMaxClusters = 16;
 // How many clusters on either side a cluster compares itself with.
 constexpr uint32_t kHplocSearchRadius = 8;
+// The leaf size leaf_pieces counts in: the 8-wide layout's (bvh8.h).
+constexpr uint32_t kHplocLeafTriangles = 3;
 
 // A binary BVH whose children are any nodes (not the radix tree's layout): internal node k's
 // children are BvhNode::child[0..1], each kLeafFlag | sorted position or another node, with
 // `unused` holding the child's subtree size in triangles.
 struct ClusteredTriangleBvh {
-  Buffer<BvhNode> nodes;               // count - 1 internal nodes for count >= 2
+  Buffer<BvhNode> nodes;  // count - 1 internal nodes for count >= 2
+  // Per internal node: the leaves of at most kHplocLeafTriangles its subtree falls into when
+  // every larger part is split (the 8-wide collapse asks it of small subtrees).
+  Buffer<uint32_t> leaf_pieces;
   Buffer<TriangleVertices> triangles;  // in the curve order the leaves name
   Buffer<uint32_t> triangle_ids;       // sorted -> original triangle index
   Aabb bounds;
