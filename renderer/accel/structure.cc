@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "renderer/accel/binned_sah.h"
+#include "renderer/accel/hybrid_bvh.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -15,6 +16,8 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
       return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
       return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+    case StructureKind::kHybrid:
+      return collapse_triangle_bvh(backend, build_hybrid_bvh(backend, triangles, count, curve));
   }
   throw DeviceError("build_structure: unknown structure kind");
 }

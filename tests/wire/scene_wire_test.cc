@@ -110,6 +110,8 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(encode_structure(StructureKind::kBinnedSah), v1::BINNED_SAH);
   EXPECT_EQ(decode_structure(v1::LBVH4), StructureKind::kLbvh4);
   EXPECT_EQ(decode_structure(v1::BINNED_SAH), StructureKind::kBinnedSah);
+  EXPECT_EQ(encode_structure(StructureKind::kHybrid), v1::HYBRID);
+  EXPECT_EQ(decode_structure(v1::HYBRID), StructureKind::kHybrid);
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
