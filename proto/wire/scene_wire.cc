@@ -59,6 +59,7 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kLbvh4, v1::LBVH4},
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
     {StructureKind::kHybrid, v1::HYBRID},
+    {StructureKind::kSiblingPair, v1::SIBLING_PAIR},
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 

@@ -35,8 +35,9 @@ TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
     const ClientRun run = run_client(args);
     EXPECT_NE(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("--structure"));
-    EXPECT_THAT(run.output,
-                HasSubstr("unknown structure 'kd-tree' (expected lbvh4, binned-sah, hybrid)"))
+    EXPECT_THAT(
+        run.output,
+        HasSubstr("unknown structure 'kd-tree' (expected lbvh4, binned-sah, hybrid, sibling-pair)"))
         << args;
   }
 }
@@ -46,7 +47,7 @@ TEST(ClientOptions, HelpListsTheStructures) {
     const ClientRun run = run_client(args);
     EXPECT_EQ(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("--structure"));
-    EXPECT_THAT(run.output, HasSubstr("lbvh4, binned-sah, hybrid")) << args;
+    EXPECT_THAT(run.output, HasSubstr("lbvh4, binned-sah, hybrid, sibling-pair")) << args;
   }
 }
 

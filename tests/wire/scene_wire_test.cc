@@ -112,6 +112,8 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(decode_structure(v1::BINNED_SAH), StructureKind::kBinnedSah);
   EXPECT_EQ(encode_structure(StructureKind::kHybrid), v1::HYBRID);
   EXPECT_EQ(decode_structure(v1::HYBRID), StructureKind::kHybrid);
+  EXPECT_EQ(encode_structure(StructureKind::kSiblingPair), v1::SIBLING_PAIR);
+  EXPECT_EQ(decode_structure(v1::SIBLING_PAIR), StructureKind::kSiblingPair);
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
