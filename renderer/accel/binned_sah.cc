@@ -16,6 +16,11 @@ constexpr uint32_t kNoNode = 0xffffffffu;
 // bin it spans.
 constexpr uint32_t kBinReductionChunk = 64;
 
+// Sorted positions per thread when the segments' boxes are reduced before the first level: far
+// fewer segments than positions, so long chunks keep the atomics on each segment's cell few (one
+// root segment had every chunk of kBinReductionChunk flush into the same cell).
+constexpr uint32_t kSegmentReductionChunk = 1024;
+
 // Past this many data-parallel levels (a run of very uneven splits), the nodes still large are
 // finished by the per-node stage.
 constexpr int kMaxDataParallelLevels = 48;
@@ -243,15 +248,20 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
     BinCell* seg_cell = segment_cells.data();
     parallel_for(backend, "binned_sah_segment_clear", segment_count,
                  [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
-    const size_t chunks = (size_t(count) + kBinReductionChunk - 1) / kBinReductionChunk;
+    const size_t chunks = (size_t(count) + kSegmentReductionChunk - 1) / kSegmentReductionChunk;
     parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
-      const uint32_t begin = uint32_t(c * kBinReductionChunk);
-      const uint32_t end = begin + kBinReductionChunk < count ? begin + kBinReductionChunk : count;
+      const uint32_t begin = uint32_t(c * kSegmentReductionChunk);
+      const uint32_t end =
+          begin + kSegmentReductionChunk < count ? begin + kSegmentReductionChunk : count;
       uint32_t run = kNoNode, run_count = 0;
       Aabb run_box, run_centroids;
+      // The last segment starting at or before p, found once and then followed along the chunk.
+      uint32_t last_started = node_holding(seg, segment_count, begin);
       for (uint32_t p = begin; p < end; ++p) {
-        uint32_t j = node_holding(seg, segment_count, p);
-        if (j != kNoNode && p > seg[j].last) j = kNoNode;
+        const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
+        if (next < segment_count && seg[next].first <= p) last_started = next;
+        const uint32_t j =
+            last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
         if (j != run) {
           if (run != kNoNode) flush_bin(seg_cell[run], run_count, run_box, run_centroids);
           run = j;

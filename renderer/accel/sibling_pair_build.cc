@@ -62,9 +62,9 @@ SiblingPairBvh build_sibling_pair_bvh(Backend& backend, BinaryTriangleBvh binary
   uint32_t level_base = 0, level_size = 1;
   while (level_size > 0) {
     if (out.level_starts.size() > size_t(kSiblingPairStackSize))
-      throw std::length_error("sibling-pair: the tree has more than " +
-                              std::to_string(kSiblingPairStackSize) +
-                              " levels, more than its traversal's stack holds");
+      throw std::invalid_argument("sibling-pair: the tree has more than " +
+                                  std::to_string(kSiblingPairStackSize) +
+                                  " levels, more than its traversal's stack holds");
     counts.resize_discard(level_size);
     const PairSubtree* front = frontier.data();
     uint32_t* count = counts.data();

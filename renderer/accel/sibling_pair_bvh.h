@@ -66,8 +66,8 @@ struct SiblingPairBvh {
 
 // `binary` (a radix tree over sorted triangles, internal node k splitting between leaves k and
 // k + 1) in sibling-pair nodes, taking over its triangles and their ids. Throws
-// std::invalid_argument past kMaxSiblingPairTriangles triangles, and std::length_error for a tree
-// with more levels than kSiblingPairStackSize.
+// std::invalid_argument past kMaxSiblingPairTriangles triangles or for a tree with more levels
+// than kSiblingPairStackSize.
 SiblingPairBvh build_sibling_pair_bvh(Backend& backend, BinaryTriangleBvh binary);
 
 // The SAH cost (StructureStats::sah_cost) of the tree, its boxes decoded level by level on the

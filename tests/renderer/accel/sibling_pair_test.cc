@@ -171,5 +171,16 @@ TEST(SiblingPair, MatchesBruteForce) {
   }
 }
 
+// A leaf's first triangle has 26 bits: a larger tree is refused before anything is built.
+TEST(SiblingPair, RefusesMoreTrianglesThanItsLeavesAddress) {
+  auto backend = make_cpu_backend(size_t(1) << 28);
+  BinaryTriangleBvh too_many;
+  too_many.bvh.leaf_count = kMaxSiblingPairTriangles + 1;
+  too_many.bvh.nodes.bind(*backend);
+  too_many.triangles.bind(*backend);
+  too_many.triangle_ids.bind(*backend);
+  EXPECT_THROW(build_sibling_pair_bvh(*backend, std::move(too_many)), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace caustica
