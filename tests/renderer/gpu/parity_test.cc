@@ -683,13 +683,13 @@ TEST(GpuParity, SiblingPairPhotonMapsSearchAsBoxPairsDo) {
   }
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   const PhotonMapNodes pairs = PhotonMapNodes::kSiblingPairs;
-  const PhotonMap c = build_photon_map(*both.cpu, c_in, kDefaultPhotonsPerLeaf, Curve::kHilbert,
-                                       pairs);
-  const PhotonMap g = build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, Curve::kHilbert,
-                                       pairs);
+  const PhotonMap c =
+      build_photon_map(*both.cpu, c_in, kDefaultPhotonsPerLeaf, Curve::kHilbert, pairs);
+  const PhotonMap g =
+      build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, Curve::kHilbert, pairs);
   EXPECT_TRUE(same_bytes(c.pair_nodes.download(), g.pair_nodes.download()));
-  const PhotonMap g_boxes = build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf,
-                                             PhotonMapNodes::kBoxPairs);
+  const PhotonMap g_boxes =
+      build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, PhotonMapNodes::kBoxPairs);
   const PhotonMap g_pairs = build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, pairs);
   std::vector<Vec3f> points(kNnQueries);
   for (Vec3f& q : points) q = Vec3f(u(rng), u(rng), u(rng) < 0.5f ? 0.5f : u(rng));
