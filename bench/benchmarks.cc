@@ -17,6 +17,7 @@
 #include "renderer/base/sampling.h"
 #include "renderer/engine.h"
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/density.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
@@ -199,6 +200,89 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
   return absl::OkStatus();
 }
 
+// The heap gathers alone at `count` points with their normals, one point per thread, as the render
+// pass makes them below the counting gathers' k (render/whitted.cc).
+struct GatherAtPoints {
+  PhotonMapView map;
+  const Vec3f* points;
+  const Vec3f* normals;
+  Vec3f* out;
+  uint32_t k;
+  float max_radius;
+  Kernel kernel;
+
+  template <typename Scratch>
+  CAUSTICA_HDI void operator()(size_t i, Scratch scratch) const {
+    out[i] =
+        estimate_radiance(map, points[i], normals[i], Vec3f(1.0f), k, max_radius, kernel, scratch);
+  }
+};
+
+constexpr const char* photon_map_nodes_name(PhotonMapNodes nodes) {
+  return nodes == PhotonMapNodes::kSiblingPairs ? "sibling-pairs" : "box-pairs";
+}
+
+// The photon maps' two node layouts (PhotonMapNodes) under the same photons: the gathers alone at
+// the global map's photons (in its curve order, each facing its photon's arrival), and the render
+// pass on maps of each layout, which gathers as the renderer does on each device.
+absl::Status photon_gather_benchmarks(const BenchOptions& o, const Scene& scene,
+                                      const std::shared_ptr<Backend>& shared,
+                                      const ResidentScene& resident, uint32_t per_leaf,
+                                      const std::string& name, Reporter& report) {
+  Backend* backend = shared.get();
+  auto engine = Engine::create({.backend = shared, .photons_per_leaf = o.photons_per_leaf});
+  if (!engine.ok()) return engine.status();
+  if (auto loaded = (*engine)->load(scene); !loaded.ok()) return loaded.status();
+  const RenderSettings& rs = scene.settings;
+  const ShadingSettings shading = (*engine)->shading(0);
+  const uint32_t k = std::min(shading.k_nearest, kMaxNearest);
+  const TracedPhotons traced =
+      trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
+  const std::vector<Photon> at = build_photon_map(*backend, traced.global, per_leaf).download();
+  if (at.empty()) return absl::FailedPreconditionError(name + ": no global photons to gather at");
+  std::vector<Vec3f> points(at.size()), normals(at.size());
+  for (size_t i = 0; i < at.size(); ++i) {
+    points[i] = at[i].position;
+    normals[i] = -at[i].incoming;
+  }
+  Buffer<Vec3f> point_buffer(*backend, points.size()), normal_buffer(*backend, normals.size()),
+      out(*backend, points.size());
+  point_buffer.upload(points);
+  normal_buffer.upload(normals);
+  Film film(*backend, o.width, o.height);
+  const PinholeCamera camera = PinholeCamera::from(scene.camera);
+  for (PhotonMapNodes nodes : {PhotonMapNodes::kBoxPairs, PhotonMapNodes::kSiblingPairs}) {
+    const PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf, nodes);
+    const PhotonMap global = build_photon_map(*backend, traced.global, per_leaf, nodes);
+    const std::string label = name + absl::StrFormat(" k=%d %s", k, photon_map_nodes_name(nodes));
+    const GatherAtPoints gather{
+        global.view(),      point_buffer.data(), normal_buffer.data(), out.data(), k,
+        shading.max_radius, shading.kernel};
+    const uint32_t heap_pairs = NeighbourHeap<NeighbourPair*>::pairs_for(k);
+    bool fits = true;
+    Measurement m = measure(o, *backend, [&] {
+      fits = parallel_for_with_scratch<NeighbourPair>(*backend, "photon_gather", points.size(),
+                                                      heap_pairs, gather);
+    });
+    if (!fits) return absl::ResourceExhaustedError(label + ": no room for the heaps' scratch");
+    report.line("photon_gather", label + absl::StrFormat(" %zu points", points.size()),
+                points.size() / (m.median * 1e3), "Mgathers/s", &m, o.runs);
+    report.line("photon_map_node_bytes_per_photon", label,
+                double(caustic.bvh.nodes.bytes() + caustic.pair_nodes.bytes() +
+                       global.bvh.nodes.bytes() + global.pair_nodes.bytes()) /
+                    double(caustic.size() + global.size()),
+                "B/photon");
+    uint32_t pass = 0;
+    Measurement pass_m = measure(o, *backend, [&] {
+      render_pass(*backend, resident, caustic, global, camera, (*engine)->shading(pass++), film);
+    });
+    report.line("photon_gather_render_pass",
+                label + absl::StrFormat(" %dx%d", scene.camera.width, scene.camera.height),
+                pass_m.median, "ms", &pass_m, o.runs);
+  }
+  return absl::OkStatus();
+}
+
 absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, Reporter& report) {
   absl::StatusOr<Scene> scene = load_scene(o.photon_scene);
   if (!scene.ok()) return scene.status();
@@ -275,6 +359,16 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
                 gather.median, "ms", &gather, o.runs);
   }
+  if (wanted(o, "photon_gather")) {
+    scene->camera.width = o.width;
+    scene->camera.height = o.height;
+    scene->settings.k_nearest = o.k;
+    scene->settings.photons_per_pass = o.photons;
+    if (absl::Status s =
+            photon_gather_benchmarks(o, *scene, *made, resident, per_leaf, name, report);
+        !s.ok())
+      return s;
+  }
   return absl::OkStatus();
 }
 
@@ -295,7 +389,8 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
 
 std::vector<std::string> benchmark_names() {
   std::vector<std::string> names = {"lbvh_build",      "primary_rays", "shadow_rays",
-                                    "incoherent_rays", "photon_pass",  "frame"};
+                                    "incoherent_rays", "photon_pass",  "frame",
+                                    "photon_gather"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
   return names;
 }
@@ -319,7 +414,7 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }
-  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame"})) {
+  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame", "photon_gather"})) {
     for (StructureKind kind : o.structures) {
       Reporter with_structure = report.for_structure(structure_kind_name(kind));
       if (absl::Status s = photon_benchmarks(o, kind, with_structure); !s.ok()) return s;

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <optional>
+#include <stdexcept>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -24,8 +25,9 @@ double elapsed_ms(std::chrono::steady_clock::time_point since) {
       .count();
 }
 
-// Runs `fn`, turning a budget overrun anywhere below into RESOURCE_EXHAUSTED and a device failure
-// (a CUDA error) into INTERNAL.
+// Runs `fn`, turning a budget overrun anywhere below into RESOURCE_EXHAUSTED, a device failure
+// (a CUDA error) into INTERNAL, and input a builder cannot take (a structure's own limits, such
+// as sibling-pair's triangle count) into INVALID_ARGUMENT.
 template <typename Fn>
 absl::Status guarded(Fn&& fn) {
   try {
@@ -36,6 +38,8 @@ absl::Status guarded(Fn&& fn) {
     return absl::ResourceExhaustedError("out of memory");
   } catch (const DeviceError& e) {
     return absl::InternalError(e.what());
+  } catch (const std::invalid_argument& e) {
+    return absl::InvalidArgumentError(e.what());
   }
 }
 

@@ -58,6 +58,8 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
 constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kLbvh4, v1::LBVH4},
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
+    {StructureKind::kHybrid, v1::HYBRID},
+    {StructureKind::kSiblingPair, v1::SIBLING_PAIR},
     {StructureKind::kBvh8, v1::BVH8},
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));

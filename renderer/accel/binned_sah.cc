@@ -16,6 +16,11 @@ constexpr uint32_t kNoNode = 0xffffffffu;
 // bin it spans.
 constexpr uint32_t kBinReductionChunk = 64;
 
+// Sorted positions per thread when the segments' boxes are reduced before the first level: far
+// fewer segments than positions, so long chunks keep the atomics on each segment's cell few (one
+// root segment had every chunk of kBinReductionChunk flush into the same cell).
+constexpr uint32_t kSegmentReductionChunk = 1024;
+
 // Past this many data-parallel levels (a run of very uneven splits), the nodes still large are
 // finished by the per-node stage.
 constexpr int kMaxDataParallelLevels = 48;
@@ -98,6 +103,14 @@ CAUSTICA_HDI void flush_bin(BinCell& cell, uint32_t count, const Aabb& box, cons
   }
 }
 
+CAUSTICA_HDI void clear_bin(BinCell& b) {
+  b.count = 0;
+  for (int a = 0; a < 3; ++a) {
+    b.lower[a] = b.centroid_lower[a] = ordered_bits(FLT_MAX);
+    b.upper[a] = b.centroid_upper[a] = ordered_bits(-FLT_MAX);
+  }
+}
+
 CAUSTICA_HDI void read_bin(const BinCell& cell, Aabb& box, Aabb& centroids) {
   for (int a = 0; a < 3; ++a) {
     box.lower[a] = from_ordered_bits(cell.lower[a]);
@@ -161,8 +174,10 @@ CAUSTICA_HDI uint32_t bits_for(uint32_t values) {
   return bits;
 }
 
-// The node of `nodes` (`count` of them, in position order, disjoint) whose positions hold `p`.
-CAUSTICA_HDI uint32_t node_holding(const LargeNode* nodes, uint32_t count, uint32_t p) {
+// The last of `nodes` (`count` of them, in position order, disjoint: LargeNodes or SmallSubtrees)
+// that starts at or before position `p`, or kNoNode when none does.
+template <typename Range>
+CAUSTICA_HDI uint32_t node_holding(const Range* nodes, uint32_t count, uint32_t p) {
   uint32_t lo = 0, hi = count;  // the first node that starts after p is in [lo, hi]
   while (lo < hi) {
     const uint32_t mid = (lo + hi) / 2;
@@ -181,34 +196,28 @@ CAUSTICA_HDI bool stays_large(uint32_t size, const Aabb& centroids, bool last_le
   return !last_level && size > kSahSubtreeTriangles && !degenerate(centroids);
 }
 
-}  // namespace
-
-BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
-                                       uint32_t count) {
-  BinaryTriangleBvh out;
-  out.bvh.nodes.bind(backend);
-  out.triangles.bind(backend);
-  out.triangle_ids.bind(backend);
-  out.bvh.leaf_count = count;
-  if (count == 0) return out;
-
-  // Per sorted position: the triangle there and its box, moved together as nodes sort.
+// The data-parallel stage and then the per-node stage over `segment_count` disjoint subtrees of
+// `bvh` (rebuild_subtrees_by_binned_sah), whose triangles at sorted position p are source[p] with
+// original index source_ids[p] (p itself when source_ids is null). Writes the triangles and their
+// ids in the new leaf order to `out_triangles` and `out_ids`, and, when the root is listed, the
+// root and the bounds to `bvh`.
+void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* source,
+                       const uint32_t* source_ids, const SmallSubtree* segments,
+                       uint32_t segment_count, bool root_listed,
+                       Buffer<TriangleVertices>& out_triangles, Buffer<uint32_t>& out_ids) {
+  const uint32_t count = bvh.leaf_count;
+  // Per sorted position: the triangle there (a position of `source`) and its box, moved together
+  // as nodes sort.
   Buffer<uint32_t> orders(backend, count);
-  Buffer<Aabb> boxes(backend, count), centroid_points(backend, count);
+  Buffer<Aabb> boxes(backend, count);
   uint32_t* order = orders.data();
   Aabb* box = boxes.data();
-  Aabb* centroid_point = centroid_points.data();
   parallel_for(backend, "binned_sah_boxes", count, [=] CAUSTICA_HD(size_t i) {
     order[i] = uint32_t(i);
-    box[i] = triangle_bounds(triangles[i]);
-    centroid_point[i] = Aabb{box[i].center(), box[i].center()};
+    box[i] = triangle_bounds(source[i]);
   });
-  out.bvh.bounds = backend.reduce_bounds(box, count);
-  const Aabb root_centroids = backend.reduce_bounds(centroid_point, count);
-  centroid_points = Buffer<Aabb>(backend, 0);
 
-  out.bvh.nodes.resize_discard(count > 1 ? count - 1 : 0);
-  BvhNode* nodes = out.bvh.nodes.data();
+  BvhNode* nodes = bvh.nodes.data();
   Buffer<uint32_t> root_word(backend, 1);
   uint32_t* root = root_word.data();
   backend.fill_bytes(root, 0xff, sizeof(uint32_t));  // kNoNode
@@ -218,35 +227,106 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   SmallSubtree* small = small_list.data();
   uint32_t* small_count_word = small_counter.data();
 
-  const bool root_large = stays_large(count, root_centroids, false);
-  bool root_listed = false;
-  if (count >= 2 && !root_large) {
-    const uint32_t last = count - 1;
-    parallel_for(backend, "binned_sah_small_root", 1, [=] CAUSTICA_HD(size_t) {
-      small[0] = {kNoParent, 0, 0, last};
-      *small_count_word = 1;
+  // The segments in position order, with the box and the centroid box of each reduced over its
+  // sorted positions (one bin per segment), decide which start the data-parallel stage.
+  Buffer<LargeNode> level_nodes(backend, 0), next_nodes(backend, 0);
+  uint32_t node_count = 0;
+  if (segment_count > 0) {
+    Buffer<uint32_t> segment_keys(backend, segment_count), segment_index(backend, segment_count);
+    uint32_t* seg_key = segment_keys.data();
+    uint32_t* seg_index = segment_index.data();
+    parallel_for(backend, "binned_sah_segment_keys", segment_count, [=] CAUSTICA_HD(size_t i) {
+      seg_key[i] = segments[i].first;
+      seg_index[i] = uint32_t(i);
     });
-    root_listed = true;
+    backend.sort_pairs(seg_key, seg_index, segment_count, int(bits_for(count)));
+    Buffer<SmallSubtree> sorted_segments(backend, segment_count);
+    SmallSubtree* seg = sorted_segments.data();
+    parallel_for(backend, "binned_sah_segment_order", segment_count,
+                 [=] CAUSTICA_HD(size_t i) { seg[i] = segments[seg_index[i]]; });
+    Buffer<BinCell> segment_cells(backend, segment_count);
+    BinCell* seg_cell = segment_cells.data();
+    parallel_for(backend, "binned_sah_segment_clear", segment_count,
+                 [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
+    const size_t chunks = (size_t(count) + kSegmentReductionChunk - 1) / kSegmentReductionChunk;
+    parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
+      const uint32_t begin = uint32_t(c * kSegmentReductionChunk);
+      const uint32_t end =
+          begin + kSegmentReductionChunk < count ? begin + kSegmentReductionChunk : count;
+      uint32_t run = kNoNode, run_count = 0;
+      Aabb run_box, run_centroids;
+      // The last segment starting at or before p, found once and then followed along the chunk.
+      uint32_t last_started = node_holding(seg, segment_count, begin);
+      for (uint32_t p = begin; p < end; ++p) {
+        const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
+        if (next < segment_count && seg[next].first <= p) last_started = next;
+        const uint32_t j =
+            last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
+        if (j != run) {
+          if (run != kNoNode) flush_bin(seg_cell[run], run_count, run_box, run_centroids);
+          run = j;
+          run_count = 0;
+          run_box = run_centroids = Aabb{};
+        }
+        const Aabb b = box[p];
+        ++run_count;
+        run_box.extend(b);
+        run_centroids.extend(b.center());
+      }
+      if (run != kNoNode) flush_bin(seg_cell[run], run_count, run_box, run_centroids);
+    });
+    if (root_listed) {
+      // The root is the only segment: its box is the tree's bounds.
+      BinCell root_cell;
+      backend.copy_to_host(&root_cell, seg_cell, sizeof(BinCell));
+      Aabb root_centroids;
+      read_bin(root_cell, bvh.bounds, root_centroids);
+    }
+    // Segments too small or too degenerate to bin go to the per-node stage at once; the others
+    // become the first level's nodes, in position order.
+    Buffer<uint32_t> large_flags(backend, segment_count);
+    uint32_t* large_slot = large_flags.data();
+    parallel_for(backend, "binned_sah_segment_split", segment_count, [=] CAUSTICA_HD(size_t j) {
+      Aabb b, centroids;
+      read_bin(seg_cell[j], b, centroids);
+      const SmallSubtree s = seg[j];
+      large_slot[j] = stays_large(s.last - s.first + 1, centroids, false) ? 1u : 0u;
+      if (!large_slot[j]) small[atomic_fetch_add(small_count_word, 1u)] = s;
+    });
+    node_count = backend.exclusive_scan(large_slot, large_slot, segment_count);
+    level_nodes.resize_discard(node_count);
+    LargeNode* first_level = level_nodes.data();
+    parallel_for(backend, "binned_sah_segment_nodes", segment_count, [=] CAUSTICA_HD(size_t j) {
+      Aabb b, centroids;
+      read_bin(seg_cell[j], b, centroids);
+      const SmallSubtree s = seg[j];
+      if (stays_large(s.last - s.first + 1, centroids, false))
+        first_level[large_slot[j]] = {s.first, s.last, s.parent, s.side, b, centroids};
+    });
   }
 
-  if (root_large) {
-    Buffer<LargeNode> level_nodes(backend, 1), next_nodes(backend, 0);
-    level_nodes.upload(
-        std::vector<LargeNode>{{0, count - 1, kNoParent, 0, out.bvh.bounds, root_centroids}});
+  if (node_count > 0) {
     // Per element of the stage (a triangle of a large node): its position. Its node follows from
     // the position (node_holding), which saves a second compaction per level.
     Buffer<uint32_t> element_pos(backend, count);
-    uint32_t* first_pos = element_pos.data();
-    parallel_for(backend, "binned_sah_elements", count,
-                 [=] CAUSTICA_HD(size_t i) { first_pos[i] = uint32_t(i); });
     Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count);
     Buffer<uint8_t> keep(backend, count);
+    uint32_t element_count = 0;
+    {
+      const LargeNode* first_level = level_nodes.data();
+      const uint32_t first_count = node_count;
+      uint8_t* kept = keep.data();
+      parallel_for(backend, "binned_sah_elements", count, [=] CAUSTICA_HD(size_t p) {
+        const uint32_t j = node_holding(first_level, first_count, uint32_t(p));
+        kept[p] = j != kNoNode && p <= first_level[j].last;
+      });
+      element_count = uint32_t(backend.select_flagged(nullptr, kept, count, element_pos.data()));
+    }
     Buffer<uint32_t> moved_orders(backend, count);
     Buffer<Aabb> moved_boxes(backend, count);
     Buffer<BinCell> cells(backend, 0);
     Buffer<NodeSplit> splits(backend, 0);
     Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
-    uint32_t node_count = 1, element_count = count;
     for (int level = 0; node_count > 0; ++level) {
       const bool last_level = level + 1 >= kMaxDataParallelLevels;
       const uint32_t m = element_count;
@@ -279,14 +359,8 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
       // The bins' counts and bounds, over chunks of the sorted elements.
       cells.resize_discard(size_t(node_count) * kNodeBins);
       BinCell* cell = cells.data();
-      parallel_for(backend, "binned_sah_clear_bins", cells.size(), [=] CAUSTICA_HD(size_t c) {
-        BinCell& b = cell[c];
-        b.count = 0;
-        for (int a = 0; a < 3; ++a) {
-          b.lower[a] = b.centroid_lower[a] = ordered_bits(FLT_MAX);
-          b.upper[a] = b.centroid_upper[a] = ordered_bits(-FLT_MAX);
-        }
-      });
+      parallel_for(backend, "binned_sah_clear_bins", cells.size(),
+                   [=] CAUSTICA_HD(size_t c) { clear_bin(cell[c]); });
       const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
       parallel_for(backend, "binned_sah_bins", chunks, [=] CAUSTICA_HD(size_t c) {
         const uint32_t begin = uint32_t(c * kBinReductionChunk);
@@ -392,20 +466,64 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   }
 
   // The triangles in leaf order, then the small nodes finished by the per-node stage.
-  out.triangles.resize_discard(count);
-  out.triangle_ids = std::move(orders);
-  TriangleVertices* sorted = out.triangles.data();
-  const uint32_t* ids = out.triangle_ids.data();
-  parallel_for(backend, "binned_sah_leaf_order", count,
-               [=] CAUSTICA_HD(size_t p) { sorted[p] = triangles[ids[p]]; });
+  out_triangles.resize_discard(count);
+  out_ids.resize_discard(count);
+  TriangleVertices* sorted = out_triangles.data();
+  uint32_t* ids = out_ids.data();
+  parallel_for(backend, "binned_sah_leaf_order", count, [=] CAUSTICA_HD(size_t p) {
+    sorted[p] = source[order[p]];
+    ids[p] = source_ids != nullptr ? source_ids[order[p]] : order[p];
+  });
   uint32_t small_count = 0;
   backend.copy_to_host(&small_count, small_count_word, sizeof(uint32_t));
-  if (root_large) {
-    backend.copy_to_host(&out.bvh.root, root, sizeof(uint32_t));
-    root_listed = out.bvh.root == kNoNode;
+  bool root_small = false;
+  if (root_listed) {
+    uint32_t root_node = kNoNode;
+    backend.copy_to_host(&root_node, root, sizeof(uint32_t));
+    // Unset when the root went to the per-node stage, which then sets it.
+    root_small = root_node == kNoNode;
+    if (!root_small) bvh.root = root_node;
   }
-  rebuild_small_subtrees(backend, out.bvh, small, small_count, out.triangles, out.triangle_ids,
-                         root_listed);
+  rebuild_small_subtrees(backend, bvh, small, small_count, out_triangles, out_ids, root_small);
+}
+
+}  // namespace
+
+void rebuild_subtrees_by_binned_sah(Backend& backend, BinaryTriangleBvh& tree,
+                                    const SmallSubtree* segments, uint32_t segment_count,
+                                    bool root_listed) {
+  if (segment_count == 0) return;
+  Buffer<TriangleVertices> triangles(backend, 0);
+  Buffer<uint32_t> ids(backend, 0);
+  binned_sah_stages(backend, tree.bvh, tree.triangles.data(), tree.triangle_ids.data(), segments,
+                    segment_count, root_listed, triangles, ids);
+  tree.triangles = std::move(triangles);
+  tree.triangle_ids = std::move(ids);
+}
+
+BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
+                                       uint32_t count) {
+  BinaryTriangleBvh out;
+  out.bvh.nodes.bind(backend);
+  out.triangles.bind(backend);
+  out.triangle_ids.bind(backend);
+  out.bvh.leaf_count = count;
+  if (count == 0) return out;
+  if (count == 1) {
+    out.triangles.resize_discard(1);
+    backend.copy_on_device(out.triangles.data(), triangles, sizeof(TriangleVertices));
+    out.triangle_ids.upload(std::vector<uint32_t>{0});
+    TriangleVertices t;
+    backend.copy_to_host(&t, triangles, sizeof(TriangleVertices));
+    out.bvh.bounds = triangle_bounds(t);
+    return out;
+  }
+  // The one-segment case: the whole input, in its own order, is the root's range.
+  out.bvh.nodes.resize_discard(count - 1);
+  Buffer<SmallSubtree> root_segment(backend, 1);
+  root_segment.upload(std::vector<SmallSubtree>{{kNoParent, 0, 0, count - 1}});
+  binned_sah_stages(backend, out.bvh, triangles, nullptr, root_segment.data(), 1, true,
+                    out.triangles, out.triangle_ids);
   return out;
 }
 

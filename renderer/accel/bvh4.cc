@@ -17,26 +17,11 @@ struct Subtree {
   CAUSTICA_HDI uint32_t size() const { return last - first + 1; }
 };
 
-// A single triangle is a leaf; so is a subtree of up to kMaxLeafTriangles whose box is not huge
-// by the measure that sorts huge triangles apart (size_class, base/morton.h), or whose box is no
-// larger than one of its two halves' (the two triangles of a wall). Grouped by the curve alone,
-// a leaf of huge triangles spanned two or three walls, the whole room, and every ray in the room
-// entered it and tested its triangles (cornell-caustics: 7 of a shadow ray's 7.1 triangle tests
-// were walls). `child` is the subtree's binary child field.
-CAUSTICA_HDI bool becomes_leaf(const BvhNode* nodes, uint32_t child, uint32_t size, const Aabb& box,
-                               const Aabb& bounds) {
-  if (size == 1) return true;
-  if (size > kMaxLeafTriangles) return false;
-  if (always_one_leaf(size, box, bounds)) return true;
-  const BvhNode& n = nodes[child];
-  const float half = box.half_area();
-  return half <= n.child[0].bounds().half_area() || half <= n.child[1].bounds().half_area();
-}
-
 // The subtree under binary child field `child`, covering sorted leaves [first, last] in `box`.
 CAUSTICA_HDI Subtree subtree(const BvhNode* nodes, uint32_t child, uint32_t first, uint32_t last,
                              const Aabb& box, const Aabb& bounds) {
-  return {child, first, last, becomes_leaf(nodes, child, last - first + 1, box, bounds)};
+  return {child, first, last,
+          binary_subtree_becomes_leaf(nodes, child, last - first + 1, box, bounds)};
 }
 
 // The up-to-four children a binary node's 4-wide node takes: start with its two children and

@@ -38,6 +38,22 @@ CAUSTICA_HDI bool always_one_leaf(uint32_t size, const Aabb& box, const Aabb& bo
   return size <= kMaxLeafTriangles && size_class(box, bounds) == 1u;
 }
 
+// A single triangle is a leaf; so is a subtree of up to kMaxLeafTriangles whose box is not huge
+// by the measure that sorts huge triangles apart (size_class, base/morton.h), or whose box is no
+// larger than one of its two halves' (the two triangles of a wall). Grouped by the curve alone,
+// a leaf of huge triangles spanned two or three walls, the whole room, and every ray in the room
+// entered it and tested its triangles (cornell-caustics: 7 of a shadow ray's 7.1 triangle tests
+// were walls). `child` is the subtree's binary child field, `nodes` the binary tree's.
+CAUSTICA_HDI bool binary_subtree_becomes_leaf(const BvhNode* nodes, uint32_t child, uint32_t size,
+                                              const Aabb& box, const Aabb& bounds) {
+  if (size == 1) return true;
+  if (size > kMaxLeafTriangles) return false;
+  if (always_one_leaf(size, box, bounds)) return true;
+  const BvhNode& n = nodes[child];
+  const float half = box.half_area();
+  return half <= n.child[0].bounds().half_area() || half <= n.child[1].bounds().half_area();
+}
+
 // A leaf child is kLeafFlag | (count - 1) << kLeafCountShift | first: the range of sorted
 // triangles [first, first + count). The first index takes the low 28 bits, which caps the
 // triangles one structure can hold (scene_limits.h keeps scenes under it).

@@ -41,27 +41,27 @@ struct SmallSubtree {
   uint32_t first, last;
 };
 
-// The LBVH build's node hook (build_bvh_from_sorted_codes) that lists the small subtrees: a
-// complete node larger than the limit lists its children within it, and a whole tree within it
-// lists its root. `list` has room for leaves / 2 entries (the subtrees are disjoint, with at least
-// two leaves each); `count` starts at 0.
+// The LBVH build's node hook (build_bvh_from_sorted_codes) that lists the maximal subtrees of at
+// most `limit` triangles: a complete node larger than the limit lists its children within it, and
+// a whole tree within it lists its root. `list` has room for leaves / 2 entries (the subtrees are
+// disjoint, with at least two leaves each); `count` starts at 0.
 struct ListSmallSubtrees {
   SmallSubtree* list;
   uint32_t* count;
   uint32_t leaves;
+  uint32_t limit = kSahSubtreeTriangles;
 
   CAUSTICA_HDI void operator()(uint32_t node, uint32_t first, uint32_t last) const {
     auto add = [&](uint32_t parent, uint32_t side, uint32_t from, uint32_t to) {
       list[atomic_fetch_add(count, 1u)] = {parent, side, from, to};
     };
-    if (last - first + 1 <= kSahSubtreeTriangles) {
+    if (last - first + 1 <= limit) {
       if (first == 0 && last == leaves - 1) add(kNoParent, 0, first, last);
       return;
     }
     // The children cover [first, node] and [node + 1, last].
-    if (node - first + 1 >= 2 && node - first + 1 <= kSahSubtreeTriangles)
-      add(node, 0, first, node);
-    if (last - node >= 2 && last - node <= kSahSubtreeTriangles) add(node, 1, node + 1, last);
+    if (node - first + 1 >= 2 && node - first + 1 <= limit) add(node, 0, first, node);
+    if (last - node >= 2 && last - node <= limit) add(node, 1, node + 1, last);
   }
 };
 

@@ -3,22 +3,27 @@
 #include <chrono>
 
 #include "renderer/accel/binned_sah.h"
+#include "renderer/accel/hybrid_bvh.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
 namespace {
 
-TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
-                               const TriangleVertices* triangles, uint32_t count, Curve curve) {
-  switch (kind) {
-    case StructureKind::kLbvh4:
-      return build_triangle_bvh(backend, triangles, count, curve);
-    case StructureKind::kBinnedSah:
-      return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
-    case StructureKind::kBvh8:
-      break;
-  }
-  throw DeviceError("build_structure: unknown structure kind");
+// The structure `build` makes (a layout with node_count, bytes and an sah_cost), timed from the
+// triangles in memory to the finished structure, and measured.
+template <typename Build>
+TriangleStructure measured(Backend& backend, StructureKind kind, Build build) {
+  const auto start = std::chrono::steady_clock::now();
+  auto layout = build();
+  backend.synchronize();
+  StructureStats stats;
+  stats.kind = kind;
+  stats.build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats.nodes = layout.node_count();
+  stats.bytes = layout.bytes();
+  stats.sah_cost = sah_cost(backend, layout);
+  return TriangleStructure(std::move(layout), stats);
 }
 
 }  // namespace
@@ -30,20 +35,27 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve) {
-  const auto start = std::chrono::steady_clock::now();
-  auto measured = [&](auto layout) {
-    backend.synchronize();
-    StructureStats stats;
-    stats.kind = kind;
-    stats.build_ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    stats.nodes = layout.node_count();
-    stats.bytes = layout.bytes();
-    stats.sah_cost = sah_cost(backend, layout);
-    return TriangleStructure(std::move(layout), stats);
-  };
-  if (kind == StructureKind::kBvh8) return measured(build_bvh8(backend, triangles, count, curve));
-  return measured(build_bvh4_of_kind(backend, kind, triangles, count, curve));
+  switch (kind) {
+    case StructureKind::kLbvh4:
+      return measured(backend, kind,
+                      [&] { return build_triangle_bvh(backend, triangles, count, curve); });
+    case StructureKind::kBinnedSah:
+      return measured(backend, kind, [&] {
+        return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+      });
+    case StructureKind::kHybrid:
+      return measured(backend, kind, [&] {
+        return collapse_triangle_bvh(backend, build_hybrid_bvh(backend, triangles, count, curve));
+      });
+    case StructureKind::kSiblingPair:
+      return measured(backend, kind, [&] {
+        return build_sibling_pair_bvh(backend,
+                                      build_sah_refined_lbvh(backend, triangles, count, curve));
+      });
+    case StructureKind::kBvh8:
+      return measured(backend, kind, [&] { return build_bvh8(backend, triangles, count, curve); });
+  }
+  throw DeviceError("build_structure: unknown structure kind");
 }
 
 double sah_cost(Backend& backend, const TriangleBvh& bvh) {

@@ -7,8 +7,8 @@
 // templates over the view type: TriangleStructure::visit hands the caller the view of the
 // structure's layout, so the dispatch on the kind happens once per launch on the host and never
 // per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
-// the same (lbvh4 and binned-sah both end in 4-wide nodes) share one view type and so one
-// instantiation of every kernel.
+// the same (lbvh4, binned-sah and hybrid all end in 4-wide nodes) share one view type and so one
+// instantiation of every kernel; sibling-pair has a layout of its own.
 #pragma once
 
 #include <concepts>
@@ -17,6 +17,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/sibling_pair_traversal.h"
 #include "renderer/accel/bvh8_traversal.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
@@ -35,6 +36,7 @@ concept StructureView = std::is_trivially_copyable_v<View> && requires(const Vie
 };
 
 static_assert(StructureView<TriangleBvhView>);
+static_assert(StructureView<SiblingPairView>);
 static_assert(StructureView<Bvh8View>);
 
 // What a builder reports about the structure it built.
@@ -53,6 +55,8 @@ class TriangleStructure {
   TriangleStructure() = default;
   TriangleStructure(TriangleBvh bvh4, const StructureStats& stats)
       : layout_(std::move(bvh4)), stats_(stats) {}
+  TriangleStructure(SiblingPairBvh pairs, const StructureStats& stats)
+      : layout_(std::move(pairs)), stats_(stats) {}
   TriangleStructure(Bvh8 bvh8, const StructureStats& stats)
       : layout_(std::move(bvh8)), stats_(stats) {}
 
@@ -70,7 +74,7 @@ class TriangleStructure {
   }
 
  private:
-  std::variant<TriangleBvh, Bvh8> layout_;
+  std::variant<TriangleBvh, SiblingPairBvh, Bvh8> layout_;
   StructureStats stats_;
 };
 
@@ -82,7 +86,8 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve);
 
-// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend.
+// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; that of a
+// SiblingPairBvh is in sibling_pair_bvh.h.
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
 
 }  // namespace caustica

@@ -17,21 +17,32 @@ enum class StructureKind : uint32_t {
   // A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4), collapsed to 4-wide
   // nodes.
   kBinnedSah = 1,
+  // The LBVH's top levels over the curve order, each subtree below a cut rebuilt by binned SAH
+  // (Zeidan 2011, ch. 4), collapsed to 4-wide nodes.
+  kHybrid = 2,
+  // The binary tree lbvh4 collapses, kept binary in 32-byte nodes that store only the planes a
+  // child does not inherit from its parent (Fabianowski 2011, ch. 6).
+  kSiblingPair = 3,
   // A compressed 8-wide BVH (Ylitie et al. 2017) over an H-PLOC tree (Benthin et al. 2024).
   kBvh8 = 7,
 };
 
 inline constexpr StructureKind kStructureKinds[] = {
-    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kBvh8};
+    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kHybrid,
+    StructureKind::kSiblingPair, StructureKind::kBvh8};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
-// The name a user writes: "lbvh4", "binned-sah".
+// The name a user writes: "lbvh4", "binned-sah", "hybrid", "sibling-pair", "bvh8".
 constexpr const char* structure_kind_name(StructureKind kind) {
   switch (kind) {
     case StructureKind::kLbvh4:
       return "lbvh4";
     case StructureKind::kBinnedSah:
       return "binned-sah";
+    case StructureKind::kHybrid:
+      return "hybrid";
+    case StructureKind::kSiblingPair:
+      return "sibling-pair";
     case StructureKind::kBvh8:
       return "bvh8";
   }
@@ -45,7 +56,7 @@ inline std::optional<StructureKind> parse_structure_kind(std::string_view name) 
   return std::nullopt;
 }
 
-// "lbvh4, binned-sah": for error messages and --help.
+// "lbvh4, binned-sah, hybrid, sibling-pair": for error messages and --help.
 inline std::string structure_kind_list() {
   std::string out;
   for (StructureKind kind : kStructureKinds) {
@@ -55,8 +66,8 @@ inline std::string structure_kind_list() {
   return out;
 }
 
-// "unknown structure 'NAME' (expected lbvh4, binned-sah)", with `also_accepted` ("all, ") before
-// the kinds where a tool takes more names.
+// "unknown structure 'NAME' (expected lbvh4, binned-sah, hybrid, sibling-pair)", with
+// `also_accepted` ("all, ") before the kinds where a tool takes more names.
 inline std::string unknown_structure_message(std::string_view name,
                                              std::string_view also_accepted = "") {
   return "unknown structure '" + std::string(name) + "' (expected " + std::string(also_accepted) +

@@ -67,13 +67,21 @@ TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangl
   return build_triangle_bvh(backend, triangles, count, backend_curve(backend));
 }
 
+BinaryTriangleBvh build_triangle_lbvh_listing_subtrees(Backend& backend,
+                                                       const TriangleVertices* triangles,
+                                                       uint32_t count, Curve curve, uint32_t limit,
+                                                       SmallSubtree* list, uint32_t* listed) {
+  return build_lbvh(backend, triangles, count, curve,
+                    ListSmallSubtrees{list, listed, count, limit});
+}
+
 BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertices* triangles,
                                          uint32_t count, Curve curve) {
   Buffer<SmallSubtree> small(backend, count / 2 + 1);
   Buffer<uint32_t> listed(backend, 1);
   backend.fill_bytes(listed.data(), 0, sizeof(uint32_t));
-  BinaryTriangleBvh lbvh = build_lbvh(backend, triangles, count, curve,
-                                      ListSmallSubtrees{small.data(), listed.data(), count});
+  BinaryTriangleBvh lbvh = build_triangle_lbvh_listing_subtrees(
+      backend, triangles, count, curve, kSahSubtreeTriangles, small.data(), listed.data());
   uint32_t small_count = 0;
   if (count >= 2) backend.copy_to_host(&small_count, listed.data(), sizeof(uint32_t));
   rebuild_small_subtrees(backend, lbvh.bvh, small.data(), small_count, lbvh.triangles,

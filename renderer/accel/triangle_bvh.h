@@ -12,6 +12,8 @@
 
 namespace caustica {
 
+struct SmallSubtree;  // sah_subtrees.h
+
 // Plain pointers into a TriangleBvh, copied by value into kernels.
 struct TriangleBvhView {
   const Bvh4Node* nodes = nullptr;
@@ -48,6 +50,15 @@ BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* 
                                       uint32_t count, Curve curve);
 BinaryTriangleBvh build_triangle_lbvh(Backend& backend, const TriangleVertices* triangles,
                                       uint32_t count);
+
+// The LBVH, listing its maximal subtrees of at most `limit` (>= 2) triangles as ListSmallSubtrees
+// (sah_subtrees.h) does: `list`, in the backend's memory, has room for count / 2 + 1 of them, and
+// `listed` (one word there, zeroed by the caller) receives how many it holds. A tree of at most
+// `limit` triangles lists its root.
+BinaryTriangleBvh build_triangle_lbvh_listing_subtrees(Backend& backend,
+                                                       const TriangleVertices* triangles,
+                                                       uint32_t count, Curve curve, uint32_t limit,
+                                                       SmallSubtree* list, uint32_t* listed);
 
 // The LBVH with its small subtrees rebuilt by SAH (sah_subtrees.h): the same layout, leaves in a
 // new order.

@@ -219,20 +219,57 @@ struct NoLeafLog {
   CAUSTICA_HDI uint32_t next() { return ~0u; }
 };
 
-// Calls visit_leaf(leaf) for every leaf of `map` whose box lies within squared distance `limit`
-// of `p`, nearer subtrees first; visit_leaf may shrink `limit` as it goes. Every member of `group`
-// must make this call with the same map; each branch is a vote, so the members stay in step, and
-// a member handed a leaf it does not need rejects its photons by distance. `log` records the
-// leaves visited or, when it replays, hands them out instead of the tree (in no particular order).
-template <typename VisitLeaf, typename LeafLog = NoLeafLog>
-CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const float& limit,
-                                      SearchGroup group, VisitLeaf visit_leaf,
-                                      LeafLog&& log = NoLeafLog{}) {
+namespace detail {
+
+// How a walk reads the two layouts of the photon map's nodes (PhotonMapNodes): children(node,
+// frame, ...) gives both children's boxes and references (bvh.h's convention) and the frames a
+// walk keeps for each, to read that child's own children later.
+//
+// Box pairs store both boxes in full: a walk keeps nothing per node but its index.
+struct BoxPairNodes {
+  const BvhNode* nodes;
+  struct Frame {};
+
+  CAUSTICA_HDI void children(uint32_t node, Frame, Aabb& box0, Aabb& box1, uint32_t& c0,
+                             uint32_t& c1, Frame&, Frame&) const {
+    const BvhChild a = nodes[node].child[0], b = nodes[node].child[1];
+    box0 = a.bounds();
+    box1 = b.bounds();
+    c0 = a.index;
+    c1 = b.index;
+  }
+};
+
+// Sibling pairs store the planes a child does not inherit (accel/sibling_pair.h): a walk keeps
+// each node's box, its children's decode from it, and a deferred subtree waits on the stack with
+// its box.
+struct SiblingPairNodes {
+  const SiblingPairNode* nodes;
+  using Frame = Aabb;
+
+  CAUSTICA_HDI void children(uint32_t node, const Aabb& box, Aabb& box0, Aabb& box1, uint32_t& c0,
+                             uint32_t& c1, Aabb& frame0, Aabb& frame1) const {
+    const SiblingPairNode n = nodes[node];
+    sibling_child_boxes(n, box, box0, box1);
+    c0 = sibling_reference(n.child[0]);
+    c1 = sibling_reference(n.child[1]);
+    frame0 = box0;
+    frame1 = box1;
+  }
+};
+
+// visit_photon_leaves over the nodes `tree` reads, `root` being the root's frame.
+template <typename Nodes, typename VisitLeaf, typename LeafLog>
+CAUSTICA_HDI void walk_photon_leaves(const PhotonMapView& map, Nodes tree,
+                                     typename Nodes::Frame root, Vec3f p, const float& limit,
+                                     SearchGroup group, VisitLeaf& visit_leaf, LeafLog& log) {
   if (map.count == 0) return;
   // Deferred subtrees keep their box distance: by the time one is popped the limit has usually
   // shrunk below it, and the subtree is dropped without loading its node.
   uint32_t stack[kKnnStackSize];
   float stack_distance[kKnnStackSize];
+  typename Nodes::Frame stack_frame[kKnnStackSize];
+  typename Nodes::Frame frame = root;
   int top = 0;
   constexpr uint32_t kNone = ~0u;
   // A map of one leaf has no node: its leaf is visited alone.
@@ -243,15 +280,15 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
     bool go0 = false, go1 = false;
     float d0 = 0.0f, d1 = 0.0f;
     uint32_t c0 = 0, c1 = 0;
+    typename Nodes::Frame f0{}, f1{};
     if (replays) {
       leaf0 = log.next();
       leaf1 = log.next();
     } else if (node != kNone) {
-      const BvhChild a = map.nodes[node].child[0], b = map.nodes[node].child[1];
-      d0 = distance_squared(a.bounds(), p);
-      d1 = distance_squared(b.bounds(), p);
-      c0 = a.index;
-      c1 = b.index;
+      Aabb box0, box1;
+      tree.children(node, frame, box0, box1, c0, c1, f0, f1);
+      d0 = distance_squared(box0, p);
+      d1 = distance_squared(box1, p);
       const bool want0 = group.any(d0 < limit), want1 = group.any(d1 < limit);
       leaf0 = want0 && is_leaf(c0) ? leaf_index(c0) : kNone;
       leaf1 = want1 && is_leaf(c1) ? leaf_index(c1) : kNone;
@@ -280,21 +317,50 @@ CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const f
         float d = d0;
         d0 = d1;
         d1 = d;
+        const typename Nodes::Frame f = f0;
+        f0 = f1;
+        f1 = f;
       }
       stack[top] = c1;
-      stack_distance[top++] = d1;
+      stack_distance[top] = d1;
+      stack_frame[top++] = f1;
       node = c0;
+      frame = f0;
     } else if (go0) {
       node = c0;
+      frame = f0;
     } else if (go1) {
       node = c1;
+      frame = f1;
     } else {
       do {
         if (top == 0) return;
         --top;
       } while (!group.any(stack_distance[top] < limit));
       node = stack[top];
+      frame = stack_frame[top];
     }
+  }
+}
+
+}  // namespace detail
+
+// Calls visit_leaf(leaf) for every leaf of `map` whose box lies within squared distance `limit`
+// of `p`, nearer subtrees first; visit_leaf may shrink `limit` as it goes. Every member of `group`
+// must make this call with the same map; each branch is a vote, so the members stay in step, and
+// a member handed a leaf it does not need rejects its photons by distance. `log` records the
+// leaves visited or, when it replays, hands them out instead of the tree (in no particular order).
+// The map's node layout is one branch per search, the same for a whole launch.
+template <typename VisitLeaf, typename LeafLog = NoLeafLog>
+CAUSTICA_HDI void visit_photon_leaves(const PhotonMapView& map, Vec3f p, const float& limit,
+                                      SearchGroup group, VisitLeaf visit_leaf,
+                                      LeafLog&& log = NoLeafLog{}) {
+  if (map.node_layout == PhotonMapNodes::kSiblingPairs) {
+    detail::walk_photon_leaves(map, detail::SiblingPairNodes{map.pair_nodes}, map.bounds, p, limit,
+                               group, visit_leaf, log);
+  } else {
+    detail::walk_photon_leaves(map, detail::BoxPairNodes{map.nodes}, {}, p, limit, group,
+                               visit_leaf, log);
   }
 }
 

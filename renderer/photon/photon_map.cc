@@ -22,7 +22,19 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
 
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, Curve curve) {
+  return build_photon_map(backend, photons, photons_per_leaf, curve, kDefaultPhotonMapNodes);
+}
+
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf, PhotonMapNodes nodes) {
+  return build_photon_map(backend, photons, photons_per_leaf, backend_curve(backend), nodes);
+}
+
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes) {
   PhotonMap map;
+  map.node_layout = nodes;
+  map.pair_nodes.bind(backend);
   const uint32_t n = uint32_t(photons.size());
   const uint32_t per_leaf = photons_per_leaf > 0 ? photons_per_leaf : 1;
   map.photons_per_leaf = per_leaf;
@@ -66,6 +78,10 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                                             box.extend(position[i]);
                                           return box;
                                         });
+  if (nodes == PhotonMapNodes::kSiblingPairs) {
+    map.pair_nodes = encode_sibling_pairs(backend, map.bvh, map.bvh.bounds);
+    map.bvh.nodes = Buffer<BvhNode>(backend, 0);
+  }
   return map;
 }
 

@@ -12,12 +12,25 @@
 
 #include "renderer/accel/bvh.h"
 #include "renderer/accel/curve_order.h"
+#include "renderer/accel/sibling_pair.h"
 #include "renderer/base/octahedral.h"
 #include "renderer/photon/photon.h"
 
 namespace caustica {
 
 constexpr uint32_t kDefaultPhotonsPerLeaf = 8;
+
+// How the hierarchy stores its nodes, chosen when the map is built. Both hold the same tree and
+// give a search the same boxes bit for bit, so the same photons in the same order; they differ in
+// bytes per node and in the work to read one (docs/structures.md, "sibling-pair").
+enum class PhotonMapNodes : uint32_t {
+  // BvhNode (accel/bvh.h): both children's boxes in full, 64 bytes.
+  kBoxPairs,
+  // SiblingPairNode (accel/sibling_pair.h): the planes a child does not inherit, 32 bytes; a
+  // search decodes the children's boxes from the node's own.
+  kSiblingPairs,
+};
+constexpr PhotonMapNodes kDefaultPhotonMapNodes = PhotonMapNodes::kBoxPairs;
 
 // One past the last photon of leaf `leaf`: leaves are runs of `per_leaf`, the last one shorter.
 CAUSTICA_HDI uint32_t photon_leaf_end(uint32_t leaf, uint32_t per_leaf, uint32_t count) {
@@ -32,14 +45,16 @@ struct alignas(16) PhotonFlux {  // 16 bytes: flux_of reads it as one float4
 };
 
 struct PhotonMapView {
-  const BvhNode* nodes = nullptr;
+  const BvhNode* nodes = nullptr;    // kBoxPairs; null with sibling pairs
   const Vec3f* positions = nullptr;  // curve order
   const PhotonFlux* flux = nullptr;  // same order
   uint32_t count = 0;                // photons
   uint32_t photons_per_leaf = 1;
   uint32_t leaf_count = 0;
   uint32_t root = 0;
-  Aabb bounds;
+  Aabb bounds;  // with sibling pairs, the box the root's children decode from
+  const SiblingPairNode* pair_nodes = nullptr;  // kSiblingPairs, node k for the tree's node k
+  PhotonMapNodes node_layout = kDefaultPhotonMapNodes;
 
   CAUSTICA_HDI uint32_t leaf_begin(uint32_t leaf) const { return leaf * photons_per_leaf; }
   // Photon i's flux record in one 16-byte load: read field by field, the side test waited for
@@ -58,23 +73,41 @@ struct PhotonMapView {
 };
 
 struct PhotonMap {
-  Bvh bvh;  // over leaves of photons_per_leaf photons
+  Bvh bvh;  // over leaves of photons_per_leaf photons; no nodes with sibling pairs
+  Buffer<SiblingPairNode> pair_nodes;  // the nodes with sibling pairs, else none
   Buffer<Vec3f> positions;
   Buffer<PhotonFlux> flux;
   uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf;
+  PhotonMapNodes node_layout = kDefaultPhotonMapNodes;
 
   PhotonMapView view() const {
-    return {bvh.nodes.data(), positions.data(), flux.data(), uint32_t(positions.size()),
-            photons_per_leaf, bvh.leaf_count,   bvh.root,    bvh.bounds};
+    const bool pairs = node_layout == PhotonMapNodes::kSiblingPairs;
+    return {pairs ? nullptr : bvh.nodes.data(),
+            positions.data(),
+            flux.data(),
+            uint32_t(positions.size()),
+            photons_per_leaf,
+            bvh.leaf_count,
+            bvh.root,
+            bvh.bounds,
+            pairs ? pair_nodes.data() : nullptr,
+            node_layout};
   }
   size_t size() const { return positions.size(); }
-  size_t bytes() const { return bvh.nodes.bytes() + positions.bytes() + flux.bytes(); }
+  size_t bytes() const {
+    return bvh.nodes.bytes() + pair_nodes.bytes() + positions.bytes() + flux.bytes();
+  }
   // The photons in map order, with directions as decoded: for tests and tools.
   std::vector<Photon> download() const;
 };
 
 // Sorts `photons` along `curve` (by default the backend's, backend_curve) and builds the hierarchy
-// over runs of `photons_per_leaf` (>= 1) of them.
+// over runs of `photons_per_leaf` (>= 1) of them, its nodes stored as `nodes` says (by default
+// kDefaultPhotonMapNodes).
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes);
+PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
+                           uint32_t photons_per_leaf, PhotonMapNodes nodes);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, Curve curve);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,

@@ -110,6 +110,10 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(encode_structure(StructureKind::kBinnedSah), v1::BINNED_SAH);
   EXPECT_EQ(decode_structure(v1::LBVH4), StructureKind::kLbvh4);
   EXPECT_EQ(decode_structure(v1::BINNED_SAH), StructureKind::kBinnedSah);
+  EXPECT_EQ(encode_structure(StructureKind::kHybrid), v1::HYBRID);
+  EXPECT_EQ(decode_structure(v1::HYBRID), StructureKind::kHybrid);
+  EXPECT_EQ(encode_structure(StructureKind::kSiblingPair), v1::SIBLING_PAIR);
+  EXPECT_EQ(decode_structure(v1::SIBLING_PAIR), StructureKind::kSiblingPair);
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
@@ -127,11 +131,11 @@ TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {
 
 TEST(SceneWire, UnknownStructureIsRefusedNamingTheField) {
   v1::RenderSettings update;
-  update.set_structure(static_cast<v1::Structure>(7));
+  update.set_structure(static_cast<v1::Structure>(99));
   absl::StatusOr<RenderSettings> applied = apply_settings(update, RenderSettings{}, "settings");
   EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(applied.status().message()),
-              HasSubstr("settings.structure: 7 is not a structure"));
+              HasSubstr("settings.structure: 99 is not a structure"));
 }
 
 TEST(SceneWire, ChunkChecksumIsZlibCrc32) {
@@ -268,7 +272,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadUpload{"unknown structure",
                   [](auto& c) {
                     c[0].mutable_header()->mutable_settings()->set_structure(
-                        static_cast<v1::Structure>(3));
+                        static_cast<v1::Structure>(99));
                   },
                   absl::StatusCode::kInvalidArgument, "settings.structure"},
         BadUpload{"no header at all", [](auto& c) { c.clear(); },

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstring>
+#include <type_traits>
 #include <vector>
 
 #include "renderer/accel/structure.h"
@@ -27,13 +28,15 @@ inline void append_words(std::vector<uint32_t>& out, const void* p, size_t bytes
 
 }  // namespace detail
 
-// The 4-wide layout is already canonical: its builders number nodes level by level.
-inline std::vector<uint32_t> structure_snapshot(Backend& backend, const TriangleBvhView& v,
-                                                size_t nodes) {
+// Layouts whose builders number nodes in an order fixed by the tree (level by level, or
+// depth first) are their own canonical form: their nodes' and ids' bytes.
+template <typename View>
+std::vector<uint32_t> structure_snapshot(Backend& backend, const View& v, size_t nodes) {
+  using Node = std::remove_cv_t<std::remove_pointer_t<decltype(v.nodes)>>;
   std::vector<uint32_t> out;
   const auto n = detail::fetch(backend, v.nodes, nodes);
   const auto ids = detail::fetch(backend, v.triangle_ids, v.count);
-  detail::append_words(out, n.data(), n.size() * sizeof(Bvh4Node));
+  detail::append_words(out, n.data(), n.size() * sizeof(Node));
   detail::append_words(out, ids.data(), ids.size() * sizeof(uint32_t));
   return out;
 }

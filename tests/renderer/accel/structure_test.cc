@@ -68,7 +68,6 @@ double walked_sah_cost(const TriangleBvhView& v, size_t& nodes) {
   walk(0);
   return cost;
 }
-constexpr size_t node_bytes(const TriangleBvhView&) { return sizeof(Bvh4Node); }
 
 double walked_sah_cost(const Bvh8View& v, size_t& nodes) {
   const double root_area = v.bounds.half_area();
@@ -92,7 +91,30 @@ double walked_sah_cost(const Bvh8View& v, size_t& nodes) {
   walk(0);
   return cost;
 }
-constexpr size_t node_bytes(const Bvh8View&) { return sizeof(Bvh8Node); }
+
+// The same for the sibling-pair tree, its boxes decoded from the root's down.
+double walked_sah_cost(const SiblingPairView& v, size_t& nodes) {
+  const double root_area = v.bounds.half_area();
+  double cost = 1.0;
+  nodes = 0;
+  std::function<void(uint32_t, const Aabb&)> walk = [&](uint32_t node, const Aabb& box) {
+    ++nodes;
+    Aabb child_box[2];
+    sibling_child_boxes(v.nodes[node], box, child_box[0], child_box[1]);
+    for (int c = 0; c < 2; ++c) {
+      const uint32_t reference = sibling_reference(v.nodes[node].child[c]);
+      const double area = child_box[c].half_area() / root_area;
+      if (is_leaf(reference)) {
+        cost += sibling_leaf_count(reference) * area;
+      } else {
+        cost += area;
+        walk(reference, child_box[c]);
+      }
+    }
+  };
+  walk(0, v.bounds);
+  return cost;
+}
 
 TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
   const std::vector<TriangleVertices> tris = random_soup(5000, 41);
@@ -105,8 +127,8 @@ TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
     const double cost = walked_sah_cost(v, nodes);
     EXPECT_EQ(s.nodes, nodes);
     EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
-    EXPECT_EQ(s.bytes,
-              nodes * node_bytes(v) + tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
+    EXPECT_EQ(s.bytes, nodes * sizeof(*v.nodes) +
+                           tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
     Aabb all;
     for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
     EXPECT_EQ(v.bounds.lower, all.lower);

@@ -15,6 +15,7 @@
 #include <random>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "renderer/accel/camera_tiles.h"
@@ -656,6 +657,43 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   EXPECT_GT(compared, kNnQueries * 9 / 10);
   uint32_t full = 0;
   for (uint32_t i = 0; i < kNnQueries; ++i) full += c_counts[i] == 1 + i % kNnMaxK;
+  EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
+}
+
+// The photon map's compact nodes (PhotonMapNodes::kSiblingPairs): the same nodes on both backends,
+// and on the GPU the same searches as over box pairs, heap for heap, since both give a search the
+// same boxes bit for bit.
+TEST(GpuParity, SiblingPairPhotonMapsSearchAsBoxPairsDo) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  std::mt19937 rng(37);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> photons(60000);
+  for (size_t i = 0; i < photons.size(); ++i) {
+    Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
+    if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
+    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)),
+                  normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
+  }
+  Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
+  const PhotonMapNodes pairs = PhotonMapNodes::kSiblingPairs;
+  const PhotonMap c =
+      build_photon_map(*both.cpu, c_in, kDefaultPhotonsPerLeaf, Curve::kHilbert, pairs);
+  const PhotonMap g =
+      build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, Curve::kHilbert, pairs);
+  EXPECT_TRUE(same_bytes(c.pair_nodes.download(), g.pair_nodes.download()));
+  const PhotonMap g_boxes =
+      build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, PhotonMapNodes::kBoxPairs);
+  const PhotonMap g_pairs = build_photon_map(*both.gpu, g_in, kDefaultPhotonsPerLeaf, pairs);
+  std::vector<Vec3f> points(kNnQueries);
+  for (Vec3f& q : points) q = Vec3f(u(rng), u(rng), u(rng) < 0.5f ? 0.5f : u(rng));
+  const NearestResults boxes = search_photon_map(*both.gpu, g_boxes, points);
+  const NearestResults compact = search_photon_map(*both.gpu, g_pairs, points);
+  EXPECT_EQ(boxes.counts, compact.counts);
+  EXPECT_TRUE(same_bytes(boxes.found, compact.found));
+  EXPECT_TRUE(same_bytes(boxes.radiance, compact.radiance));
+  uint32_t full = 0;
+  for (uint32_t i = 0; i < kNnQueries; ++i) full += boxes.counts[i] == 1 + i % kNnMaxK;
   EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
 }
 

@@ -17,7 +17,8 @@ struct Points {
 };
 
 std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered,
-                                 uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf) {
+                                 uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf,
+                                 PhotonMapNodes nodes = kDefaultPhotonMapNodes) {
   auto p = std::make_unique<Points>();
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -29,12 +30,14 @@ std::unique_ptr<Points> make_map(size_t n, uint32_t seed, bool clustered,
   }
   Buffer<Photon> buf(*p->backend, n);
   buf.upload(p->photons);
-  p->map = build_photon_map(*p->backend, buf, photons_per_leaf);
+  p->map = build_photon_map(*p->backend, buf, photons_per_leaf, nodes);
   return p;
 }
 
-void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf) {
-  auto p = make_map(n, 5, clustered, photons_per_leaf);
+void check_knn(size_t n, bool clustered, uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf,
+               PhotonMapNodes nodes = kDefaultPhotonMapNodes) {
+  auto p = make_map(n, 5, clustered, photons_per_leaf, nodes);
+  ASSERT_EQ(p->map.view().node_layout, nodes);
   auto sorted = p->map.download();
   ASSERT_EQ(sorted.size(), n);
   std::mt19937 rng(9);
@@ -77,6 +80,44 @@ TEST(PhotonMapKnn, SmallMaps) {
 TEST(PhotonMapKnn, AnyLeafSize) {
   for (uint32_t per_leaf : {1u, 3u, 32u}) check_knn(3001, false, per_leaf);
   check_knn(5, false, 16);
+}
+
+// The same searches over the compact node layout.
+TEST(PhotonMapKnn, SiblingPairNodesMatchBruteForce) {
+  const PhotonMapNodes pairs = PhotonMapNodes::kSiblingPairs;
+  check_knn(20000, false, kDefaultPhotonsPerLeaf, pairs);
+  check_knn(20000, true, kDefaultPhotonsPerLeaf, pairs);
+  for (size_t n : {1, 2, 3, 17}) check_knn(n, false, kDefaultPhotonsPerLeaf, pairs);
+  for (uint32_t per_leaf : {1u, 3u, 32u}) check_knn(3001, false, per_leaf, pairs);
+}
+
+// Both layouts give a search the same boxes, so it visits the same leaves in the same order and
+// leaves the same heap, entry for entry; the compact map's nodes take half the bytes.
+TEST(PhotonMapKnn, BothNodeLayoutsFindTheSameNeighboursInTheSameOrder) {
+  for (bool clustered : {false, true}) {
+    auto boxes = make_map(30000, 8, clustered, 8, PhotonMapNodes::kBoxPairs);
+    auto pairs = make_map(30000, 8, clustered, 8, PhotonMapNodes::kSiblingPairs);
+    EXPECT_EQ(pairs->map.pair_nodes.size(), boxes->map.bvh.nodes.size());
+    EXPECT_EQ(pairs->map.bvh.nodes.size(), 0u);
+    EXPECT_EQ(2 * pairs->map.pair_nodes.bytes(), boxes->map.bvh.nodes.bytes());
+    std::vector<NeighbourPair> a_storage(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest)),
+        b_storage(a_storage.size());
+    NeighbourHeap<NeighbourPair*> a{a_storage.data()}, b{b_storage.data()};
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-0.1f, 1.1f);
+    for (int q = 0; q < 3000; ++q) {
+      const Vec3f x(u(rng), u(rng), clustered ? 0.01f * u(rng) : u(rng));
+      const uint32_t k = 1 + uint32_t(q % 100);
+      const float max_r = q % 2 == 0 ? 0.03f : 10.0f;
+      const uint32_t found_a = find_nearest(boxes->map.view(), x, k, max_r * max_r, a);
+      const uint32_t found_b = find_nearest(pairs->map.view(), x, k, max_r * max_r, b);
+      ASSERT_EQ(found_a, found_b) << "query " << q;
+      for (uint32_t i = 0; i < found_a; ++i) {
+        ASSERT_EQ(a[i].index, b[i].index) << "query " << q << " #" << i;
+        ASSERT_EQ(a[i].distance_squared, b[i].distance_squared) << "query " << q << " #" << i;
+      }
+    }
+  }
 }
 
 TEST(PhotonMap, LeavesCoverTheirPhotons) {
