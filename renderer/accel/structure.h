@@ -17,23 +17,15 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/ray_queries.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
 
-// What a structure's device view answers: the box of everything it holds, the nearest hit along
-// a ray in (t_min, t_max), and whether anything blocks that open segment. `triangle` in a Hit is
-// the index in the order the builder was given the triangles.
-template <typename View>
-concept StructureView = std::is_trivially_copyable_v<View> && requires(const View& v, Ray r) {
-  { v.bounds } -> std::convertible_to<Aabb>;
-  { closest_hit(v, r) } -> std::same_as<Hit>;
-  { any_hit(v, r) } -> std::same_as<bool>;
-};
-
 static_assert(StructureView<TriangleBvhView>);
+static_assert(BatchStructureView<TriangleBvhView>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
