@@ -15,6 +15,8 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
       return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
       return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+    case StructureKind::kDacrt:
+      break;  // not a 4-wide BVH: build_structure builds it
   }
   throw DeviceError("build_structure: unknown structure kind");
 }
@@ -29,6 +31,18 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve) {
   const auto start = std::chrono::steady_clock::now();
+  if (kind == StructureKind::kDacrt) {
+    DacrtTriangles dacrt = build_dacrt_triangles(backend, triangles, count);
+    backend.synchronize();
+    StructureStats stats;
+    stats.kind = kind;
+    stats.build_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    stats.nodes = 0;
+    stats.bytes = dacrt.bytes();
+    stats.sah_cost = sah_cost(backend, dacrt);
+    return TriangleStructure(std::move(dacrt), stats);
+  }
   TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count, curve);
   backend.synchronize();
   StructureStats stats;
@@ -65,6 +79,10 @@ double sah_cost(Backend& backend, const TriangleBvh& bvh) {
     term[i] = sum;
   });
   return 1.0 + backend.reduce_sum(term, n);
+}
+
+double sah_cost(Backend&, const DacrtTriangles& dacrt) {
+  return double(dacrt.triangles.size());
 }
 
 }  // namespace caustica

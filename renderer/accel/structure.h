@@ -3,7 +3,9 @@
 // kind's builder on any backend, and a TriangleStructure owns what it built.
 //
 // Every structure has a device view, a small struct of plain pointers copied by value into
-// kernels, that meets the StructureView contract below in CAUSTICA_HD code. Kernels are
+// kernels, that meets BatchStructureView (ray_queries.h: batches of closest and any hits); views
+// that also answer single rays in CAUSTICA_HD code meet StructureView, and kernels may trace
+// through them one ray per thread. dacrt's view answers batches only. Kernels are
 // templates over the view type: TriangleStructure::visit hands the caller the view of the
 // structure's layout, so the dispatch on the kind happens once per launch on the host and never
 // per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
@@ -17,6 +19,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/dacrt.h"
 #include "renderer/accel/ray_queries.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
@@ -26,12 +29,15 @@ namespace caustica {
 
 static_assert(StructureView<TriangleBvhView>);
 static_assert(BatchStructureView<TriangleBvhView>);
+static_assert(BatchStructureView<DacrtView> && !StructureView<DacrtView>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;
-  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4)
-  size_t bytes = 0;  // everything its traversal reads: nodes, triangles, triangle ids
+  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4; 0 for dacrt)
+  // Everything its traversal reads that is kept between frames: nodes, triangles, triangle ids
+  // (dacrt: the triangles and their boxes; its per-frame scratch is DacrtTraceStats's).
+  size_t bytes = 0;
   // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
   // plus sum over leaves of triangles x area) over the root's area.
   double sah_cost = 0;
@@ -43,6 +49,8 @@ class TriangleStructure {
   TriangleStructure() = default;
   TriangleStructure(TriangleBvh bvh4, const StructureStats& stats)
       : layout_(std::move(bvh4)), stats_(stats) {}
+  TriangleStructure(DacrtTriangles dacrt, const StructureStats& stats)
+      : layout_(std::move(dacrt)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
   StructureKind kind() const { return stats_.kind; }
@@ -58,7 +66,7 @@ class TriangleStructure {
   }
 
  private:
-  std::variant<TriangleBvh> layout_;
+  std::variant<TriangleBvh, DacrtTriangles> layout_;
   StructureStats stats_;
 };
 
@@ -72,5 +80,8 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 
 // The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend.
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
+// The SAH cost of what dacrt stores: one leaf of every triangle, since the division is made anew
+// for every batch and never kept.
+double sah_cost(Backend& backend, const DacrtTriangles& dacrt);
 
 }  // namespace caustica

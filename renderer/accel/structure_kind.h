@@ -17,19 +17,24 @@ enum class StructureKind : uint32_t {
   // A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4), collapsed to 4-wide
   // nodes.
   kBinnedSah = 1,
+  // No stored structure: every batch of rays divided with the triangles breadth-first over space
+  // and brute-forced in small nodes (Ravichandran and Narayanan 2013); answers batches only.
+  kDacrt = 6,
 };
 
-inline constexpr StructureKind kStructureKinds[] = {StructureKind::kLbvh4,
-                                                    StructureKind::kBinnedSah};
+inline constexpr StructureKind kStructureKinds[] = {
+    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kDacrt};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
-// The name a user writes: "lbvh4", "binned-sah".
+// The name a user writes: "lbvh4", "binned-sah", "dacrt".
 constexpr const char* structure_kind_name(StructureKind kind) {
   switch (kind) {
     case StructureKind::kLbvh4:
       return "lbvh4";
     case StructureKind::kBinnedSah:
       return "binned-sah";
+    case StructureKind::kDacrt:
+      return "dacrt";
   }
   return "unknown";
 }
@@ -41,7 +46,7 @@ inline std::optional<StructureKind> parse_structure_kind(std::string_view name) 
   return std::nullopt;
 }
 
-// "lbvh4, binned-sah": for error messages and --help.
+// "lbvh4, binned-sah, dacrt": for error messages and --help.
 inline std::string structure_kind_list() {
   std::string out;
   for (StructureKind kind : kStructureKinds) {
@@ -51,7 +56,7 @@ inline std::string structure_kind_list() {
   return out;
 }
 
-// "unknown structure 'NAME' (expected lbvh4, binned-sah)", with `also_accepted` ("all, ") before
+// "unknown structure 'NAME' (expected lbvh4, binned-sah, dacrt)", with `also_accepted` ("all, ") before
 // the kinds where a tool takes more names.
 inline std::string unknown_structure_message(std::string_view name,
                                              std::string_view also_accepted = "") {

@@ -110,6 +110,8 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(encode_structure(StructureKind::kBinnedSah), v1::BINNED_SAH);
   EXPECT_EQ(decode_structure(v1::LBVH4), StructureKind::kLbvh4);
   EXPECT_EQ(decode_structure(v1::BINNED_SAH), StructureKind::kBinnedSah);
+  EXPECT_EQ(encode_structure(StructureKind::kDacrt), v1::DACRT);
+  EXPECT_EQ(decode_structure(v1::DACRT), StructureKind::kDacrt);
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
@@ -127,11 +129,11 @@ TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {
 
 TEST(SceneWire, UnknownStructureIsRefusedNamingTheField) {
   v1::RenderSettings update;
-  update.set_structure(static_cast<v1::Structure>(7));
+  update.set_structure(static_cast<v1::Structure>(99));
   absl::StatusOr<RenderSettings> applied = apply_settings(update, RenderSettings{}, "settings");
   EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(applied.status().message()),
-              HasSubstr("settings.structure: 7 is not a structure"));
+              HasSubstr("settings.structure: 99 is not a structure"));
 }
 
 TEST(SceneWire, ChunkChecksumIsZlibCrc32) {
