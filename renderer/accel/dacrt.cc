@@ -255,7 +255,9 @@ void brute_force_terminals(Backend& backend, const DacrtView& view, const Ray* r
     if (tests != nullptr) tests[j] = end - first;
     const Ray ray = rays[r];
     const WatertightRay w(ray);
-    if constexpr (kQuery == Query::kClosest) {
+    // A plain `if` on the template's constant: nvcc's extended lambdas may not first capture a
+    // variable inside `if constexpr`.
+    if (kQuery == Query::kClosest) {
       uint64_t nearest = kNoHitKey;
       for (uint32_t k = first; k < end; ++k) {
         const uint32_t tri = tri_id[k];
@@ -321,11 +323,11 @@ void divide_level(Backend& backend, const DacrtView& view, const Ray* rays, floa
       const Ray ray = rays[r];
       float t_max = ray.t_max;
       bool carried = true;
-      if constexpr (kQuery == Query::kClosest) {
+      if (kQuery == Query::kClosest) {
         // Ties at the nearest distance so far stay: a lower triangle index may still win them.
         const uint64_t key = best[r];
         if (key != kNoHitKey) t_max = fminf(t_max, key_distance(key));
-      } else if constexpr (kQuery == Query::kAny) {
+      } else if (kQuery == Query::kAny) {
         carried = blocked[r] == 0;
       }
       if (carried) {
