@@ -186,6 +186,7 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
         o, *backend, [&] { trace_closest(*backend, bvh, queued.data(), pixels, hit); });
     report.line("primary_rays_batch", name, pixels / (batch.median * 1e3), "Mrays/s", &batch,
                 o.runs);
+    batch.kernels.clear();  // reported with the line above
     report.line("primary_rays_batch_ms", name, batch.median, "ms", &batch, o.runs);
     report_batch_scratch(*backend, bvh, queued.data(), pixels, "primary_rays_scratch_bytes", name,
                          report);
