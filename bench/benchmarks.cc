@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <type_traits>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -11,6 +12,8 @@
 #include "bench/measure.h"
 #include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
+#include "renderer/accel/dacrt.h"
+#include "renderer/accel/ray_queries.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
@@ -66,19 +69,97 @@ absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& 
   return make_backend(*kind, size_t(16) << 30);
 }
 
-// The ray benchmarks through `bvh`, the view of the structure under test (a StructureView).
+// For dacrt, what one batch of the rays held at most in scratch memory (what it uses instead of a
+// stored structure), reported as `label`; other structures trace in none.
+template <typename Structure>
+void report_batch_scratch(Backend& backend, const Structure& view, const Ray* rays, size_t count,
+                          const char* label, const std::string& name, Reporter& report) {
+  if constexpr (std::is_same_v<Structure, DacrtView>) {
+    Buffer<Hit> hits(backend, count);
+    DacrtTraceStats stats;
+    trace_closest(backend, view, rays, count, hits.data(), &stats);
+    report.line(label, name, double(stats.peak_scratch_bytes), "B");
+    report.line("dacrt_triangle_tests_per_ray", name, double(stats.triangle_tests) / count,
+                "tests/ray");
+    report.line("dacrt_levels", name, double(stats.levels), "levels");
+  }
+}
+
+// The ray benchmarks' camera rays through pixel centres, in pixel order, queued in `rays`.
+void queue_camera_rays(Backend& backend, const PinholeCamera& camera, Buffer<Ray>& rays) {
+  const size_t pixels = size_t(camera.width) * camera.height;
+  rays.resize_discard(pixels);
+  Ray* ray = rays.data();
+  parallel_for(backend, "camera_ray_queue", pixels, [=] CAUSTICA_HD(size_t i) {
+    ray[i] = camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f);
+  });
+}
+
+// The primary rays one per thread through a per-ray view (StructureView).
+template <typename Structure>
+void trace_primary_single(Backend& backend, const Structure& bvh, const PinholeCamera& camera,
+                          Hit* hit) {
+  const size_t pixels = size_t(camera.width) * camera.height;
+  parallel_for(backend, "primary_rays_single", pixels, [=] CAUSTICA_HD(size_t i) {
+    hit[i] = closest_hit(
+        bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
+  });
+}
+
+// Shadow rays repeated eight times in one launch, for a per-ray view on a GPU.
+template <typename Structure>
+void trace_shadow_repeated(Backend& backend, const Structure& bvh, const Ray* ray, size_t count,
+                           uint8_t* out) {
+  parallel_for(backend, "shadow_rays_repeated", 8 * count,
+               [=] CAUSTICA_HD(size_t i) { out[i % count] = any_hit(bvh, ray[i % count]); });
+}
+
+// The incoherent rays (origins uniform in `b`, directions uniform on the sphere), queued.
+void queue_incoherent_rays(Backend& backend, const Aabb& b, size_t count, Buffer<Ray>& rays) {
+  rays.resize_discard(count);
+  Ray* ray = rays.data();
+  parallel_for(backend, "incoherent_ray_queue", count, [=] CAUSTICA_HD(size_t i) {
+    Sampler s(7, uint32_t(i), 0);
+    Ray r;
+    r.origin = b.lower + b.extent() * Vec3f(s.next_float(), s.next_float(), s.next_float());
+    r.direction = sample_uniform_sphere(s.next_float(), s.next_float());
+    ray[i] = r;
+  });
+}
+
+// The same rays made and traced in one launch through a per-ray view.
+template <typename Structure>
+void trace_incoherent_single(Backend& backend, const Structure& bvh, size_t count, Hit* hit) {
+  const Aabb b = bvh.bounds;
+  parallel_for(backend, "incoherent_rays", count, [=] CAUSTICA_HD(size_t i) {
+    Sampler s(7, uint32_t(i), 0);
+    Ray r;
+    r.origin = b.lower + b.extent() * Vec3f(s.next_float(), s.next_float(), s.next_float());
+    r.direction = sample_uniform_sphere(s.next_float(), s.next_float());
+    hit[i] = closest_hit(bvh, r);
+  });
+}
+
+// The ray benchmarks through `bvh`, the view of the structure under test (any
+// BatchStructureView). Per-ray views are also measured one ray per thread, as before the queues;
+// the *_batch lines go through trace_closest and trace_any, which is all a batch-only view
+// (dacrt) answers and which for it includes all its per-frame work.
 template <typename Structure>
 void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bvh,
                     const std::string& name, Reporter& report) {
+  constexpr bool kPerRay = StructureView<Structure>;
   const PinholeCamera camera = PinholeCamera::from(framing_camera(bvh.bounds, o.width, o.height));
   const size_t pixels = size_t(o.width) * o.height;
   Buffer<Hit> hits(*backend, pixels);
   Hit* hit = hits.data();
+  Buffer<Ray> queued(*backend, 0);
   auto trace_primary = [&] {
-    parallel_for(*backend, "primary_rays_single", pixels, [=] CAUSTICA_HD(size_t i) {
-      hit[i] = closest_hit(
-          bvh, camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f));
-    });
+    if constexpr (kPerRay) {
+      trace_primary_single(*backend, bvh, camera, hit);
+    } else {
+      queue_camera_rays(*backend, camera, queued);
+      trace_closest(*backend, bvh, queued.data(), pixels, hit);
+    }
   };
   if (wanted(o, "primary_rays")) {
     // Camera rays in square tiles traced as packets (what the renderer does for primary rays), and
@@ -94,9 +175,22 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
           hit);
     });
     report.line("primary_rays", name, pixels / (m.median * 1e3), "Mrays/s", &m, o.runs);
-    Measurement single = measure(o, *backend, trace_primary);
-    report.line("primary_rays_single", name, pixels / (single.median * 1e3), "Mrays/s", &single,
+    if constexpr (kPerRay) {
+      Measurement single = measure(o, *backend, trace_primary);
+      report.line("primary_rays_single", name, pixels / (single.median * 1e3), "Mrays/s", &single,
+                  o.runs);
+    }
+    // The camera's rays already queued, through trace_closest alone: with dacrt this is the
+    // whole per-frame work of tracing them (the target is the dragon at 1024x1024).
+    queue_camera_rays(*backend, camera, queued);
+    Measurement batch = measure(
+        o, *backend, [&] { trace_closest(*backend, bvh, queued.data(), pixels, hit); });
+    report.line("primary_rays_batch", name, pixels / (batch.median * 1e3), "Mrays/s", &batch,
                 o.runs);
+    batch.kernels.clear();  // reported with the line above
+    report.line("primary_rays_batch_ms", name, batch.median, "ms", &batch, o.runs);
+    report_batch_scratch(*backend, bvh, queued.data(), pixels, "primary_rays_scratch_bytes", name,
+                         report);
   } else if (wanted(o, "shadow_rays")) {
     trace_primary();
   }
@@ -126,35 +220,32 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
     const Ray* ray = shadow_rays.data();
     uint8_t* out = blocked.data();
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, "shadow_rays", shadow_list.size(),
-                   [=] CAUSTICA_HD(size_t i) { out[i] = any_hit(bvh, ray[i]); });
+      trace_any(*backend, bvh, ray, shadow_list.size(), out);
     });
     report.line("shadow_rays", name, shadow_list.size() / (m.median * 1e3), "Mrays/s", &m, o.runs);
-    if (backend->kind() == DeviceKind::kCuda) {
-      // The same rays eight times over in one launch: the GPU's rate once the start and the
-      // drain of a launch, where the warps whose rays cost the most finish alone, weigh an eighth
-      // as much.
-      const size_t count = shadow_list.size();
-      Measurement repeated = measure(o, *backend, [&] {
-        parallel_for(*backend, "shadow_rays_repeated", 8 * count,
-                     [=] CAUSTICA_HD(size_t i) { out[i % count] = any_hit(bvh, ray[i % count]); });
-      });
-      report.line("shadow_rays_repeated", name, 8 * count / (repeated.median * 1e3), "Mrays/s",
-                  &repeated, o.runs);
+    if constexpr (kPerRay) {
+      if (backend->kind() == DeviceKind::kCuda) {
+        // The same rays eight times over in one launch: the GPU's rate once the start and the
+        // drain of a launch, where the warps whose rays cost the most finish alone, weigh an
+        // eighth as much.
+        const size_t count = shadow_list.size();
+        Measurement repeated =
+            measure(o, *backend, [&] { trace_shadow_repeated(*backend, bvh, ray, count, out); });
+        report.line("shadow_rays_repeated", name, 8 * count / (repeated.median * 1e3), "Mrays/s",
+                    &repeated, o.runs);
+      }
     }
   }
   if (wanted(o, "incoherent_rays")) {
     // Origins uniform in the box, directions uniform on the sphere: no coherence at all.
     const size_t count = pixels;
-    const Aabb b = bvh.bounds;
     Measurement m = measure(o, *backend, [&] {
-      parallel_for(*backend, "incoherent_rays", count, [=] CAUSTICA_HD(size_t i) {
-        Sampler s(7, uint32_t(i), 0);
-        Ray r;
-        r.origin = b.lower + b.extent() * Vec3f(s.next_float(), s.next_float(), s.next_float());
-        r.direction = sample_uniform_sphere(s.next_float(), s.next_float());
-        hit[i] = closest_hit(bvh, r);
-      });
+      if constexpr (kPerRay) {
+        trace_incoherent_single(*backend, bvh, count, hit);
+      } else {
+        queue_incoherent_rays(*backend, bvh.bounds, count, queued);
+        trace_closest(*backend, bvh, queued.data(), count, hit);
+      }
     });
     report.line("incoherent_rays", name, count / (m.median * 1e3), "Mrays/s", &m, o.runs);
   }
@@ -299,7 +390,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // The whole light-change pipeline up to the maps, then its two halves on their own.
     uint32_t pass = 0;
     size_t stored = 0, map_bytes = 0;
-    const PhotonTraceSettings trace{o.photons, 8, 1, 0};
+    PhotonTraceSettings trace{o.photons, 8, 1, 0};
+    trace.ray_queues = o.ray_queues;
     Measurement m = measure(o, *backend, [&] {
       PhotonTraceSettings this_pass = trace;
       this_pass.pass = pass++;
@@ -346,15 +438,18 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // The render pass alone on maps already built: camera rays, specular chains, shadow rays and
     // both k-nearest gathers, as the frame target counts it.
     const RenderSettings& rs = scene->settings;
-    TracedPhotons traced =
-        trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
+    PhotonTraceSettings trace{o.photons, rs.max_photon_bounces, rs.seed, 0};
+    trace.ray_queues = o.ray_queues;
+    TracedPhotons traced = trace_photons(*backend, resident, trace);
     PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
     PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
     Film film(*backend, o.width, o.height);
     const PinholeCamera camera = PinholeCamera::from(scene->camera);
     uint32_t pass = 0;
     Measurement gather = measure(o, *backend, [&] {
-      render_pass(*backend, resident, caustic, global, camera, (*engine)->shading(pass++), film);
+      ShadingSettings shading = (*engine)->shading(pass++);
+      shading.ray_queues = o.ray_queues;
+      render_pass(*backend, resident, caustic, global, camera, shading, film);
     });
     report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
                 gather.median, "ms", &gather, o.runs);

@@ -30,6 +30,8 @@ struct BenchOptions {
   std::vector<StructureKind> structures = {kDefaultStructure};
   // --kernels: after each measured benchmark, its per-launch times (one JSON line per launch name).
   bool kernels = false;
+  // --ray-queues: the photon trace and the render pass through the ray queues for every structure.
+  bool ray_queues = false;
 };
 
 // The names run_benchmarks knows, in the order it runs them.

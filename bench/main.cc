@@ -45,6 +45,9 @@ int main(int argc, char** argv) {
   app.add_flag("--kernels", options.kernels,
                "after each measured benchmark, print its launches' times: one JSON line per "
                "launch name with launches and milliseconds per run, the most time first");
+  app.add_flag("--ray-queues", options.ray_queues,
+               "photon and frame benchmarks: trace through the ray queues (batches of closest and "
+               "any hits) even for structures that answer single rays, as batch-only ones always do");
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera,
                "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");

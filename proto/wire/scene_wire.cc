@@ -60,6 +60,7 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
     {StructureKind::kHybrid, v1::HYBRID},
     {StructureKind::kSiblingPair, v1::SIBLING_PAIR},
+    {StructureKind::kDacrt, v1::DACRT},
     {StructureKind::kBvh8, v1::BVH8},
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));

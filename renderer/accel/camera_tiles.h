@@ -6,8 +6,10 @@
 #include <type_traits>
 
 #include "renderer/accel/packet_traversal.h"
+#include "renderer/accel/ray_queries.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/pixel_blocks.h"
+#include "renderer/parallel/buffer.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -36,14 +38,23 @@ void trace_camera_packets(Backend& backend, const TriangleBvhView& bvh, Vec3f or
   });
 }
 
-// `direction(pixel)` (a CAUSTICA_HD functor, pixel = y * width + x) gives each ray's direction
-// from `origin`; hits[pixel] receives its closest hit in `structure` (a StructureView,
-// structure.h). On the CPU the 4-wide BVH traces packets; otherwise one ray per thread, each GPU
-// warp covering an 8x4 block of pixels so that its rays stay coherent (a thread-private packet
-// of 16 rays would only cost registers there).
+// The way for a view that answers batches only (BatchStructureView): every pixel's ray in one
+// queue, traced by one trace_closest.
 template <typename Structure, typename Direction>
-void trace_camera_tiles(Backend& backend, const Structure& structure, Vec3f origin, int width,
+void trace_camera_batch(Backend& backend, const Structure& structure, Vec3f origin, int width,
                         int height, Direction direction, Hit* hits) {
+  const size_t pixels = size_t(width) * height;
+  Buffer<Ray> rays(backend, pixels);
+  Ray* ray = rays.data();
+  parallel_for(backend, "camera_ray_queue", pixels,
+               [=] CAUSTICA_HD(size_t pixel) { ray[pixel] = Ray{origin, direction(pixel)}; });
+  trace_closest(backend, structure, rays.data(), pixels, hits);
+}
+
+// The per-ray views' way (trace_camera_tiles).
+template <typename Structure, typename Direction>
+void trace_camera_per_ray(Backend& backend, const Structure& structure, Vec3f origin, int width,
+                          int height, Direction direction, Hit* hits) {
   if constexpr (std::is_same_v<Structure, TriangleBvhView>) {
     if (backend.kind() != DeviceKind::kCuda) {
       trace_camera_packets(backend, structure, origin, width, height, direction, hits);
@@ -56,6 +67,21 @@ void trace_camera_tiles(Backend& backend, const Structure& structure, Vec3f orig
     if (!blocks.pixel_of(thread, pixel)) return;
     hits[pixel] = closest_hit(structure, Ray{origin, direction(pixel)});
   });
+}
+
+// `direction(pixel)` (a CAUSTICA_HD functor, pixel = y * width + x) gives each ray's direction
+// from `origin`; hits[pixel] receives its closest hit in `structure` (any BatchStructureView,
+// ray_queries.h). On the CPU the 4-wide BVH traces packets; other per-ray views one ray per
+// thread, each GPU warp covering an 8x4 block of pixels so that its rays stay coherent (a
+// thread-private packet of 16 rays would only cost registers there); batch-only views one queue.
+template <typename Structure, typename Direction>
+void trace_camera_tiles(Backend& backend, const Structure& structure, Vec3f origin, int width,
+                        int height, Direction direction, Hit* hits) {
+  if constexpr (!StructureView<Structure>) {
+    trace_camera_batch(backend, structure, origin, width, height, direction, hits);
+  } else {
+    trace_camera_per_ray(backend, structure, origin, width, height, direction, hits);
+  }
 }
 
 }  // namespace caustica

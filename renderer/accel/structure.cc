@@ -52,6 +52,9 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
         return build_sibling_pair_bvh(backend,
                                       build_sah_refined_lbvh(backend, triangles, count, curve));
       });
+    case StructureKind::kDacrt:
+      return measured(backend, kind,
+                      [&] { return build_dacrt_triangles(backend, triangles, count); });
     case StructureKind::kBvh8:
       return measured(backend, kind, [&] { return build_bvh8(backend, triangles, count, curve); });
   }
@@ -82,6 +85,10 @@ double sah_cost(Backend& backend, const TriangleBvh& bvh) {
     term[i] = sum;
   });
   return 1.0 + backend.reduce_sum(term, n);
+}
+
+double sah_cost(Backend&, const DacrtTriangles& dacrt) {
+  return double(dacrt.triangles.size());
 }
 
 }  // namespace caustica

@@ -3,7 +3,9 @@
 // kind's builder on any backend, and a TriangleStructure owns what it built.
 //
 // Every structure has a device view, a small struct of plain pointers copied by value into
-// kernels, that meets the StructureView contract below in CAUSTICA_HD code. Kernels are
+// kernels, that meets BatchStructureView (ray_queries.h: batches of closest and any hits); views
+// that also answer single rays in CAUSTICA_HD code meet StructureView, and kernels may trace
+// through them one ray per thread. dacrt's view answers batches only. Kernels are
 // templates over the view type: TriangleStructure::visit hands the caller the view of the
 // structure's layout, so the dispatch on the kind happens once per launch on the host and never
 // per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
@@ -17,33 +19,30 @@
 #include <type_traits>
 #include <variant>
 
-#include "renderer/accel/sibling_pair_traversal.h"
 #include "renderer/accel/bvh8_traversal.h"
+#include "renderer/accel/dacrt.h"
+#include "renderer/accel/ray_queries.h"
+#include "renderer/accel/sibling_pair_traversal.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
 
-// What a structure's device view answers: the box of everything it holds, the nearest hit along
-// a ray in (t_min, t_max), and whether anything blocks that open segment. `triangle` in a Hit is
-// the index in the order the builder was given the triangles.
-template <typename View>
-concept StructureView = std::is_trivially_copyable_v<View> && requires(const View& v, Ray r) {
-  { v.bounds } -> std::convertible_to<Aabb>;
-  { closest_hit(v, r) } -> std::same_as<Hit>;
-  { any_hit(v, r) } -> std::same_as<bool>;
-};
-
 static_assert(StructureView<TriangleBvhView>);
 static_assert(StructureView<SiblingPairView>);
 static_assert(StructureView<Bvh8View>);
+static_assert(BatchStructureView<TriangleBvhView>);
+static_assert(BatchStructureView<DacrtView> && !StructureView<DacrtView>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;
-  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4, 8-wide for a Bvh8)
-  size_t bytes = 0;  // everything its traversal reads: nodes, triangles, triangle ids
+  // In the structure's own layout (4-wide nodes for a Bvh4, 8-wide for a Bvh8; 0 for dacrt).
+  size_t nodes = 0;
+  // Everything its traversal reads that is kept between frames: nodes, triangles, triangle ids
+  // (dacrt: the triangles and their boxes; its per-frame scratch is DacrtTraceStats's).
+  size_t bytes = 0;
   // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
   // plus sum over leaves of triangles x area) over the root's area.
   double sah_cost = 0;
@@ -59,6 +58,8 @@ class TriangleStructure {
       : layout_(std::move(pairs)), stats_(stats) {}
   TriangleStructure(Bvh8 bvh8, const StructureStats& stats)
       : layout_(std::move(bvh8)), stats_(stats) {}
+  TriangleStructure(DacrtTriangles dacrt, const StructureStats& stats)
+      : layout_(std::move(dacrt)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
   StructureKind kind() const { return stats_.kind; }
@@ -74,7 +75,7 @@ class TriangleStructure {
   }
 
  private:
-  std::variant<TriangleBvh, SiblingPairBvh, Bvh8> layout_;
+  std::variant<TriangleBvh, SiblingPairBvh, DacrtTriangles, Bvh8> layout_;
   StructureStats stats_;
 };
 
@@ -89,5 +90,8 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 // The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; that of a
 // SiblingPairBvh is in sibling_pair_bvh.h.
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
+// The SAH cost of what dacrt stores: one leaf of every triangle, since the division is made anew
+// for every batch and never kept.
+double sah_cost(Backend& backend, const DacrtTriangles& dacrt);
 
 }  // namespace caustica

@@ -23,16 +23,19 @@ enum class StructureKind : uint32_t {
   // The binary tree lbvh4 collapses, kept binary in 32-byte nodes that store only the planes a
   // child does not inherit from its parent (Fabianowski 2011, ch. 6).
   kSiblingPair = 3,
+  // No stored structure: every batch of rays divided with the triangles breadth-first over space
+  // and brute-forced in small nodes (Ravichandran and Narayanan 2013); answers batches only.
+  kDacrt = 6,
   // A compressed 8-wide BVH (Ylitie et al. 2017) over an H-PLOC tree (Benthin et al. 2024).
   kBvh8 = 7,
 };
 
 inline constexpr StructureKind kStructureKinds[] = {
-    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kHybrid,
-    StructureKind::kSiblingPair, StructureKind::kBvh8};
+    StructureKind::kLbvh4,       StructureKind::kBinnedSah, StructureKind::kHybrid,
+    StructureKind::kSiblingPair, StructureKind::kDacrt,     StructureKind::kBvh8};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
-// The name a user writes: "lbvh4", "binned-sah", "hybrid", "sibling-pair", "bvh8".
+// The name a user writes: "lbvh4", "binned-sah", "hybrid", "sibling-pair", "dacrt", "bvh8".
 constexpr const char* structure_kind_name(StructureKind kind) {
   switch (kind) {
     case StructureKind::kLbvh4:
@@ -43,6 +46,8 @@ constexpr const char* structure_kind_name(StructureKind kind) {
       return "hybrid";
     case StructureKind::kSiblingPair:
       return "sibling-pair";
+    case StructureKind::kDacrt:
+      return "dacrt";
     case StructureKind::kBvh8:
       return "bvh8";
   }
@@ -56,7 +61,7 @@ inline std::optional<StructureKind> parse_structure_kind(std::string_view name) 
   return std::nullopt;
 }
 
-// "lbvh4, binned-sah, hybrid, sibling-pair": for error messages and --help.
+// The kinds ' names, comma-separated ("lbvh4, binned-sah, ..."): for error messages and --help.
 inline std::string structure_kind_list() {
   std::string out;
   for (StructureKind kind : kStructureKinds) {
@@ -66,8 +71,8 @@ inline std::string structure_kind_list() {
   return out;
 }
 
-// "unknown structure 'NAME' (expected lbvh4, binned-sah, hybrid, sibling-pair)", with
-// `also_accepted` ("all, ") before the kinds where a tool takes more names.
+// "unknown structure 'NAME' (expected lbvh4, binned-sah, ...)", with `also_accepted` ("all, ")
+// before the kinds where a tool takes more names.
 inline std::string unknown_structure_message(std::string_view name,
                                              std::string_view also_accepted = "") {
   return "unknown structure '" + std::string(name) + "' (expected " + std::string(also_accepted) +

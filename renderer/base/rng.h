@@ -26,6 +26,8 @@ class Sampler {
   CAUSTICA_HDI uint32_t next_u32() { return pcg_hash(key_ ^ pcg_hash(dimension_++)); }
   // Uniform in [0, 1): the top 24 bits give every float in that range an equal chance.
   CAUSTICA_HDI float next_float() { return float(next_u32() >> 8) * (1.0f / 16777216.0f); }
+  // Moves past `n` dimensions without drawing them, as if they had been drawn.
+  CAUSTICA_HDI void skip(uint32_t n) { dimension_ += n; }
 
  private:
   uint32_t key_;

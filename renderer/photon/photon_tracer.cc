@@ -1,7 +1,9 @@
 #include "renderer/photon/photon_tracer.h"
 
 #include <algorithm>
+#include <utility>
 
+#include "renderer/accel/ray_queries.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
@@ -67,6 +69,148 @@ CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f sce
   return e;
 }
 
+// Where one photon path stands between its hits.
+struct PhotonPathState {
+  Ray ray;
+  Vec3f power;
+  Sampler s;
+  uint32_t path;
+  uint32_t bounce;
+  bool only_specular;  // no diffuse bounce yet on this path
+};
+
+// What every path's emission and bounces read, copied by value into kernels.
+struct PhotonPathInputs {
+  ResidentSceneView scene;
+  Vec3f center;
+  float radius;
+  float inv_count;
+  uint32_t seed, pass, max_bounces;
+  Photon* slot;
+  uint8_t* caustic_flag;
+  uint8_t* global_flag;
+
+  // Path `path`'s emission: its light, chosen by power, and its first ray.
+  CAUSTICA_HDI void start(PhotonPathState& p, uint32_t path) const {
+    p.path = path;
+    p.s = Sampler(seed, path, pass);
+    uint32_t li =
+        ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, p.s.next_float());
+    const DeviceLight& light = scene.lights[li];
+    float choice_pdf = light_power(light, radius) / scene.total_power;
+    EmittedPhoton e = emit_from(light, p.s, center, radius);
+    p.ray = e.ray;
+    p.power = e.power * (inv_count / choice_pdf);
+    p.only_specular = true;
+    p.bounce = 0;
+  }
+
+  // The path's hit `hit` of its current ray: stores a photon at a diffuse surface and moves the
+  // path on; false when the path ends there.
+  CAUSTICA_HDI bool bounce(PhotonPathState& p, const Hit& hit) const {
+    if (!hit.valid()) return false;
+    SurfaceHit sh = surface_at(scene, hit);
+    const DeviceMaterial& m = scene.materials[sh.material];
+    Vec3f d = p.ray.direction;
+    Vec3f next_dir;
+    if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
+    if (m.type == MaterialType::kDiffuse) {
+      if (p.bounce > 0) {
+        size_t k = size_t(p.path) * (max_bounces - 1) + (p.bounce - 1);
+        slot[k] = Photon{sh.position, p.power, -d};
+        (p.only_specular ? caustic_flag : global_flag)[k] = 1;
+      }
+      float survive = average(m.color);
+      if (p.s.next_float() >= survive) return false;
+      p.power = p.power * m.color / survive;
+      Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+      next_dir = Frame::from_normal(n).to_world(
+          sample_cosine_hemisphere(p.s.next_float(), p.s.next_float()));
+      p.only_specular = false;
+    } else if (m.type == MaterialType::kMirror) {
+      float survive = average(m.color);
+      if (p.s.next_float() >= survive) return false;
+      p.power = p.power * m.color / survive;
+      next_dir = reflect(d, sh.shading_normal);
+    } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
+      DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+      float fr = fresnel_dielectric(side.cos_i, side.eta);
+      if (p.s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir))
+        next_dir = reflect(d, side.normal);
+    }
+    p.ray.origin = offset_origin(sh.position, sh.geometric_normal, next_dir);
+    p.ray.direction = next_dir;
+    p.ray.t_min = 0.0f;
+    p.ray.t_max = FLT_MAX;
+    return ++p.bounce < max_bounces;
+  }
+};
+
+// The paths as ray queues, for structures that answer batches only (and for any structure when
+// asked): every live path's next ray in one batch of closest hits per wave, the paths that go on
+// compacted for the next. Each path's samples and slots follow from its index alone, as in the
+// per-thread trace, so the photons are the same.
+template <typename Structure>
+void trace_photon_waves(Backend& backend, const Structure& structure,
+                        const PhotonPathInputs& inputs, uint32_t count) {
+  Buffer<PhotonPathState> wave(backend, count), next(backend, count);
+  Buffer<Ray> rays(backend, count);
+  Buffer<Hit> hits(backend, count);
+  Buffer<uint8_t> goes_on(backend, count);
+  Buffer<uint32_t> going(backend, count);
+  PhotonPathState* first = wave.data();
+  const PhotonPathInputs in = inputs;
+  parallel_for(backend, "photon_wave_start", count, [=] CAUSTICA_HD(size_t i) {
+    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true};
+    in.start(p, uint32_t(i));
+    first[i] = p;
+  });
+  size_t live = count;
+  while (live > 0) {
+    Ray* ray = rays.data();
+    const PhotonPathState* current = wave.data();
+    parallel_for(backend, "photon_wave_rays", live,
+                 [=] CAUSTICA_HD(size_t i) { ray[i] = current[i].ray; });
+    trace_closest(backend, structure, rays.data(), live, hits.data());
+    PhotonPathState* state = wave.data();
+    const Hit* hit = hits.data();
+    uint8_t* on = goes_on.data();
+    parallel_for(backend, "photon_wave_bounce", live, [=] CAUSTICA_HD(size_t i) {
+      PhotonPathState p = state[i];
+      on[i] = in.bounce(p, hit[i]) ? 1 : 0;
+      state[i] = p;
+    });
+    const size_t kept = backend.select_flagged(nullptr, goes_on.data(), live, going.data());
+    PhotonPathState* to = next.data();
+    const uint32_t* index = going.data();
+    parallel_for(backend, "photon_wave_compact", kept,
+                 [=] CAUSTICA_HD(size_t i) { to[i] = state[index[i]]; });
+    std::swap(wave, next);
+    live = kept;
+  }
+}
+
+// The paths one per thread (per worker on a GPU), each hit traced through the per-ray view.
+template <typename Structure>
+void trace_photons_per_thread(Backend& backend, const Structure& structure,
+                              const PhotonPathInputs& in, uint32_t count, bool regenerate,
+                              uint32_t workers, uint32_t* next) {
+  const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
+    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true};
+    in.start(p, uint32_t(worker));
+    // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
+    // end do not wait at the inner loop's exit for the others.
+    while (true) {
+      if (in.bounce(p, closest_hit(structure, p.ray))) continue;
+      if (!regenerate) return;
+      const uint32_t path = atomic_fetch_add(next, 1u);
+      if (path >= count) return;
+      in.start(p, path);
+    }
+  };
+  parallel_for<kWorkersPerMultiprocessor>(backend, "photon_trace", workers, trace_paths);
+}
+
 // trace_photons with the paths traced through `structure`, the view of the scene's structure.
 template <typename Structure>
 TracedPhotons trace_photons_through(const Structure& structure, Backend& backend,
@@ -116,76 +260,18 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   parallel_for(backend, "photon_next_path", 1,
                [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
 
-  const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
-    uint32_t path = uint32_t(worker);
-    Sampler s(seed, path, pass);
-    Ray ray;
-    Vec3f power;
-    bool only_specular = true;  // no diffuse bounce yet on this path
-    uint32_t bounce = 0;
-    auto start_path = [&] {
-      s = Sampler(seed, path, pass);
-      uint32_t li =
-          ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, s.next_float());
-      const DeviceLight& light = scene.lights[li];
-      float choice_pdf = light_power(light, radius) / scene.total_power;
-      EmittedPhoton e = emit_from(light, s, center, radius);
-      ray = e.ray;
-      power = e.power * (inv_count / choice_pdf);
-      only_specular = true;
-      bounce = 0;
-    };
-    // One hit of the current path; false when the path ends there.
-    auto trace_bounce = [&]() -> bool {
-      Hit hit = closest_hit(structure, ray);
-      if (!hit.valid()) return false;
-      SurfaceHit sh = surface_at(scene, hit);
-      const DeviceMaterial& m = scene.materials[sh.material];
-      Vec3f d = ray.direction;
-      Vec3f next_dir;
-      if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
-      if (m.type == MaterialType::kDiffuse) {
-        if (bounce > 0) {
-          size_t k = size_t(path) * (max_bounces - 1) + (bounce - 1);
-          slot[k] = Photon{sh.position, power, -d};
-          (only_specular ? caustic_flag : global_flag)[k] = 1;
-        }
-        float survive = average(m.color);
-        if (s.next_float() >= survive) return false;
-        power = power * m.color / survive;
-        Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        next_dir = Frame::from_normal(n).to_world(
-            sample_cosine_hemisphere(s.next_float(), s.next_float()));
-        only_specular = false;
-      } else if (m.type == MaterialType::kMirror) {
-        float survive = average(m.color);
-        if (s.next_float() >= survive) return false;
-        power = power * m.color / survive;
-        next_dir = reflect(d, sh.shading_normal);
-      } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
-        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-        float fr = fresnel_dielectric(side.cos_i, side.eta);
-        if (s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir))
-          next_dir = reflect(d, side.normal);
-      }
-      ray.origin = offset_origin(sh.position, sh.geometric_normal, next_dir);
-      ray.direction = next_dir;
-      ray.t_min = 0.0f;
-      ray.t_max = FLT_MAX;
-      return ++bounce < max_bounces;
-    };
-    // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
-    // end do not wait at the inner loop's exit for the others.
-    start_path();
-    while (true) {
-      if (trace_bounce()) continue;
-      if (!regenerate) return;
-      path = atomic_fetch_add(next, 1u);
-      if (path >= count) return;
-      start_path();
+  const PhotonPathInputs in{scene, center, radius, inv_count, seed, pass, max_bounces,
+                            slot, caustic_flag, global_flag};
+  if constexpr (StructureView<Structure>) {
+    if (settings.ray_queues) {
+      trace_photon_waves(backend, structure, in, count);
+    } else {
+      trace_photons_per_thread(backend, structure, in, count, regenerate, workers, next);
     }
-  };
-  parallel_for<kWorkersPerMultiprocessor>(backend, "photon_trace", workers, trace_paths);
+  } else {
+    trace_photon_waves(backend, structure, in, count);
+  }
+
 
   // Compaction: the indices of stored slots, in path order, then a gather.
   auto compact = [&](Buffer<uint8_t>& flags, Buffer<Photon>& into) {

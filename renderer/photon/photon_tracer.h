@@ -17,6 +17,9 @@ struct PhotonTraceSettings {
   uint32_t max_bounces = 8;   // surface interactions per path
   uint32_t seed = 1;
   uint32_t pass = 0;
+  // Trace the paths in waves of batched closest hits even where the structure answers single
+  // rays; structures that answer batches only always do. The photons are the same either way.
+  bool ray_queues = false;
 };
 
 struct TracedPhotons {

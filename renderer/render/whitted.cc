@@ -1,9 +1,12 @@
 #include "renderer/render/whitted.h"
 
 #include <type_traits>
+#include <utility>
+#include <vector>
 
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/curve_order.h"
+#include "renderer/accel/ray_queries.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/morton.h"
 #include "renderer/base/pixel_blocks.h"
@@ -305,6 +308,268 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
   }
 }
 
+// Stage 2 as ray queues, in pbrt-v4's wavefront shape, for structures that answer batches only
+// (BatchStructureView): the walks above trace one ray at a time inside one thread. Each wave is
+// one batch of closest hits for the branches of every pixel's specular tree at one depth; its
+// shading sends mirror and glass branches on to the next wave and leaves each tree's emissive
+// and diffuse hits as leaves. The leaves then go in pixel and depth-first order (the order the
+// walks meet them), where a diffuse hit's place says where its pixel's samples stand, so that
+// its shadow rays are the walk's; those go out as one queue of any hits, and each pixel sums its
+// leaves in that order, as the walk did. The image is the walks' to the bit.
+struct PathRay {
+  Ray ray;
+  Vec3f throughput;
+  uint32_t pixel;
+  uint32_t depth;
+  // The tree's choices down to this ray from the top bit, one per depth: 0 for a mirror's or a
+  // dielectric's reflection, which the walks follow first, 1 for a refraction. As integers, the
+  // leaves of a tree order as the walks meet them.
+  uint64_t branch;
+};
+
+struct PathLeaf {
+  uint64_t branch;
+  uint32_t pixel;
+  uint32_t diffuse;  // 1: a diffuse hit; 0: emitted light seen
+  Vec3f throughput;
+  Vec3f value;  // emitted radiance, or a diffuse hit's direct light once shaded
+  Vec3f position, normal, geometric_normal, albedo;
+};
+
+// One wave's shading: leaves where the branch ends on a light or a diffuse surface, new branches
+// appended to `next` for mirrors and dielectrics.
+void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, const Hit* hits,
+                size_t count, PathLeaf* leaves, uint8_t* is_leaf, PathRay* next,
+                uint32_t* next_count) {
+  parallel_for(backend, "specular_wave_shade", count, [=] CAUSTICA_HD(size_t i) {
+    is_leaf[i] = 0;
+    const Hit hit = hits[i];
+    if (!hit.valid()) return;  // black background
+    const PathRay pr = wave[i];
+    const SurfaceHit sh = surface_at(in.scene, hit);
+    const DeviceMaterial& m = in.scene.materials[sh.material];
+    const Vec3f d = pr.ray.direction;
+    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
+      if (pr.depth >= in.max_depth || max_component(throughput) <= 0.0f) return;
+      Ray r;
+      r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
+      r.direction = dir;
+      const uint32_t slot = atomic_fetch_add(next_count, 1u);
+      next[slot] = {r, throughput, pr.pixel, pr.depth + 1,
+                    pr.branch | (choice << (63u - pr.depth))};
+    };
+    switch (m.type) {
+      case MaterialType::kEmissive:
+        if (dot(d, sh.geometric_normal) < 0.0f) {
+          leaves[i] = {pr.branch, pr.pixel, 0u,           pr.throughput, m.radiance,
+                       Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
+          is_leaf[i] = 1;
+        }
+        break;
+      case MaterialType::kDiffuse: {
+        Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        leaves[i] = {pr.branch,   pr.pixel, 1u, pr.throughput, Vec3f(0.0f), sh.position,
+                     n, sh.geometric_normal, m.color};
+        is_leaf[i] = 1;
+        break;
+      }
+      case MaterialType::kMirror:
+        spawn(reflect(d, sh.shading_normal), pr.throughput * m.color, 0);
+        break;
+      case MaterialType::kDielectric: {
+        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+        float fr = fresnel_dielectric(side.cos_i, side.eta);
+        Vec3f refracted;
+        if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
+          spawn(refracted, pr.throughput * (1.0f - fr), 1);
+        spawn(reflect(d, side.normal), pr.throughput * fr, 0);
+        break;
+      }
+    }
+  });
+}
+
+// Every wave's closest hits and shading; returns the leaves of all waves.
+template <typename Structure>
+Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structure,
+                                      const PassInputs& in, const Hit* primary) {
+  Buffer<PathRay> wave(backend, in.pixels), next(backend, 0);
+  Buffer<Ray> rays(backend, 0);
+  Buffer<Hit> hits(backend, 0);
+  Buffer<uint32_t> next_counter(backend, 1);
+  {
+    PathRay* first = wave.data();
+    const PassInputs inputs = in;
+    parallel_for(backend, "specular_wave_camera", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
+      Sampler s(inputs.cfg.seed, uint32_t(pixel), inputs.cfg.pass);
+      first[pixel] = {inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u};
+    });
+  }
+  std::vector<Buffer<PathLeaf>> wave_leaves;
+  size_t total_leaves = 0, count = in.pixels;
+  const Hit* wave_hits = primary;
+  Buffer<PathLeaf> leaves(backend, 0);
+  Buffer<uint8_t> is_leaf(backend, 0);
+  Buffer<uint32_t> leaf_index(backend, 0);
+  while (count > 0) {
+    leaves.resize_discard(count);
+    is_leaf.resize_discard(count);
+    next.resize_discard(2 * count);
+    backend.fill_bytes(next_counter.data(), 0, sizeof(uint32_t));
+    shade_wave(backend, in, wave.data(), wave_hits, count, leaves.data(), is_leaf.data(),
+               next.data(), next_counter.data());
+    leaf_index.resize_discard(count);
+    const size_t made = backend.select_flagged(nullptr, is_leaf.data(), count, leaf_index.data());
+    Buffer<PathLeaf> kept(backend, made);
+    PathLeaf* kept_leaf = kept.data();
+    const PathLeaf* leaf = leaves.data();
+    const uint32_t* index = leaf_index.data();
+    parallel_for(backend, "specular_wave_leaves", made,
+                 [=] CAUSTICA_HD(size_t i) { kept_leaf[i] = leaf[index[i]]; });
+    total_leaves += made;
+    wave_leaves.push_back(std::move(kept));
+    count = next_counter.download()[0];
+    if (count == 0) break;
+    std::swap(wave, next);
+    rays.resize_discard(count);
+    hits.resize_discard(count);
+    Ray* ray = rays.data();
+    const PathRay* queued = wave.data();
+    parallel_for(backend, "specular_wave_rays", count,
+                 [=] CAUSTICA_HD(size_t i) { ray[i] = queued[i].ray; });
+    trace_closest(backend, structure, rays.data(), count, hits.data());
+    wave_hits = hits.data();
+  }
+  Buffer<PathLeaf> all(backend, total_leaves);
+  size_t at = 0;
+  for (const Buffer<PathLeaf>& part : wave_leaves) {
+    if (!part.empty())
+      backend.copy_on_device(all.data() + at, part.data(), part.size() * sizeof(PathLeaf));
+    at += part.size();
+  }
+  return all;
+}
+
+// The leaves in pixel order and, within a pixel, in the walks' order: a stable sort by branch,
+// then one by pixel.
+Buffer<uint32_t> order_leaves(Backend& backend, const Buffer<PathLeaf>& leaves) {
+  const size_t n = leaves.size();
+  Buffer<uint64_t> branch_keys(backend, n);
+  Buffer<uint32_t> pixel_keys(backend, n), order(backend, n);
+  uint64_t* branch = branch_keys.data();
+  uint32_t* index = order.data();
+  const PathLeaf* leaf = leaves.data();
+  parallel_for(backend, "leaf_branch_keys", n, [=] CAUSTICA_HD(size_t i) {
+    branch[i] = leaf[i].branch;
+    index[i] = uint32_t(i);
+  });
+  backend.sort_pairs(branch, index, n);
+  uint32_t* pixel = pixel_keys.data();
+  parallel_for(backend, "leaf_pixel_keys", n,
+               [=] CAUSTICA_HD(size_t j) { pixel[j] = leaf[index[j]].pixel; });
+  backend.sort_pairs(pixel, index, n);
+  return order;
+}
+
+// The sampler of a pixel's diffuse hit `rank` (in its walk's order) as the walk holds it there:
+// past the camera ray's two dimensions and the earlier hits' direct light.
+CAUSTICA_HDI Sampler diffuse_hit_sampler(const ShadingSettings& cfg, uint32_t pixel, uint32_t rank,
+                                         uint32_t dimensions) {
+  Sampler s(cfg.seed, pixel, cfg.pass);
+  s.skip(2 + rank * dimensions);
+  return s;
+}
+
+// Stage 2 through ray queues: what walk_specular_paths computes, for any BatchStructureView.
+template <typename Structure>
+SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
+                                   const PassInputs& in, const Hit* primary) {
+  SpecularPaths out{Buffer<Vec3f>(backend, in.pixels), Buffer<uint32_t>(backend, in.pixels),
+                    Buffer<uint32_t>(backend, in.pixels), Buffer<GatherRequest>(backend, 0)};
+  Buffer<PathLeaf> leaves = trace_specular_waves(backend, structure, in, primary);
+  const size_t n = leaves.size();
+  const Buffer<uint32_t> order = order_leaves(backend, leaves);
+  // Per pixel: its leaves and its diffuse hits, counted, then their offsets.
+  Buffer<uint32_t> leaf_counts(backend, in.pixels), leaf_offsets(backend, in.pixels);
+  leaf_counts.fill_zero();
+  out.counts.fill_zero();
+  uint32_t* leaf_count = leaf_counts.data();
+  uint32_t* diffuse_count = out.counts.data();
+  PathLeaf* leaf = leaves.data();
+  parallel_for(backend, "leaf_counts", n, [=] CAUSTICA_HD(size_t i) {
+    atomic_fetch_add(leaf_count + leaf[i].pixel, 1u);
+    if (leaf[i].diffuse) atomic_fetch_add(diffuse_count + leaf[i].pixel, 1u);
+  });
+  backend.exclusive_scan(leaf_count, leaf_offsets.data(), in.pixels);
+  out.request_total = backend.exclusive_scan(diffuse_count, out.offsets.data(), in.pixels);
+  // The diffuse leaves in pixel and path order: request r is the r-th.
+  const uint32_t requests = out.request_total;
+  Buffer<uint32_t> diffuse_rank(backend, n + 1), diffuse_leaf(backend, requests);
+  uint32_t* rank = diffuse_rank.data();
+  const uint32_t* ordered = order.data();
+  parallel_for(backend, "leaf_diffuse_flags", n + 1, [=] CAUSTICA_HD(size_t j) {
+    rank[j] = j < n && leaf[ordered[j]].diffuse ? 1u : 0u;
+  });
+  backend.exclusive_scan(rank, rank, n + 1);
+  uint32_t* diffuse_at = diffuse_leaf.data();
+  parallel_for(backend, "leaf_diffuse_list", n, [=] CAUSTICA_HD(size_t j) {
+    if (rank[j + 1] != rank[j]) diffuse_at[rank[j]] = ordered[j];
+  });
+
+  // Shadow rays: every slot direct_light_with may use, empty where it asks for none.
+  const uint32_t slots = direct_light_slots(in.scene, in.cfg.area_light_samples);
+  const uint32_t dimensions = direct_light_dimensions(in.scene, in.cfg.area_light_samples);
+  const size_t shadow_count = size_t(requests) * slots;
+  Buffer<Ray> shadow_rays(backend, shadow_count);
+  Buffer<uint8_t> blocked(backend, shadow_count);
+  Ray* shadow = shadow_rays.data();
+  const uint32_t* pixel_offset = out.offsets.data();
+  const PassInputs inputs = in;
+  parallel_for(backend, "shadow_ray_queue", requests, [=] CAUSTICA_HD(size_t r) {
+    const PathLeaf l = leaf[diffuse_at[r]];
+    Ray* mine = shadow + r * slots;
+    for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
+    Sampler s = diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    (void)direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
+                            inputs.cfg.area_light_samples, inputs.scene_radius, s,
+                            [&](uint32_t slot, const Ray& ray) {
+                              mine[slot] = ray;
+                              return false;
+                            });
+  });
+  trace_any(backend, structure, shadow_rays.data(), shadow_count, blocked.data());
+  out.requests.resize_discard(requests);
+  GatherRequest* request = out.requests.data();
+  const uint8_t* is_blocked = blocked.data();
+  parallel_for(backend, "shadow_ray_shade", requests, [=] CAUSTICA_HD(size_t r) {
+    PathLeaf& l = leaf[diffuse_at[r]];
+    const uint8_t* mine = is_blocked + r * slots;
+    Sampler s = diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    l.value = direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
+                                inputs.cfg.area_light_samples, inputs.scene_radius, s,
+                                [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+    request[r] = {l.position, l.normal, l.throughput * l.albedo, l.pixel,
+                  uint32_t(r) - pixel_offset[l.pixel]};
+  });
+  // Each pixel's emitted and direct light summed in its walk's order.
+  Vec3f* direct_out = out.direct.data();
+  const uint32_t* first_leaf = leaf_offsets.data();
+  parallel_for(backend, "specular_leaves_sum", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
+    Vec3f emitted(0.0f), direct(0.0f);
+    const uint32_t begin = first_leaf[pixel], end = begin + leaf_count[pixel];
+    for (uint32_t j = begin; j < end; ++j) {
+      const PathLeaf& l = leaf[ordered[j]];
+      if (l.diffuse) {
+        direct += l.throughput * l.value;
+      } else {
+        emitted += l.throughput * l.value;
+      }
+    }
+    direct_out[pixel] = emitted + direct;
+  });
+  return out;
+}
+
 // Stage 3: the requests in Hilbert order of their positions, so that the threads of a warp
 // search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
 // 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
@@ -405,7 +670,15 @@ void render_pass_through(const Structure& structure, Backend& backend,
   SpecularPaths paths;
   {
     const Buffer<Hit> primary = trace_camera_rays(backend, structure, in);
-    paths = walk_specular_paths(backend, structure, in, primary.data());
+    if constexpr (StructureView<Structure>) {
+      if (settings.ray_queues) {
+        paths = walk_specular_queues(backend, structure, in, primary.data());
+      } else {
+        paths = walk_specular_paths(backend, structure, in, primary.data());
+      }
+    } else {
+      paths = walk_specular_queues(backend, structure, in, primary.data());
+    }
   }
   const CurveOrder request_order = order_gather_requests(backend, in, paths);
   const Buffer<Vec3f> gathered = gather_photon_estimates(backend, in, caustic_map, global_map,

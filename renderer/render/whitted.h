@@ -26,6 +26,10 @@ struct ShadingSettings {
   // Room for gather requests made ready before a pass, per pixel; a pass that needs more walks
   // its specular trees again with exactly enough, so this changes speed, never the image.
   uint32_t gather_requests_per_pixel = 4;
+  // Walk the specular paths as ray queues (batches of closest and any hits) even where the
+  // structure answers single rays; structures that answer batches only always do. The image is
+  // the same either way.
+  bool ray_queues = false;
 };
 
 // Photons per leaf of the photon maps for a pass's gathers at `k` on `device`: `requested` when not
@@ -42,18 +46,33 @@ void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& 
                  const PhotonMap& global_map, const PinholeCamera& camera,
                  const ShadingSettings& settings, Film& film);
 
+// Shadow rays direct_light_with may ask for at one point: one per point, spot or directional
+// light (slot = the light's index) and one per area sample (slot = light_count + sample).
+CAUSTICA_HDI uint32_t direct_light_slots(const ResidentSceneView& scene, uint32_t area_samples) {
+  return scene.light_count + area_samples;
+}
+
+// Sample dimensions direct_light_with draws at one point, whatever its shadow rays find: three
+// per area sample when there are area lights. A wavefront that shades a path's diffuse hits out of
+// order starts each one's sampler this far past the previous one's.
+CAUSTICA_HDI uint32_t direct_light_dimensions(const ResidentSceneView& scene,
+                                              uint32_t area_samples) {
+  return scene.area_light_count > 0 && area_samples > 0 ? 3 * area_samples : 0;
+}
+
 // Direct light at a diffuse point: every point, spot and directional light with one shadow ray
-// each through `structure`, and `area_samples` shadow rays to area lights chosen by power.
-// `normal` faces the viewer.
-template <typename Structure>
-CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
-                                Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
-                                uint32_t area_samples, float scene_radius, Sampler& s) {
+// each, and `area_samples` shadow rays to area lights chosen by power. `visible(slot, ray)` says
+// whether the shadow ray `ray` (slot: direct_light_slots) reaches its light. `normal` faces the
+// viewer.
+template <typename Visible>
+CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
+                                     Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
+                                     float scene_radius, Sampler& s, Visible visible_slot) {
   Vec3f sum(0.0f);
   const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
-  auto visible = [&](Vec3f light_point, Vec3f wi) {
-    return !segment_blocked(structure, offset_origin(p, geometric_normal, wi), light_point, 1e-3f);
+  auto visible = [&](uint32_t slot, Vec3f light_point, Vec3f wi) {
+    return visible_slot(slot, shadow_ray(offset_origin(p, geometric_normal, wi), light_point, 1e-3f));
   };
   for (uint32_t i = 0; i < scene.light_count; ++i) {
     const DeviceLight& l = scene.lights[i];
@@ -74,7 +93,7 @@ CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure&
     }
     float cos_theta = dot(normal, wi);
     if (cos_theta <= 0.0f || scale <= 0.0f) continue;
-    if (visible(light_point, wi)) sum += f * l.color * (cos_theta * scale);
+    if (visible(i, light_point, wi)) sum += f * l.color * (cos_theta * scale);
   }
   if (scene.area_light_count > 0 && area_samples > 0) {
     Vec3f area_sum(0.0f);
@@ -91,12 +110,21 @@ CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure&
       Vec3f wi = d / dist;
       float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
       if (cos_x <= 0.0f || cos_y <= 0.0f || choice_pdf <= 0.0f) continue;
-      if (!visible(y, wi)) continue;
+      if (!visible(scene.light_count + k, y, wi)) continue;
       area_sum += f * l.color * (cos_x * cos_y * l.area / (dist2 * choice_pdf));
     }
     sum += area_sum / float(area_samples);
   }
   return sum;
+}
+
+// direct_light_with, each shadow ray traced on the spot through `structure` (a StructureView).
+template <typename Structure>
+CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
+                                Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
+                                uint32_t area_samples, float scene_radius, Sampler& s) {
+  return direct_light_with(scene, p, normal, geometric_normal, albedo, area_samples, scene_radius,
+                           s, [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); });
 }
 
 }  // namespace caustica

@@ -114,6 +114,8 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(decode_structure(v1::HYBRID), StructureKind::kHybrid);
   EXPECT_EQ(encode_structure(StructureKind::kSiblingPair), v1::SIBLING_PAIR);
   EXPECT_EQ(decode_structure(v1::SIBLING_PAIR), StructureKind::kSiblingPair);
+  EXPECT_EQ(encode_structure(StructureKind::kDacrt), v1::DACRT);
+  EXPECT_EQ(decode_structure(v1::DACRT), StructureKind::kDacrt);
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 

@@ -11,9 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "renderer/accel/ray_queries.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/base/morton.h"
 #include "renderer/base/sampling.h"
+#include "renderer/parallel/buffer.h"
 #include "renderer/scene/load_scene.h"
 
 namespace caustica {
@@ -242,17 +244,16 @@ inline Hit brute_force(const std::vector<TriangleVertices>& tris, const Ray& ray
 }
 
 // Rays from a sphere around the mesh towards random points inside its box (or, with
-// `aim_at_triangles`, towards random triangles' centroids): most hit something. Closest and any
-// hits through `view` (a StructureView over `tris` in their order) must be brute force's.
-template <typename View>
-void check_rays(const std::vector<TriangleVertices>& tris, const View& view, int ray_count,
-                uint32_t seed, bool aim_at_triangles = false) {
-  Aabb bounds = view.bounds;
+// `aim_at_triangles`, towards random triangles' centroids): most hit something. Even-numbered
+// rays start inside the box, in random directions.
+inline std::vector<Ray> random_check_rays(const std::vector<TriangleVertices>& tris,
+                                          const Aabb& bounds, int ray_count, uint32_t seed,
+                                          bool aim_at_triangles) {
   Vec3f c = bounds.center();
   float r = length(bounds.extent());
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  int hits = 0;
+  std::vector<Ray> rays;
   for (int i = 0; i < ray_count; ++i) {
     Ray ray;
     bool inside = i % 2 == 0;  // half the rays start inside the box, in random directions
@@ -268,6 +269,95 @@ void check_rays(const std::vector<TriangleVertices>& tris, const View& view, int
       ray.origin = c + sample_uniform_sphere(u(rng), u(rng)) * r;
       ray.direction = normalize(target - ray.origin);
     }
+    rays.push_back(ray);
+  }
+  return rays;
+}
+
+// Whether a hit found through a structure is brute force's: the same distance, and the same
+// triangle unless coplanar or duplicate triangles tie exactly, when the one found must also be hit
+// at that very distance.
+inline void expect_same_hit(const std::vector<TriangleVertices>& tris, const Ray& ray,
+                            const Hit& got, const Hit& expected, size_t i) {
+  ASSERT_EQ(got.valid(), expected.valid()) << "ray " << i;
+  if (!expected.valid()) return;
+  ASSERT_EQ(got.t, expected.t) << "ray " << i;
+  if (got.triangle != expected.triangle) {
+    ASSERT_LT(got.triangle, tris.size()) << "ray " << i;
+    float t, u, v;
+    ASSERT_TRUE(intersect_triangle(WatertightRay(ray), tris[got.triangle], ray.t_min, FLT_MAX, t,
+                                   u, v));
+    ASSERT_EQ(t, expected.t) << "ray " << i;
+  } else {
+    ASSERT_EQ(got.u, expected.u) << "ray " << i;
+    ASSERT_EQ(got.v, expected.v) << "ray " << i;
+  }
+}
+
+// check_rays through the batch entry points (ray_queries.h), which every view answers: the rays
+// of random_check_rays through trace_closest, and through trace_any those rays, each hit's
+// shadow ray stopping just short of it, and (from outside the box) segments past and short of
+// it from the light's end, all against brute force.
+template <typename View>
+void check_rays_batch(Backend& backend, const std::vector<TriangleVertices>& tris,
+                      const View& view, int ray_count, uint32_t seed,
+                      bool aim_at_triangles = false) {
+  const std::vector<Ray> rays = random_check_rays(tris, view.bounds, ray_count, seed,
+                                                  aim_at_triangles);
+  std::vector<Hit> expected(rays.size());
+  std::vector<Ray> shadow_rays;
+  std::vector<uint8_t> expected_blocked;
+  auto add_shadow = [&](const Ray& r) {
+    shadow_rays.push_back(r);
+    expected_blocked.push_back(brute_force(tris, r).valid() ? 1 : 0);
+  };
+  int hits = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    expected[i] = brute_force(tris, rays[i]);
+    add_shadow(rays[i]);
+    if (!expected[i].valid()) continue;
+    ++hits;
+    Ray shadow = rays[i];
+    shadow.t_max = expected[i].t * 0.999f;
+    add_shadow(shadow);
+    if (i % 2 == 0) continue;  // started inside the box: see check_rays
+    const Vec3f beyond = rays[i].origin + rays[i].direction * (expected[i].t * 1.5f);
+    const Vec3f short_of = rays[i].origin + rays[i].direction * (expected[i].t * 0.999f);
+    add_shadow(shadow_ray(rays[i].origin, beyond, 1e-3f));
+    add_shadow(shadow_ray(rays[i].origin, short_of, 0.0f));
+  }
+  EXPECT_GT(hits, ray_count / 10);
+
+  Buffer<Ray> ray_buffer(backend, rays.size()), shadow_buffer(backend, shadow_rays.size());
+  ray_buffer.upload(rays);
+  shadow_buffer.upload(shadow_rays);
+  Buffer<Hit> got_hits(backend, rays.size());
+  Buffer<uint8_t> got_blocked(backend, shadow_rays.size());
+  trace_closest(backend, view, ray_buffer.data(), rays.size(), got_hits.data());
+  trace_any(backend, view, shadow_buffer.data(), shadow_rays.size(), got_blocked.data());
+  const std::vector<Hit> got = got_hits.download();
+  const std::vector<uint8_t> blocked = got_blocked.download();
+  for (size_t i = 0; i < rays.size(); ++i) {
+    expect_same_hit(tris, rays[i], got[i], expected[i], i);
+    if (::testing::Test::HasFatalFailure()) return;
+  }
+  for (size_t i = 0; i < shadow_rays.size(); ++i) {
+    ASSERT_EQ(blocked[i], expected_blocked[i]) << "shadow ray " << i;
+  }
+}
+
+// Rays from a sphere around the mesh towards random points inside its box (or, with
+// `aim_at_triangles`, towards random triangles' centroids): most hit something. Closest and any
+// hits through `view` (a StructureView over `tris` in their order) must be brute force's.
+template <typename View>
+void check_rays(const std::vector<TriangleVertices>& tris, const View& view, int ray_count,
+                uint32_t seed, bool aim_at_triangles = false) {
+  const std::vector<Ray> rays = random_check_rays(tris, view.bounds, ray_count, seed,
+                                                  aim_at_triangles);
+  int hits = 0;
+  for (int i = 0; i < ray_count; ++i) {
+    const Ray& ray = rays[i];
+    const bool inside = i % 2 == 0;
     Hit expected = brute_force(tris, ray);
     Hit got = closest_hit(view, ray);
     ASSERT_EQ(got.valid(), expected.valid()) << "ray " << i;

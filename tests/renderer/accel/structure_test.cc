@@ -1,5 +1,7 @@
 // Every structure kind behind build_structure: what it reports against the tree it built, and its
-// closest and any hits against brute force; the binned SAH builder's own invariants.
+// closest and any hits against brute force, one ray at a time where its view answers single rays
+// and through the batch entry points (ray_queries.h) always; the binned SAH builder's own
+// invariants.
 #include "renderer/accel/structure.h"
 
 #include <gtest/gtest.h>
@@ -7,6 +9,8 @@
 #include <cstring>
 #include <functional>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "renderer/accel/binned_sah.h"
@@ -40,8 +44,13 @@ class EveryStructure : public ::testing::TestWithParam<StructureKind> {
   void check(const std::vector<TriangleVertices>& tris, int rays, uint32_t seed,
              bool aim_at_triangles = false) {
     BuiltStructure b(GetParam(), tris);
-    b.structure.visit(
-        [&](const auto& view) { check_rays(tris, view, rays, seed, aim_at_triangles); });
+    b.structure.visit([&](const auto& view) {
+      if constexpr (StructureView<std::decay_t<decltype(view)>>) {
+        check_rays(tris, view, rays, seed, aim_at_triangles);
+        if (::testing::Test::HasFatalFailure()) return;
+      }
+      check_rays_batch(*b.backend, tris, view, rays, seed + 1000, aim_at_triangles);
+    });
   }
 };
 
@@ -122,17 +131,24 @@ TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
   const StructureStats& s = b.structure.stats();
   EXPECT_EQ(s.kind, GetParam());
   EXPECT_GT(s.build_ms, 0.0);
+  Aabb all;
+  for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
   b.structure.visit([&](const auto& v) {
-    size_t nodes = 0;
-    const double cost = walked_sah_cost(v, nodes);
-    EXPECT_EQ(s.nodes, nodes);
-    EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
-    EXPECT_EQ(s.bytes, nodes * sizeof(*v.nodes) +
-                           tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
-    Aabb all;
-    for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
     EXPECT_EQ(v.bounds.lower, all.lower);
     EXPECT_EQ(v.bounds.upper, all.upper);
+    if constexpr (!std::is_same_v<std::decay_t<decltype(v)>, DacrtView>) {
+      size_t nodes = 0;
+      const double cost = walked_sah_cost(v, nodes);
+      EXPECT_EQ(s.nodes, nodes);
+      EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
+      EXPECT_EQ(s.bytes, nodes * sizeof(*v.nodes) +
+                             tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
+    } else {
+      // dacrt keeps only the triangles and their boxes: one leaf of them all.
+      EXPECT_EQ(s.nodes, 0u);
+      EXPECT_EQ(s.sah_cost, double(tris.size()));
+      EXPECT_EQ(s.bytes, tris.size() * (sizeof(TriangleVertices) + sizeof(Aabb)));
+    }
   });
 }
 
@@ -166,20 +182,34 @@ TEST_P(EveryStructure, MatchesBruteForceWhenEveryTriangleCoincides) {
         6, true);
 }
 
+// The closest hit and the any hit of one ray through the batch entry points.
+template <typename View>
+std::pair<Hit, bool> trace_one(Backend& backend, const View& view, const Ray& ray) {
+  Buffer<Ray> rays(backend, 1);
+  rays.upload(std::vector<Ray>{ray});
+  Buffer<Hit> hit(backend, 1);
+  Buffer<uint8_t> blocked(backend, 1);
+  trace_closest(backend, view, rays.data(), 1, hit.data());
+  trace_any(backend, view, rays.data(), 1, blocked.data());
+  return {hit.download()[0], blocked.download()[0] != 0};
+}
+
 TEST_P(EveryStructure, EmptyAndSingleTriangle) {
   BuiltStructure empty(GetParam(), {});
   EXPECT_EQ(empty.structure.stats().nodes, 0u);
-  empty.structure.visit([](const auto& v) {
-    EXPECT_FALSE(closest_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}).valid());
-    EXPECT_FALSE(any_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}));
+  const Ray ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)};
+  empty.structure.visit([&](const auto& v) {
+    const auto [hit, blocked] = trace_one(*empty.backend, v, ray);
+    EXPECT_FALSE(hit.valid());
+    EXPECT_FALSE(blocked);
   });
   BuiltStructure one(GetParam(), {{Vec3f(-1, -1, 0), Vec3f(1, -1, 0), Vec3f(0, 1, 0)}});
-  one.structure.visit([](const auto& v) {
-    const Hit h = closest_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)});
+  one.structure.visit([&](const auto& v) {
+    const auto [h, blocked] = trace_one(*one.backend, v, ray);
     ASSERT_TRUE(h.valid());
     EXPECT_FLOAT_EQ(h.t, 1.0f);
     EXPECT_EQ(h.triangle, 0u);
-    EXPECT_TRUE(any_hit(v, Ray{Vec3f(0, 0, -1), Vec3f(0, 0, 1)}));
+    EXPECT_TRUE(blocked);
   });
 }
 
@@ -257,7 +287,13 @@ TEST(BinnedSah, InvariantsAndHitsWithHugeTriangles) {
     SCOPED_TRACE(tris.size());
     check_binned_invariants(tris);
     BuiltStructure b(StructureKind::kBinnedSah, tris);
-    b.structure.visit([&](const auto& view) { check_rays(tris, view, 3000, 31); });
+    b.structure.visit([&](const auto& view) {
+      if constexpr (StructureView<std::decay_t<decltype(view)>>) {
+        check_rays(tris, view, 3000, 31);
+      } else {
+        FAIL() << "binned-sah built a layout that answers batches only";
+      }
+    });
   }
 }
 

@@ -1,5 +1,7 @@
 // The render pass's gather requests: however little room a pass starts with, it grows it and
-// produces the same image bit for bit.
+// produces the same image bit for bit. The ray queues (batches of closest and any hits, which
+// structures that answer batches only need) give the per-thread walks' photons and image bit for
+// bit.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -15,16 +17,20 @@ namespace caustica {
 namespace {
 
 std::vector<float> render_with_room(uint32_t requests_per_pixel,
-                                    uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf) {
+                                    uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf,
+                                    bool ray_queues = false,
+                                    const std::string& scene_name = "cornell-caustics") {
   absl::StatusOr<Scene> scene =
-      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + scene_name + "/scene.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   if (!scene.ok()) return {};
   scene->camera.width = 64;
   scene->camera.height = 48;
   auto backend = make_cpu_backend(size_t(1) << 30);
   ResidentScene resident = ResidentScene::upload(*backend, *scene);
-  TracedPhotons traced = trace_photons(*backend, resident, {20000, 8, 3, 0});
+  PhotonTraceSettings photons{20000, 8, 3, 0};
+  photons.ray_queues = ray_queues;
+  TracedPhotons traced = trace_photons(*backend, resident, photons);
   PhotonMap caustic = build_photon_map(*backend, traced.caustic, photons_per_leaf);
   PhotonMap global = build_photon_map(*backend, traced.global, photons_per_leaf);
   Film film(*backend, scene->camera.width, scene->camera.height);
@@ -32,6 +38,7 @@ std::vector<float> render_with_room(uint32_t requests_per_pixel,
   settings.k_nearest = 16;
   settings.max_radius = 30.0f;
   settings.gather_requests_per_pixel = requests_per_pixel;
+  settings.ray_queues = ray_queues;
   for (uint32_t pass = 0; pass < 2; ++pass) {
     settings.pass = pass;
     render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings,
@@ -53,6 +60,38 @@ TEST(RenderPass, TooLittleRoomForGatherRequestsChangesNothing) {
   double sum = 0;
   for (float v : roomy) sum += v;
   EXPECT_GT(sum, 64 * 48);  // more than the alpha channel: the image is not black
+}
+
+// Every bundled scene (glass trees, mirrors, area and point lights) through the queues and through
+// the per-thread walks.
+TEST(RenderPass, RayQueuesGiveTheSameImage) {
+  for (const char* name : {"cornell-caustics", "cornell-box", "ring"}) {
+    SCOPED_TRACE(name);
+    const std::vector<float> walked = render_with_room(4, kDefaultPhotonsPerLeaf, false, name);
+    const std::vector<float> queued = render_with_room(4, kDefaultPhotonsPerLeaf, true, name);
+    ASSERT_FALSE(walked.empty());
+    ASSERT_EQ(walked.size(), queued.size());
+    EXPECT_EQ(0, std::memcmp(walked.data(), queued.data(), walked.size() * sizeof(float)));
+  }
+}
+
+TEST(PhotonTrace, RayQueuesGiveTheSamePhotons) {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/cornell-caustics/scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  PhotonTraceSettings settings{30000, 8, 5, 1};
+  const TracedPhotons walked = trace_photons(*backend, resident, settings);
+  settings.ray_queues = true;
+  const TracedPhotons queued = trace_photons(*backend, resident, settings);
+  for (auto [a, b] : {std::pair{&walked.caustic, &queued.caustic},
+                      std::pair{&walked.global, &queued.global}}) {
+    const std::vector<Photon> x = a->download(), y = b->download();
+    ASSERT_GT(x.size(), 100u);
+    ASSERT_EQ(x.size(), y.size());
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(Photon)));
+  }
 }
 
 // The photon maps' leaf size (photons_per_leaf_for picks 16 for a GPU's counting gathers) changes
