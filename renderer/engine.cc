@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <optional>
+#include <stdexcept>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -36,6 +37,9 @@ absl::Status guarded(Fn&& fn) {
     return absl::ResourceExhaustedError("out of memory");
   } catch (const DeviceError& e) {
     return absl::InternalError(e.what());
+  } catch (const std::invalid_argument& e) {
+    // A setting read from the environment (CAUSTICA_KD_TRAVERSAL) that names nothing.
+    return absl::InvalidArgumentError(e.what());
   }
 }
 

@@ -58,6 +58,7 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
 constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kLbvh4, v1::LBVH4},
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
+    {StructureKind::kKdSah, v1::KD_SAH},
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 

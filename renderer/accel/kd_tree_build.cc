@@ -201,8 +201,8 @@ CAUSTICA_HDI SplitChoice sweep_events(const BuildNode& node, const uint64_t* key
         for (uint32_t planar_left = 0; planar_left < 2; ++planar_left) {
           const uint32_t n_left = left + (planar_left ? planar : 0);
           const uint32_t n_right = right + (planar_left ? 0 : planar);
-          float cost = k.traversal + k.intersection * (p_left * float(n_left) +
-                                                       p_right * float(n_right));
+          float cost =
+              k.traversal + k.intersection * (p_left * float(n_left) + p_right * float(n_right));
           const float left_share = (position - prob.lower) / prob.extent;
           if ((n_left == 0 && left_share > k.empty_volume_share) ||
               (n_right == 0 && 1.0f - left_share > k.empty_volume_share)) {
@@ -295,7 +295,8 @@ KdTree build_kd_tree(Backend& backend, const TriangleVertices* triangles, uint32
   tree.triangle_count = count;
   if (count == 0) return tree;
   tree.triangles.resize_discard(count);
-  backend.copy_on_device(tree.triangles.data(), triangles, size_t(count) * sizeof(TriangleVertices));
+  backend.copy_on_device(tree.triangles.data(), triangles,
+                         size_t(count) * sizeof(TriangleVertices));
 
   LevelRefs refs{Buffer<uint32_t>(backend, count), Buffer<Aabb>(backend, count),
                  Buffer<uint32_t>(backend, count)};

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "renderer/accel/binned_sah.h"
+#include "renderer/accel/kd_tree.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -15,8 +16,32 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
       return build_triangle_bvh(backend, triangles, count, curve);
     case StructureKind::kBinnedSah:
       return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+    case StructureKind::kKdSah:
+      break;
   }
-  throw DeviceError("build_structure: unknown structure kind");
+  throw DeviceError("build_structure: structure kind without a 4-wide BVH");
+}
+
+bool is_kd_tree(StructureKind kind) { return kind == StructureKind::kKdSah; }
+
+KdCost kd_cost_of(StructureKind kind) {
+  (void)kind;
+  return KdCost::kSah;
+}
+
+// Measures and wraps a finished layout.
+template <typename Layout>
+TriangleStructure finish_structure(Backend& backend, StructureKind kind, Layout layout,
+                                   std::chrono::steady_clock::time_point start) {
+  backend.synchronize();
+  StructureStats stats;
+  stats.kind = kind;
+  stats.build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats.nodes = layout.node_count();
+  stats.bytes = layout.bytes();
+  stats.sah_cost = sah_cost(backend, layout);
+  return TriangleStructure(std::move(layout), stats);
 }
 
 }  // namespace
@@ -28,17 +53,17 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve) {
+  if (is_kd_tree(kind)) {
+    // Read before the build, so that a bad setting fails before any work.
+    const KdTraversal traversal = kd_traversal_from_environment();
+    const auto start = std::chrono::steady_clock::now();
+    KdTree tree = build_kd_tree(backend, triangles, count, kd_cost_of(kind));
+    tree.traversal = traversal;
+    return finish_structure(backend, kind, std::move(tree), start);
+  }
   const auto start = std::chrono::steady_clock::now();
-  TriangleBvh bvh = build_bvh4_of_kind(backend, kind, triangles, count, curve);
-  backend.synchronize();
-  StructureStats stats;
-  stats.kind = kind;
-  stats.build_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  stats.nodes = bvh.node_count();
-  stats.bytes = bvh.bytes();
-  stats.sah_cost = sah_cost(backend, bvh);
-  return TriangleStructure(std::move(bvh), stats);
+  return finish_structure(backend, kind, build_bvh4_of_kind(backend, kind, triangles, count, curve),
+                          start);
 }
 
 double sah_cost(Backend& backend, const TriangleBvh& bvh) {

@@ -8,7 +8,8 @@
 // structure's layout, so the dispatch on the kind happens once per launch on the host and never
 // per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
 // the same (lbvh4 and binned-sah both end in 4-wide nodes) share one view type and so one
-// instantiation of every kernel.
+// instantiation of every kernel. A kd-tree (kd-sah, kd-siroh) has a view per traversal, and the
+// traversal it was built with picks which one visit hands out.
 #pragma once
 
 #include <concepts>
@@ -17,6 +18,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/kd_traversal.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/accel/traversal.h"
 #include "renderer/accel/triangle_bvh.h"
@@ -34,39 +36,72 @@ concept StructureView = std::is_trivially_copyable_v<View> && requires(const Vie
 };
 
 static_assert(StructureView<TriangleBvhView>);
+static_assert(StructureView<KdTreeStackView>);
+static_assert(StructureView<KdTreeStacklessView>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;
-  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4)
-  size_t bytes = 0;  // everything its traversal reads: nodes, triangles, triangle ids
+  size_t nodes = 0;  // in the structure's own layout (4-wide nodes for a Bvh4, kd nodes)
+  // Everything its traversal reads: nodes, triangles, triangle ids (a kd-tree's leaves' triangle
+  // references instead of ids).
+  size_t bytes = 0;
   // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
-  // plus sum over leaves of triangles x area) over the root's area.
+  // plus sum over leaves of triangles x area) over the root's area; a kd-tree's nodes weigh by
+  // their cells' areas and its leaves by their references.
   double sah_cost = 0;
   double build_ms = 0;  // wall clock from the triangles in memory to the finished structure
 };
+
+namespace detail {
+
+// Calls f with a layout's device view: a kd-tree's for the traversal it is set to.
+template <typename F>
+decltype(auto) visit_view(const TriangleBvh& bvh, F& f) {
+  return f(bvh.view());
+}
+template <typename F>
+decltype(auto) visit_view(const KdTree& tree, F& f) {
+  if (tree.traversal == KdTraversal::kStackless) return f(tree.view_for<KdTraversal::kStackless>());
+  return f(tree.view_for<KdTraversal::kStack>());
+}
+
+}  // namespace detail
 
 class TriangleStructure {
  public:
   TriangleStructure() = default;
   TriangleStructure(TriangleBvh bvh4, const StructureStats& stats)
       : layout_(std::move(bvh4)), stats_(stats) {}
+  TriangleStructure(KdTree kd_tree, const StructureStats& stats)
+      : layout_(std::move(kd_tree)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
   StructureKind kind() const { return stats_.kind; }
-  Aabb bounds() const {
-    return std::visit([](const auto& layout) { return layout.view().bounds; }, layout_);
-  }
 
   // Calls f(view) with this structure's device view: the one dispatch on the kind a launch makes.
   template <typename F>
   decltype(auto) visit(F&& f) const {
-    return std::visit([&](const auto& layout) -> decltype(auto) { return f(layout.view()); },
-                      layout_);
+    return std::visit(
+        [&](const auto& layout) -> decltype(auto) { return detail::visit_view(layout, f); },
+        layout_);
+  }
+
+  Aabb bounds() const {
+    return visit([](const auto& view) { return view.bounds; });
+  }
+
+  // The traversal of a kd-tree's view from now on (kd_tree.h); false, changing nothing, for a
+  // structure that is no kd-tree.
+  bool set_kd_traversal(KdTraversal traversal) {
+    KdTree* tree = std::get_if<KdTree>(&layout_);
+    if (tree == nullptr) return false;
+    tree->traversal = traversal;
+    return true;
   }
 
  private:
-  std::variant<TriangleBvh> layout_;
+  std::variant<TriangleBvh, KdTree> layout_;
   StructureStats stats_;
 };
 
@@ -78,7 +113,8 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve);
 
-// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend.
+// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend (a kd-tree's:
+// kd_tree.h).
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
 
 }  // namespace caustica

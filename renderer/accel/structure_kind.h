@@ -17,10 +17,12 @@ enum class StructureKind : uint32_t {
   // A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4), collapsed to 4-wide
   // nodes.
   kBinnedSah = 1,
+  // A kd-tree built breadth-first (Zhou et al. 2008) with an exact SAH sweep per small node.
+  kKdSah = 4,
 };
 
-inline constexpr StructureKind kStructureKinds[] = {StructureKind::kLbvh4,
-                                                    StructureKind::kBinnedSah};
+inline constexpr StructureKind kStructureKinds[] = {
+    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kKdSah};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
 // The name a user writes: "lbvh4", "binned-sah".
@@ -30,6 +32,8 @@ constexpr const char* structure_kind_name(StructureKind kind) {
       return "lbvh4";
     case StructureKind::kBinnedSah:
       return "binned-sah";
+    case StructureKind::kKdSah:
+      return "kd-sah";
   }
   return "unknown";
 }

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <functional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "renderer/accel/binned_sah.h"
@@ -69,19 +70,51 @@ double walked_sah_cost(const TriangleBvhView& v, size_t& nodes) {
   return cost;
 }
 
+// The same for a kd-tree, whose nodes weigh by their cells, with its references counted.
+template <KdTraversal kTraversal>
+double walked_sah_cost(const KdTreeView<kTraversal>& v, size_t& nodes, size_t& refs) {
+  const double root_area = v.bounds.half_area();
+  double cost = 0.0;
+  nodes = refs = 0;
+  std::function<void(uint32_t, const Aabb&)> walk = [&](uint32_t node, const Aabb& cell) {
+    ++nodes;
+    const KdNode& n = v.nodes[node];
+    if (n.leaf()) {
+      refs += n.ref_count();
+      cost += n.ref_count() * cell.half_area() / root_area;
+      return;
+    }
+    cost += cell.half_area() / root_area;
+    Aabb below = cell, above = cell;
+    below.upper[n.axis()] = above.lower[n.axis()] = n.split;
+    walk(n.first_child(), below);
+    walk(n.first_child() + 1, above);
+  };
+  walk(0, v.bounds);
+  return cost;
+}
+
 TEST_P(EveryStructure, StatsDescribeTheTreeBuilt) {
   const std::vector<TriangleVertices> tris = random_soup(5000, 41);
   BuiltStructure b(GetParam(), tris);
   const StructureStats& s = b.structure.stats();
   EXPECT_EQ(s.kind, GetParam());
   EXPECT_GT(s.build_ms, 0.0);
-  b.structure.visit([&](const TriangleBvhView& v) {
+  b.structure.visit([&](const auto& v) {
     size_t nodes = 0;
-    const double cost = walked_sah_cost(v, nodes);
+    if constexpr (std::is_same_v<std::decay_t<decltype(v)>, TriangleBvhView>) {
+      const double cost = walked_sah_cost(v, nodes);
+      EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
+      EXPECT_EQ(s.bytes, nodes * sizeof(Bvh4Node) +
+                             tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
+    } else {
+      size_t refs = 0;
+      const double cost = walked_sah_cost(v, nodes, refs);
+      EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
+      EXPECT_EQ(s.bytes, nodes * sizeof(KdNode) + refs * sizeof(uint32_t) +
+                             tris.size() * sizeof(TriangleVertices));
+    }
     EXPECT_EQ(s.nodes, nodes);
-    EXPECT_NEAR(s.sah_cost, cost, 1e-4 * cost);
-    EXPECT_EQ(s.bytes, nodes * sizeof(Bvh4Node) +
-                           tris.size() * (sizeof(TriangleVertices) + sizeof(uint32_t)));
     Aabb all;
     for (const TriangleVertices& t : tris) all.extend(triangle_bounds(t));
     EXPECT_EQ(v.bounds.lower, all.lower);

@@ -171,7 +171,7 @@ std::vector<Edit> edits() {
        {"settings.kernel: unknown kernel"}},
       {"UnknownStructure",
        {set_settings(R"({"structure": "kd-tree"})")},
-       {"settings.structure: unknown structure 'kd-tree'", "(expected lbvh4, binned-sah)"}},
+       {"settings.structure: unknown structure 'kd-tree'", "(expected lbvh4, binned-sah, kd-sah)"}},
       {"StructureNotString",
        {set_settings(R"({"structure": 1})")},
        {"settings.structure: expected a string"}},
