@@ -59,6 +59,7 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kLbvh4, v1::LBVH4},
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
     {StructureKind::kKdSah, v1::KD_SAH},
+    {StructureKind::kKdSiroh, v1::KD_SIROH},
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 

@@ -17,16 +17,18 @@ TriangleBvh build_bvh4_of_kind(Backend& backend, StructureKind kind,
     case StructureKind::kBinnedSah:
       return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
     case StructureKind::kKdSah:
+    case StructureKind::kKdSiroh:
       break;
   }
   throw DeviceError("build_structure: structure kind without a 4-wide BVH");
 }
 
-bool is_kd_tree(StructureKind kind) { return kind == StructureKind::kKdSah; }
+bool is_kd_tree(StructureKind kind) {
+  return kind == StructureKind::kKdSah || kind == StructureKind::kKdSiroh;
+}
 
 KdCost kd_cost_of(StructureKind kind) {
-  (void)kind;
-  return KdCost::kSah;
+  return kind == StructureKind::kKdSiroh ? KdCost::kSiroh : KdCost::kSah;
 }
 
 // Measures and wraps a finished layout.

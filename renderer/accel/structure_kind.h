@@ -19,13 +19,16 @@ enum class StructureKind : uint32_t {
   kBinnedSah = 1,
   // A kd-tree built breadth-first (Zhou et al. 2008) with an exact SAH sweep per small node.
   kKdSah = 4,
+  // The same kd-tree, its small nodes split by Fabianowski's scene-interior ray origin heuristic.
+  kKdSiroh = 5,
 };
 
-inline constexpr StructureKind kStructureKinds[] = {
-    StructureKind::kLbvh4, StructureKind::kBinnedSah, StructureKind::kKdSah};
+inline constexpr StructureKind kStructureKinds[] = {StructureKind::kLbvh4,
+                                                    StructureKind::kBinnedSah,
+                                                    StructureKind::kKdSah, StructureKind::kKdSiroh};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
-// The name a user writes: "lbvh4", "binned-sah".
+// The name a user writes: "lbvh4", "binned-sah", "kd-sah", "kd-siroh".
 constexpr const char* structure_kind_name(StructureKind kind) {
   switch (kind) {
     case StructureKind::kLbvh4:
@@ -34,6 +37,8 @@ constexpr const char* structure_kind_name(StructureKind kind) {
       return "binned-sah";
     case StructureKind::kKdSah:
       return "kd-sah";
+    case StructureKind::kKdSiroh:
+      return "kd-siroh";
   }
   return "unknown";
 }
@@ -45,7 +50,7 @@ inline std::optional<StructureKind> parse_structure_kind(std::string_view name) 
   return std::nullopt;
 }
 
-// "lbvh4, binned-sah": for error messages and --help.
+// "lbvh4, binned-sah, kd-sah, kd-siroh": for error messages and --help.
 inline std::string structure_kind_list() {
   std::string out;
   for (StructureKind kind : kStructureKinds) {

@@ -35,8 +35,9 @@ TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
     const ClientRun run = run_client(args);
     EXPECT_NE(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("--structure"));
-    EXPECT_THAT(run.output,
-                HasSubstr("unknown structure 'kd-tree' (expected lbvh4, binned-sah, kd-sah)"))
+    EXPECT_THAT(
+        run.output,
+        HasSubstr("unknown structure 'kd-tree' (expected lbvh4, binned-sah, kd-sah, kd-siroh)"))
         << args;
   }
 }

@@ -392,7 +392,7 @@ TEST_F(ServerTest, CausticaRenderTakesAStructureByName) {
 
   EXPECT_NE(run("kd-tree", "bad.log"), 0);
   const std::string bad = read_log("bad.log");
-  EXPECT_NE(bad.find("unknown structure 'kd-tree' (expected lbvh4, binned-sah, kd-sah)"),
+  EXPECT_NE(bad.find("unknown structure 'kd-tree' (expected lbvh4, binned-sah, kd-sah, kd-siroh)"),
             std::string::npos)
       << bad;
 }

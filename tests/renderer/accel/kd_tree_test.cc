@@ -8,10 +8,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
+#include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
+#include "renderer/accel/kd_cost.h"
 #include "renderer/accel/kd_traversal.h"
+#include "renderer/accel/structure.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/shapes.h"
 #include "tests/renderer/accel/structure_checks.h"
@@ -279,6 +283,43 @@ TEST(KdTree, BothCostsBeatOneLeafAndDiffer) {
             siroh.tree.nodes.download().size() * 1000003 + siroh.tree.refs.size());
 }
 
+// The per-candidate forms of both probabilities against their definitions: SAH, the children's
+// areas over the cell's; SIROH, eq. 4.6 evaluated for each child, over the cell's (for which the
+// whole scene box is 1).
+TEST(KdTree, ChildProbabilitiesMatchTheirDefinitions) {
+  const Aabb scene{Vec3f(-2.0f, 0.0f, 1.0f), Vec3f(3.0f, 4.0f, 2.5f)};
+  const Vec3f e = scene.extent();
+  const float volume = e.x * e.y * e.z;
+  EXPECT_NEAR(siroh_probability(scene, scene, volume), 1.0f, 1e-6f);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int trial = 0; trial < 2000; ++trial) {
+    Aabb cell;
+    for (int a = 0; a < 3; ++a) {
+      float x = scene.lower[a] + e[a] * u(rng), y = scene.lower[a] + e[a] * u(rng);
+      cell.lower[a] = std::min(x, y);
+      cell.upper[a] = std::max(x, y);
+    }
+    const int axis = trial % 3;
+    const float split = cell.lower[axis] + (cell.upper[axis] - cell.lower[axis]) * u(rng);
+    Aabb below = cell, above = cell;
+    below.upper[axis] = above.lower[axis] = split;
+    for (bool siroh : {false, true}) {
+      SCOPED_TRACE(siroh ? "siroh" : "sah");
+      const ChildProbabilities p = child_probabilities(siroh, cell, axis, scene, volume);
+      float left, right;
+      p.at(split, left, right);
+      const double parent = siroh ? siroh_probability(scene, cell, volume) : cell.half_area();
+      const double want_left =
+          (siroh ? siroh_probability(scene, below, volume) : below.half_area()) / parent;
+      const double want_right =
+          (siroh ? siroh_probability(scene, above, volume) : above.half_area()) / parent;
+      ASSERT_NEAR(left, want_left, 1e-4 * want_left + 1e-6) << "trial " << trial;
+      ASSERT_NEAR(right, want_right, 1e-4 * want_right + 1e-6) << "trial " << trial;
+    }
+  }
+}
+
 TEST(KdTree, TraversalFromEnvironment) {
   unsetenv("CAUSTICA_KD_TRAVERSAL");
   EXPECT_EQ(kd_traversal_from_environment(), KdTraversal::kStack);
@@ -289,6 +330,38 @@ TEST(KdTree, TraversalFromEnvironment) {
   setenv("CAUSTICA_KD_TRAVERSAL", "rope", 1);
   EXPECT_THROW(kd_traversal_from_environment(), std::invalid_argument);
   unsetenv("CAUSTICA_KD_TRAVERSAL");
+}
+
+// build_structure takes the traversal from the environment, set_kd_traversal changes it, and visit
+// hands out the view of the traversal set; both views of one build answer alike.
+TEST(KdTree, StructureHandsOutTheViewOfItsTraversal) {
+  const std::vector<TriangleVertices> tris = scene_triangles("cornell-caustics");
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  Buffer<TriangleVertices> input(*backend, tris.size());
+  input.upload(tris);
+  for (StructureKind kind : {StructureKind::kKdSah, StructureKind::kKdSiroh}) {
+    SCOPED_TRACE(structure_kind_name(kind));
+    setenv("CAUSTICA_KD_TRAVERSAL", "stackless", 1);
+    TriangleStructure structure =
+        build_structure(*backend, kind, input.data(), uint32_t(tris.size()));
+    unsetenv("CAUSTICA_KD_TRAVERSAL");
+    auto is_stackless = [](const auto& view) {
+      return std::is_same_v<std::decay_t<decltype(view)>, KdTreeStacklessView>;
+    };
+    EXPECT_TRUE(structure.visit(is_stackless));
+    structure.visit([&](const auto& view) { check_rays(tris, view, 3000, 21); });
+    EXPECT_TRUE(structure.set_kd_traversal(KdTraversal::kStack));
+    EXPECT_FALSE(structure.visit(is_stackless));
+    structure.visit([&](const auto& view) { check_rays(tris, view, 3000, 21); });
+  }
+  setenv("CAUSTICA_KD_TRAVERSAL", "rope", 1);
+  EXPECT_THROW(
+      build_structure(*backend, StructureKind::kKdSah, input.data(), uint32_t(tris.size())),
+      std::invalid_argument);
+  unsetenv("CAUSTICA_KD_TRAVERSAL");
+  TriangleStructure bvh =
+      build_structure(*backend, StructureKind::kLbvh4, input.data(), uint32_t(tris.size()));
+  EXPECT_FALSE(bvh.set_kd_traversal(KdTraversal::kStackless));
 }
 
 }  // namespace
