@@ -276,12 +276,15 @@ KdTree build_kd_tree(Backend& backend, const TriangleVertices* triangles, uint32
     });
 
     // The small nodes' events: per reference and axis one planar or a start and an end event,
-    // placed by a scan and sorted by (node, axis, position, type).
+    // placed by a scan and sorted by (node, axis, position, type). Sorting them again at every
+    // level is simpler than Shi's order-preserving split of the sorted lists, and costs more.
     event_counts.resize_discard(size_t(m) + 1);
     uint32_t* event_count = event_counts.data();
     parallel_for(backend, "kd_count_events", size_t(m) + 1, [=] CAUSTICA_HD(size_t i) {
       uint32_t events = 0;
-      if (i < m && !last_level && !nodes[ref_node[i]].large) {
+      // Nodes too small to split (kd-siroh's n <= 4) need no events.
+      const BuildNode* n = i < m ? &nodes[ref_node[i]] : nullptr;
+      if (n != nullptr && !last_level && !n->large && n->count > k.leaf_size) {
         for (int a = 0; a < 3; ++a) events += ref_box[i].lower[a] == ref_box[i].upper[a] ? 1u : 2u;
       }
       event_count[i] = events;
