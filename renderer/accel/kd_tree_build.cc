@@ -400,9 +400,12 @@ KdTree build_kd_tree(Backend& backend, const TriangleVertices* triangles, uint32
       uint32_t first = child_ref[j];
       for (uint32_t side = 0; side < 2; ++side) {
         const uint32_t c = counts[side];
-        // A large child stays large while its list shrinks (or it is the full side of an
-        // empty-space cut); one whose split separated nothing goes to the SAH sweep, which stops.
-        const bool large = n.large && c > kKdLargeNode && (c < n.count || s.empty_cut);
+        // A large child stays large while the median cut it to at most three quarters of its
+        // parent's references (or it is the full side of an empty-space cut); else triangles
+        // straddling every median would be copied into every node down to the depth limit,
+        // and the SAH sweep, which prices the copies, decides instead.
+        const bool large = n.large && c > kKdLargeNode &&
+                           (s.empty_cut || 4 * uint64_t(c) <= 3 * uint64_t(n.count));
         child[child_node[j] + side] = {child_cell(n.cell, s, side), first, c, large ? 1u : 0u};
         first += c;
       }

@@ -224,6 +224,20 @@ TEST_P(KdTrees, CoincidingTriangles) {
   check(mixed, 4000, 6);
 }
 
+// Triangles nearly as large as the scene among a cloud of small ones straddle every plane the
+// large-node stage cuts: their references must not multiply without bound.
+TEST_P(KdTrees, HugeTrianglesAmongSmallOnes) {
+  std::vector<TriangleVertices> tris = random_soup(3000, 23);
+  for (int i = 0; i < 600; ++i) {
+    const float s = float(i) / 600.0f;
+    tris.push_back(
+        {Vec3f(-10.0f + s, -10.0f, -s), Vec3f(10.0f, -10.0f + s, s), Vec3f(s, 10.0f, 2.0f * s)});
+  }
+  KdBuild b(tris, GetParam());
+  EXPECT_LT(b.tree.refs.size(), 40 * tris.size());
+  check(tris, 4000, 12);
+}
+
 // Axis-aligned planar triangles on common planes (a grid of quads): planar events, and planes
 // that lie on splits.
 TEST_P(KdTrees, AxisAlignedGrid) {
