@@ -237,6 +237,10 @@ KdTree build_kd_tree(Backend& backend, const TriangleVertices* triangles, uint32
   for (int depth = 0; node_count > 0; ++depth) {
     const bool last_level = depth >= max_depth;
     const uint32_t K = node_count, m = ref_count;
+    // Node indices fill 30 bits of a kd node and 28 of an event key.
+    if (K >= (1u << (64 - kEventNodeShift)) || level_base + K >= (size_t(1) << 30)) {
+      throw DeviceError("build_kd_tree: more nodes than the kd node layout can index");
+    }
     const BuildNode* nodes = level.data();
     const uint32_t* ref_tri = refs.triangle.data();
     const Aabb* ref_box = refs.box.data();
