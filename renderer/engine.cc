@@ -39,6 +39,8 @@ absl::Status guarded(Fn&& fn) {
   } catch (const DeviceError& e) {
     return absl::InternalError(e.what());
   } catch (const std::invalid_argument& e) {
+    // A structure refusing its input (too many triangles for its layout), or a setting read from
+    // the environment (CAUSTICA_KD_TRAVERSAL) that names nothing.
     return absl::InvalidArgumentError(e.what());
   }
 }

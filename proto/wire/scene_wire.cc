@@ -60,6 +60,8 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
     {StructureKind::kHybrid, v1::HYBRID},
     {StructureKind::kSiblingPair, v1::SIBLING_PAIR},
+    {StructureKind::kKdSah, v1::KD_SAH},
+    {StructureKind::kKdSiroh, v1::KD_SIROH},
     {StructureKind::kDacrt, v1::DACRT},
     {StructureKind::kBvh8, v1::BVH8},
 };

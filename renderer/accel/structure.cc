@@ -4,10 +4,15 @@
 
 #include "renderer/accel/binned_sah.h"
 #include "renderer/accel/hybrid_bvh.h"
+#include "renderer/accel/kd_tree.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
 namespace {
+
+KdCost kd_cost_of(StructureKind kind) {
+  return kind == StructureKind::kKdSiroh ? KdCost::kSiroh : KdCost::kSah;
+}
 
 // The structure `build` makes (a layout with node_count, bytes and an sah_cost), timed from the
 // triangles in memory to the finished structure, and measured.
@@ -52,6 +57,16 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
         return build_sibling_pair_bvh(backend,
                                       build_sah_refined_lbvh(backend, triangles, count, curve));
       });
+    case StructureKind::kKdSah:
+    case StructureKind::kKdSiroh: {
+      // Read before the build, so that a bad setting fails before any work.
+      const KdTraversal traversal = kd_traversal_from_environment();
+      return measured(backend, kind, [&] {
+        KdTree tree = build_kd_tree(backend, triangles, count, kd_cost_of(kind));
+        tree.traversal = traversal;
+        return tree;
+      });
+    }
     case StructureKind::kDacrt:
       return measured(backend, kind,
                       [&] { return build_dacrt_triangles(backend, triangles, count); });

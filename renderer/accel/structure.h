@@ -10,7 +10,9 @@
 // structure's layout, so the dispatch on the kind happens once per launch on the host and never
 // per ray on the device (no virtual calls there). Kinds whose builders differ but whose layout is
 // the same (lbvh4, binned-sah and hybrid all end in 4-wide nodes) share one view type and so one
-// instantiation of every kernel; sibling-pair has a layout of its own.
+// instantiation of every kernel; sibling-pair and bvh8 have layouts of their own, dacrt a view that
+// answers batches only (ray_queries.h). A kd-tree (kd-sah, kd-siroh) has a view per traversal, and
+// the traversal it was built with picks which one visit hands out.
 #pragma once
 
 #include <concepts>
@@ -21,6 +23,7 @@
 
 #include "renderer/accel/bvh8_traversal.h"
 #include "renderer/accel/dacrt.h"
+#include "renderer/accel/kd_traversal.h"
 #include "renderer/accel/ray_queries.h"
 #include "renderer/accel/sibling_pair_traversal.h"
 #include "renderer/accel/structure_kind.h"
@@ -34,20 +37,40 @@ static_assert(StructureView<SiblingPairView>);
 static_assert(StructureView<Bvh8View>);
 static_assert(BatchStructureView<TriangleBvhView>);
 static_assert(BatchStructureView<DacrtView> && !StructureView<DacrtView>);
+static_assert(StructureView<KdTreeStackView>);
+static_assert(StructureView<KdTreeStacklessView>);
 
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;
-  // In the structure's own layout (4-wide nodes for a Bvh4, 8-wide for a Bvh8; 0 for dacrt).
+  // In the structure's own layout (4-wide nodes for a Bvh4, 8-wide for a Bvh8, kd nodes; 0 for
+  // dacrt).
   size_t nodes = 0;
-  // Everything its traversal reads that is kept between frames: nodes, triangles, triangle ids
-  // (dacrt: the triangles and their boxes; its per-frame scratch is DacrtTraceStats's).
+  // Everything its traversal reads that is kept between frames: nodes, triangles, triangle ids (a
+  // kd-tree's leaves' triangle references instead of ids; dacrt: the triangles and their boxes,
+  // its per-frame scratch being DacrtTraceStats's).
   size_t bytes = 0;
   // The surface area heuristic's cost with C_T = C_I = 1: (sum over inner nodes of their area,
-  // plus sum over leaves of triangles x area) over the root's area.
+  // plus sum over leaves of triangles x area) over the root's area; a kd-tree's nodes weigh by
+  // their cells' areas and its leaves by their references.
   double sah_cost = 0;
   double build_ms = 0;  // wall clock from the triangles in memory to the finished structure
 };
+
+namespace detail {
+
+// Calls f with a layout's device view: a kd-tree's for the traversal it is set to.
+template <typename Layout, typename F>
+decltype(auto) visit_view(const Layout& layout, F& f) {
+  return f(layout.view());
+}
+template <typename F>
+decltype(auto) visit_view(const KdTree& tree, F& f) {
+  if (tree.traversal == KdTraversal::kStackless) return f(tree.view_for<KdTraversal::kStackless>());
+  return f(tree.view_for<KdTraversal::kStack>());
+}
+
+}  // namespace detail
 
 class TriangleStructure {
  public:
@@ -60,22 +83,35 @@ class TriangleStructure {
       : layout_(std::move(bvh8)), stats_(stats) {}
   TriangleStructure(DacrtTriangles dacrt, const StructureStats& stats)
       : layout_(std::move(dacrt)), stats_(stats) {}
+  TriangleStructure(KdTree kd_tree, const StructureStats& stats)
+      : layout_(std::move(kd_tree)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
   StructureKind kind() const { return stats_.kind; }
-  Aabb bounds() const {
-    return std::visit([](const auto& layout) { return layout.view().bounds; }, layout_);
-  }
 
   // Calls f(view) with this structure's device view: the one dispatch on the kind a launch makes.
   template <typename F>
   decltype(auto) visit(F&& f) const {
-    return std::visit([&](const auto& layout) -> decltype(auto) { return f(layout.view()); },
-                      layout_);
+    return std::visit(
+        [&](const auto& layout) -> decltype(auto) { return detail::visit_view(layout, f); },
+        layout_);
+  }
+
+  Aabb bounds() const {
+    return visit([](const auto& view) { return view.bounds; });
+  }
+
+  // The traversal of a kd-tree's view from now on (kd_tree.h); false, changing nothing, for a
+  // structure that is no kd-tree.
+  bool set_kd_traversal(KdTraversal traversal) {
+    KdTree* tree = std::get_if<KdTree>(&layout_);
+    if (tree == nullptr) return false;
+    tree->traversal = traversal;
+    return true;
   }
 
  private:
-  std::variant<TriangleBvh, SiblingPairBvh, DacrtTriangles, Bvh8> layout_;
+  std::variant<TriangleBvh, SiblingPairBvh, KdTree, DacrtTriangles, Bvh8> layout_;
   StructureStats stats_;
 };
 
@@ -87,8 +123,8 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve);
 
-// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; that of a
-// SiblingPairBvh is in sibling_pair_bvh.h.
+// The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; the other
+// layouts' are with them (sibling_pair_bvh.h, kd_tree.h, bvh8.h).
 double sah_cost(Backend& backend, const TriangleBvh& bvh);
 // The SAH cost of what dacrt stores: one leaf of every triangle, since the division is made anew
 // for every batch and never kept.

@@ -23,6 +23,10 @@ enum class StructureKind : uint32_t {
   // The binary tree lbvh4 collapses, kept binary in 32-byte nodes that store only the planes a
   // child does not inherit from its parent (Fabianowski 2011, ch. 6).
   kSiblingPair = 3,
+  // A kd-tree built breadth-first (Zhou et al. 2008) with an exact SAH sweep per small node.
+  kKdSah = 4,
+  // The same kd-tree, its small nodes split by Fabianowski's scene-interior ray origin heuristic.
+  kKdSiroh = 5,
   // No stored structure: every batch of rays divided with the triangles breadth-first over space
   // and brute-forced in small nodes (Ravichandran and Narayanan 2013); answers batches only.
   kDacrt = 6,
@@ -32,10 +36,12 @@ enum class StructureKind : uint32_t {
 
 inline constexpr StructureKind kStructureKinds[] = {
     StructureKind::kLbvh4,       StructureKind::kBinnedSah, StructureKind::kHybrid,
-    StructureKind::kSiblingPair, StructureKind::kDacrt,     StructureKind::kBvh8};
+    StructureKind::kSiblingPair, StructureKind::kKdSah,     StructureKind::kKdSiroh,
+    StructureKind::kDacrt,       StructureKind::kBvh8};
 inline constexpr StructureKind kDefaultStructure = StructureKind::kLbvh4;
 
-// The name a user writes: "lbvh4", "binned-sah", "hybrid", "sibling-pair", "dacrt", "bvh8".
+// The name a user writes: "lbvh4", "binned-sah", "hybrid", "sibling-pair", "kd-sah", "kd-siroh",
+// "dacrt", "bvh8".
 constexpr const char* structure_kind_name(StructureKind kind) {
   switch (kind) {
     case StructureKind::kLbvh4:
@@ -46,6 +52,10 @@ constexpr const char* structure_kind_name(StructureKind kind) {
       return "hybrid";
     case StructureKind::kSiblingPair:
       return "sibling-pair";
+    case StructureKind::kKdSah:
+      return "kd-sah";
+    case StructureKind::kKdSiroh:
+      return "kd-siroh";
     case StructureKind::kDacrt:
       return "dacrt";
     case StructureKind::kBvh8:

@@ -3,6 +3,7 @@
 // counters (bvh8's builders).
 #pragma once
 
+#include <algorithm>
 #include <cstring>
 #include <type_traits>
 #include <vector>
@@ -38,6 +39,22 @@ std::vector<uint32_t> structure_snapshot(Backend& backend, const View& v, size_t
   const auto ids = detail::fetch(backend, v.triangle_ids, v.count);
   detail::append_words(out, n.data(), n.size() * sizeof(Node));
   detail::append_words(out, ids.data(), ids.size() * sizeof(uint32_t));
+  return out;
+}
+
+// A kd-tree's nodes (numbered level by level) and its leaves' references, as far as the leaves
+// reach.
+template <KdTraversal kTraversal>
+std::vector<uint32_t> structure_snapshot(Backend& backend, const KdTreeView<kTraversal>& v,
+                                         size_t nodes) {
+  std::vector<uint32_t> out;
+  const auto n = detail::fetch(backend, v.nodes, nodes);
+  size_t refs = 0;
+  for (const KdNode& node : n)
+    if (node.leaf()) refs = std::max<size_t>(refs, size_t(node.first_ref()) + node.ref_count());
+  const auto r = detail::fetch(backend, v.refs, refs);
+  detail::append_words(out, n.data(), n.size() * sizeof(KdNode));
+  detail::append_words(out, r.data(), r.size() * sizeof(uint32_t));
   return out;
 }
 
