@@ -192,12 +192,11 @@ CAUSTICA_HDI void make_wide_node(const CollapseState& s, uint32_t w) {
   for (int i = 0; i < m; ++i) in_slot[slot_of[i]] = i;
 
   Bvh8Node out;
-  double step[3], inv_step[3];
+  double inv_step[3];
   for (int a = 0; a < 3; ++a) {
     out.p[a] = box.lower[a];
     const uint32_t bits = grid_exponent(double(box.upper[a]) - double(box.lower[a]));
     out.exponent[a] = uint8_t(bits);
-    step[a] = power_of_two(int(bits) - 127);
     inv_step[a] = power_of_two(127 - int(bits));
   }
   out.imask = 0;

@@ -50,8 +50,7 @@ struct DacrtTriangles {
   DacrtSettings settings;
 
   DacrtView view() const {
-    return {triangles.data(), triangle_bounds.data(), uint32_t(triangles.size()), bounds,
-            settings};
+    return {triangles.data(), triangle_bounds.data(), uint32_t(triangles.size()), bounds, settings};
   }
   size_t node_count() const { return 0; }
   size_t bytes() const { return triangles.bytes() + triangle_bounds.bytes(); }

@@ -102,8 +102,6 @@ double sah_cost(Backend& backend, const TriangleBvh& bvh) {
   return 1.0 + backend.reduce_sum(term, n);
 }
 
-double sah_cost(Backend&, const DacrtTriangles& dacrt) {
-  return double(dacrt.triangles.size());
-}
+double sah_cost(Backend&, const DacrtTriangles& dacrt) { return double(dacrt.triangles.size()); }
 
 }  // namespace caustica

@@ -151,7 +151,8 @@ double walked_sah_cost(const KdTreeView<kTraversal>& v, size_t& nodes, size_t& r
 
 // Per layout, the stats against a walk of what was built: a BVH's nodes, triangles and ids;
 template <typename View>
-void check_stats(const StructureStats& s, const View& v, const std::vector<TriangleVertices>& tris) {
+void check_stats(const StructureStats& s, const View& v,
+                 const std::vector<TriangleVertices>& tris) {
   size_t nodes = 0;
   const double cost = walked_sah_cost(v, nodes);
   EXPECT_EQ(s.nodes, nodes);

@@ -542,7 +542,7 @@ void expect_same_batches(BothBackends& both, const std::vector<TriangleVertices>
 // A per-ray layout: the same tree on both backends (structure_snapshot, in an order that does not
 // depend on node numbers) and the same hits one ray per thread.
 template <typename View>
-  requires StructureView<View>
+requires StructureView<View>
 void expect_same_structures(BothBackends& both, const std::vector<TriangleVertices>& soup,
                             const TriangleStructure& c, const TriangleStructure& g, const View& cv,
                             const View& gv) {
@@ -559,8 +559,8 @@ void expect_same_structures(BothBackends& both, const std::vector<TriangleVertic
 
 // A batch-only layout (dacrt): the same answers to the same batches.
 void expect_same_structures(BothBackends& both, const std::vector<TriangleVertices>& soup,
-                            const TriangleStructure&, const TriangleStructure&,
-                            const DacrtView& cv, const DacrtView& gv) {
+                            const TriangleStructure&, const TriangleStructure&, const DacrtView& cv,
+                            const DacrtView& gv) {
   expect_same_batches(both, soup, cv, gv);
 }
 
