@@ -32,6 +32,21 @@ CAUSTICA_HDI bool worth_opening(const BvhNode* nodes, const WideChild& e) {
          float(e.size) * e.box.half_area();
 }
 
+// The child of e[0, m) with the largest box among those `eligible` takes, the first on ties; -1
+// for none.
+template <typename Eligible>
+CAUSTICA_HDI int widest(const WideChild* e, int m, Eligible eligible) {
+  int best = -1;
+  float best_area = -1.0f;
+  for (int i = 0; i < m; ++i) {
+    if (eligible(e[i]) && e[i].box.half_area() > best_area) {
+      best_area = e[i].box.half_area();
+      best = i;
+    }
+  }
+  return best;
+}
+
 // 2^e as a double, from its bits, for e in the normal range.
 CAUSTICA_HDI double power_of_two(int e) {
   const uint64_t bits = uint64_t(e + 1023) << 52;
@@ -119,61 +134,40 @@ CAUSTICA_HDI void make_wide_node(const CollapseState& s, uint32_t w) {
   // Children larger than one node of leaves can hold are opened first, largest box first. Then
   // a child that fits in one node is dissolved into its leaves where the slots it frees hold
   // them all (else it becomes that one node); then small ones are split where slots are left.
-  while (m < 8) {
-    int best = -1;
-    float best_area = -1.0f;
-    for (int i = 0; i < m; ++i) {
-      if (is_leaf(e[i].id) || e[i].size <= kBvh8NodeTriangles) continue;
-      if (e[i].box.half_area() > best_area) {
-        best_area = e[i].box.half_area();
-        best = i;
-      }
-    }
-    if (best < 0) break;
-    const BvhNode n = s.binary[e[best].id];
-    e[best] = child_of(n, 0);
+  auto open = [&](int i) {
+    const BvhNode n = s.binary[e[i].id];
+    e[i] = child_of(n, 0);
     e[m++] = child_of(n, 1);
+  };
+  auto too_large = [](const WideChild& c) { return !is_leaf(c.id) && c.size > kBvh8NodeTriangles; };
+  auto dissolvable = [&](const WideChild& c) {
+    return !is_leaf(c.id) && c.size > kBvh8LeafTriangles && c.size <= kBvh8NodeTriangles &&
+           m - 1 + int(s.leaf_pieces[c.id]) <= 8;
+  };
+  auto worth_splitting = [&](const WideChild& c) { return worth_opening(s.binary, c); };
+  while (m < 8) {
+    const int i = widest(e, m, too_large);
+    if (i < 0) break;
+    open(i);
   }
   while (m < 8) {
-    int best = -1;
-    float best_area = -1.0f;
-    for (int i = 0; i < m; ++i) {
-      if (is_leaf(e[i].id) || e[i].size <= kBvh8LeafTriangles || e[i].size > kBvh8NodeTriangles)
-        continue;
-      if (m - 1 + int(s.leaf_pieces[e[i].id]) <= 8 && e[i].box.half_area() > best_area) {
-        best_area = e[i].box.half_area();
-        best = i;
-      }
-    }
-    if (best < 0) break;
-    // Split until none of its pieces (at `best` and from `first_new` on) is too large for a leaf.
+    const int i = widest(e, m, dissolvable);
+    if (i < 0) break;
+    // Split until none of its pieces (at i and from first_new on) is too large for a leaf.
     const int first_new = m;
-    int at = best;
-    while (at >= 0) {
-      const BvhNode n = s.binary[e[at].id];
-      e[at] = child_of(n, 0);
-      e[m++] = child_of(n, 1);
+    for (int at = i; at >= 0;) {
+      open(at);
       at = -1;
-      for (int i = 0; i < m; ++i) {
-        if ((i == best || i >= first_new) && !is_leaf(e[i].id) && e[i].size > kBvh8LeafTriangles)
-          at = i;
+      for (int k = 0; k < m; ++k) {
+        if ((k == i || k >= first_new) && !is_leaf(e[k].id) && e[k].size > kBvh8LeafTriangles)
+          at = k;
       }
     }
   }
   while (m < 8) {
-    int best = -1;
-    float best_area = -1.0f;
-    for (int i = 0; i < m; ++i) {
-      if (!worth_opening(s.binary, e[i])) continue;
-      if (e[i].box.half_area() > best_area) {
-        best_area = e[i].box.half_area();
-        best = i;
-      }
-    }
-    if (best < 0) break;
-    const BvhNode n = s.binary[e[best].id];
-    e[best] = child_of(n, 0);
-    e[m++] = child_of(n, 1);
+    const int i = widest(e, m, worth_splitting);
+    if (i < 0) break;
+    open(i);
   }
 
   Aabb box;

@@ -209,33 +209,15 @@ CAUSTICA_HDI void bvh8_walk(const Bvh8View& bvh, const Ray& ray, const float& t_
 }  // namespace detail
 
 CAUSTICA_HDI Hit closest_hit(const Bvh8View& bvh, const Ray& ray) {
-  Hit hit;
-  const WatertightRay wray(ray);
-  const float t_min = ray.t_min;
-  float t_max = ray.t_max;
-  detail::bvh8_walk(bvh, ray, t_max, [&](uint32_t i) {
-    float t, u, v;
-    if (intersect_triangle(wray, bvh.triangles[i], t_min, t_max, t, u, v)) {
-      t_max = t;
-      hit.t = t;
-      hit.u = u;
-      hit.v = v;
-      hit.triangle = bvh.triangle_ids[i];
-    }
-    return false;
-  });
-  return hit;
+  return nearest_walked_hit(
+      bvh.triangles, bvh.triangle_ids, ray,
+      [&](const float& t_max, auto test) { detail::bvh8_walk(bvh, ray, t_max, test); });
 }
 
 CAUSTICA_HDI bool any_hit(const Bvh8View& bvh, const Ray& ray) {
-  const WatertightRay wray(ray);
-  const float t_min = ray.t_min, t_max = ray.t_max;
-  bool blocked = false;
-  detail::bvh8_walk(bvh, ray, t_max, [&](uint32_t i) {
-    blocked = triangle_blocks(wray, bvh.triangles[i], t_min, t_max);
-    return blocked;
+  return walked_segment_blocked(bvh.triangles, ray, [&](const float& t_max, auto test) {
+    detail::bvh8_walk(bvh, ray, t_max, test);
   });
-  return blocked;
 }
 
 }  // namespace caustica

@@ -162,34 +162,16 @@ CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const 
 }  // namespace detail
 
 CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
-  Hit hit;
-  WatertightRay wray(ray);
-  const float t_min = ray.t_min;
-  float t_max = ray.t_max;
-  detail::walk_leaves<true>(bvh, ray, t_max, [&](uint32_t sorted) {
-    float t, u, v;
-    if (intersect_triangle(wray, bvh.triangles[sorted], t_min, t_max, t, u, v)) {
-      t_max = t;
-      hit.t = t;
-      hit.u = u;
-      hit.v = v;
-      hit.triangle = bvh.triangle_ids[sorted];
-    }
-    return false;
-  });
-  return hit;
+  return nearest_walked_hit(
+      bvh.triangles, bvh.triangle_ids, ray,
+      [&](const float& t_max, auto test) { detail::walk_leaves<true>(bvh, ray, t_max, test); });
 }
 
 // True when anything blocks the open segment (t_min, t_max) of the ray, walked by one thread.
 CAUSTICA_HDI bool any_hit_alone(const TriangleBvhView& bvh, const Ray& ray) {
-  WatertightRay wray(ray);
-  const float t_min = ray.t_min, t_max = ray.t_max;
-  bool blocked = false;
-  detail::walk_leaves<false>(bvh, ray, t_max, [&](uint32_t sorted) {
-    blocked = triangle_blocks(wray, bvh.triangles[sorted], t_min, t_max);
-    return blocked;
+  return walked_segment_blocked(bvh.triangles, ray, [&](const float& t_max, auto test) {
+    detail::walk_leaves<false>(bvh, ray, t_max, test);
   });
-  return blocked;
 }
 
 #if defined(__CUDA_ARCH__)

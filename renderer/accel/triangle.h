@@ -129,4 +129,43 @@ CAUSTICA_HDI Vec3f geometric_normal(const TriangleVertices& tri) {
   return cross(tri.p1 - tri.p0, tri.p2 - tri.p0);
 }
 
+// The nearest hit along `ray` among the triangles a structure's walk hands out:
+// `walk(t_max, test)` calls test(i) for triangle i of `triangles` (whose original index is
+// ids[i]) in the order it reaches them, reading the shrinking t_max to skip what lies beyond.
+template <typename Walk>
+CAUSTICA_HDI Hit nearest_walked_hit(const TriangleVertices* triangles, const uint32_t* ids,
+                                    const Ray& ray, Walk walk) {
+  Hit hit;
+  const WatertightRay wray(ray);
+  const float t_min = ray.t_min;
+  float t_max = ray.t_max;
+  walk(t_max, [&](uint32_t i) {
+    float t, u, v;
+    if (intersect_triangle(wray, triangles[i], t_min, t_max, t, u, v)) {
+      t_max = t;
+      hit.t = t;
+      hit.u = u;
+      hit.v = v;
+      hit.triangle = ids[i];
+    }
+    return false;
+  });
+  return hit;
+}
+
+// Whether any triangle a walk hands out blocks the open segment (t_min, t_max) of `ray`; the
+// walk ends at the first that does.
+template <typename Walk>
+CAUSTICA_HDI bool walked_segment_blocked(const TriangleVertices* triangles, const Ray& ray,
+                                         Walk walk) {
+  const WatertightRay wray(ray);
+  const float t_min = ray.t_min, t_max = ray.t_max;
+  bool blocked = false;
+  walk(t_max, [&](uint32_t i) {
+    blocked = triangle_blocks(wray, triangles[i], t_min, t_max);
+    return blocked;
+  });
+  return blocked;
+}
+
 }  // namespace caustica

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <random>
 #include <string>
@@ -214,6 +215,16 @@ inline void check_binary_invariants(const BinaryTriangleBvh& t,
   auto all = span(t.bvh.root);
   EXPECT_EQ(all.first, 0u);
   EXPECT_EQ(all.second, n - 1);
+}
+
+// Two builds of one binary tree, byte for byte: root, leaf order and nodes.
+inline void expect_same_binary_tree(const BinaryTriangleBvh& first,
+                                    const BinaryTriangleBvh& second) {
+  EXPECT_EQ(first.bvh.root, second.bvh.root);
+  EXPECT_EQ(first.triangle_ids.download(), second.triangle_ids.download());
+  const std::vector<BvhNode> a = first.bvh.nodes.download(), b = second.bvh.nodes.download();
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(BvhNode)));
 }
 
 // The SAH cost of a binary tree without its leaves' part, which every tree over the same triangles

@@ -643,6 +643,21 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
   return {counts.download(), found.download(), radiance.download()};
 }
 
+// 60,000 photons, half on a plane, with repeated points, half in the volume: equal codes and ties
+// included.
+std::vector<Photon> parity_photons(uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> photons(60000);
+  for (size_t i = 0; i < photons.size(); ++i) {
+    Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
+    if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
+    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)),
+                  normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
+  }
+  return photons;
+}
+
 // The photon map from the same photons, and k-nearest searches and radiance estimates on it. Along
 // the same curve the maps agree bit for bit; along each backend's own (backend_curve), the k
 // nearest distances of every search agree bit for bit (the same integer
@@ -653,16 +668,7 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
 TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
-  std::mt19937 rng(31);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Photon> photons(60000);
-  for (size_t i = 0; i < photons.size(); ++i) {
-    // Half on a plane, with repeated points, half in the volume: equal codes and ties included.
-    Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
-    if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
-    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)),
-                  normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
-  }
+  const std::vector<Photon> photons = parity_photons(31);
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   // Along each curve (the backends' defaults differ), the same map.
   for (Curve curve : {Curve::kMorton, Curve::kHilbert}) {
@@ -719,15 +725,7 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
 TEST(GpuParity, SiblingPairPhotonMapsSearchAsBoxPairsDo) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
-  std::mt19937 rng(37);
-  std::uniform_real_distribution<float> u(0.0f, 1.0f);
-  std::vector<Photon> photons(60000);
-  for (size_t i = 0; i < photons.size(); ++i) {
-    Vec3f p = i % 2 ? Vec3f(u(rng), u(rng), u(rng)) : Vec3f(u(rng), u(rng), 0.5f);
-    if (i % 97 == 0) p = Vec3f(0.25f, 0.25f, 0.5f);
-    photons[i] = {p, Vec3f(u(rng), u(rng), u(rng)),
-                  normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, 1.0f))};
-  }
+  const std::vector<Photon> photons = parity_photons(37);
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   const PhotonMapNodes pairs = PhotonMapNodes::kSiblingPairs;
   const PhotonMap c =
