@@ -643,10 +643,9 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
   return {counts.download(), found.download(), radiance.download()};
 }
 
-// 60,000 photons, half on a plane, with repeated points, half in the volume: equal codes and ties
-// included.
-std::vector<Photon> parity_photons(uint32_t seed) {
-  std::mt19937 rng(seed);
+// 60,000 photons drawn from `rng`, half on a plane, with repeated points, half in the volume:
+// equal codes and ties included.
+std::vector<Photon> parity_photons(std::mt19937& rng) {
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   std::vector<Photon> photons(60000);
   for (size_t i = 0; i < photons.size(); ++i) {
@@ -668,7 +667,9 @@ std::vector<Photon> parity_photons(uint32_t seed) {
 TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
-  const std::vector<Photon> photons = parity_photons(31);
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const std::vector<Photon> photons = parity_photons(rng);
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   // Along each curve (the backends' defaults differ), the same map.
   for (Curve curve : {Curve::kMorton, Curve::kHilbert}) {
@@ -725,7 +726,9 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
 TEST(GpuParity, SiblingPairPhotonMapsSearchAsBoxPairsDo) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
-  const std::vector<Photon> photons = parity_photons(37);
+  std::mt19937 rng(37);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const std::vector<Photon> photons = parity_photons(rng);
   Buffer<Photon> c_in = upload(*both.cpu, photons), g_in = upload(*both.gpu, photons);
   const PhotonMapNodes pairs = PhotonMapNodes::kSiblingPairs;
   const PhotonMap c =
