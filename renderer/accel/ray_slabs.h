@@ -7,19 +7,16 @@
 // which is bounded for every plane of a box inside the structure's bounds. So distances to the
 // planes a ray enters by come out no larger than exact, those to the planes it leaves by no
 // smaller, and no box the ray touches is missed, with no slack at each test: one multiply per
-// child a node visit less than a relative slack on the far distance (H200, dragon, six
-// invocations alternated in two scripts: primary rays 5611..5700 -> 5679..5879 Mrays/s, shadow
-// rays 2975..3054 -> 2976..3097). A box that the ray passes within about 2^-21 |o / d| +
-// 2^-22 |bounds / d| of may count as touched, which costs a needless visit at most. The signs of
-// the direction say which plane of each axis a ray enters by, so a node's rows are taken in that
-// order, and no min and max per axis and child sort them out.
+// child a node visit less than a relative slack on the far distance. A box that the ray passes
+// within about 2^-21 |o / d| + 2^-22 |bounds / d| of may count as touched, which costs a needless
+// visit at most. The signs of the direction say which plane of each axis a ray enters by, so a
+// node's rows are taken in that order, and no min and max per axis and child sort them out.
 //
-// Against a subtraction and a product per plane with that min and max (H200, dragon, alternated
-// runs): shadow rays 1914..1935 -> 2086..2115 Mrays/s, primary 3958..3996 -> 4069..4114,
-// incoherent 1614..1629 -> 1631..1638; photon tracing 1.22 -> 1.15 ms. Selecting the rows from
-// a whole node's registers, or loading them at offsets kept as six row numbers per ray, took
-// more registers and lost up to 7% on incoherent rays. The reciprocal is safe_reciprocal's
-// (base/aabb.h). Both backends compute the same distances bit for bit.
+// This beat a subtraction and a product per plane with that min and max, and selecting the rows
+// from a whole node's registers or loading them at offsets kept per ray, which took more
+// registers (docs/performance.md, "Fewer instructions per box and triangle test"). The
+// reciprocal is safe_reciprocal's (base/aabb.h). Both backends compute the same distances bit
+// for bit.
 #pragma once
 
 #include <cfloat>

@@ -34,8 +34,8 @@ CAUSTICA_HDI void intersect_children(const OrderedNode& n, const RaySlabs& s, fl
 // (an insertion sort indexed by a running count put them in local memory), and the swaps are
 // selects, not branches, which would mispredict. With kWhole false only the nearest is sure to
 // come first, by three exchanges of the five: enough for a walk that ends at any hit, where what
-// matters is to meet a blocker soon (H200, dragon shadow rays, alternated runs: 2080..2144 ->
-// 2140..2193 Mrays/s, the same answers).
+// matters is to meet a blocker soon (docs/performance.md, "Fewer instructions per box and
+// triangle test").
 template <bool kWhole = true>
 CAUSTICA_HDI void sort_near_first(const uint32_t children[4], const float t[4], float key[4],
                                   uint32_t child[4]) {
@@ -114,9 +114,9 @@ CAUSTICA_HDI bool enter_nearest_child(const TriangleBvhView& bvh, const RaySlabs
 // stack with the subtrees, in the same near-first order, and a ray walks nodes until it holds a
 // leaf ("while-while", Aila and Laine 2009): the lanes of a warp then test triangles together,
 // where testing each node's leaves as they were met had one lane at a time test while the others
-// waited (H200, dragon: shadow rays 1502..1553 -> 1930..1963 Mrays/s, primary 3347..3374 ->
-// 3882..3929, incoherent 1240..1243 -> 1495..1508). When hits shrink t_max, each entry keeps its
-// distance on the stack and is dropped unloaded when it is popped behind the nearest hit.
+// waited (docs/performance.md, "GPU floors and what limits each figure"). When hits shrink t_max,
+// each entry keeps its distance on the stack and is dropped unloaded when it is popped behind the
+// nearest hit.
 template <bool kShrinks, typename Test>
 CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const float& t_max,
                               Test test) {
@@ -194,10 +194,9 @@ constexpr int kMaxGivenEntries = 32;
 // any_hit_alone does; a lane whose ray has ended (blocked, or its stack empty) takes the bottom
 // entry of a busy lane's stack, the largest subtree waiting there, with that lane's ray, and walks
 // it with a stack of its own. So no lane idles while a ray of the warp still has subtrees to test:
-// in the dragon's shadow rays a warp's busiest lane had 1.6 times its mean lane's work, and the
-// warps whose lanes differed most ended the launch (H200, alternated in one script: 2687..2753 ->
-// 2853..2896 Mrays/s; docs/performance.md, "Shadow-ray lanes share their walks"). Lanes meet
-// after each leaf: a blocker found by any of them ends its ray for all. The answer is
+// in shadow rays a warp's busiest lane does far more work than its mean lane, and the warps whose
+// lanes differ most end the launch (docs/performance.md, "Shadow-ray lanes share their walks").
+// Lanes meet after each leaf: a blocker found by any of them ends its ray for all. The answer is
 // any_hit_alone's: whether any triangle meets the open segment, in whatever order it is found.
 __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray) {
   const unsigned group = __activemask();
@@ -240,8 +239,8 @@ __device__ inline bool any_hit_shared(const TriangleBvhView& bvh, const Ray& ray
     }
     // Three votes, none waiting on another's answer, so that their latencies overlap: a lane
     // whose ray another lane has just found blocked still counts as busy until the next meeting,
-    // where it stops (against the blocked rays leaving before the other two votes: 2839..2860 ->
-    // 2884..2930 Mrays/s, alternated in one process).
+    // where it stops (the measurement is in docs/performance.md, "Shadow-ray lanes share their
+    // walks").
     const unsigned found_owners = __reduce_or_sync(group, found ? 1u << r.owner : 0u);
     const unsigned idle = __ballot_sync(group, !busy);
     const unsigned donors =
@@ -286,8 +285,7 @@ CAUSTICA_HDI bool any_hit(const TriangleBvhView& bvh, const Ray& ray) {
 // to `light` (a point on a light), leaving out the `light_gap` fraction of its length next to the
 // light, where an area light's own triangle lies. It starts at the light's end: a ray leaving a
 // surface first opens every box around its origin, whose triangles never block it, while one
-// arriving from the light meets an occluder first and stops there (dragon with a light above,
-// 59% of rays blocked: 1111 -> 1520 Mrays/s on an H200, 3.4 -> 5.2 on two CPU cores).
+// arriving from the light meets an occluder first and stops there (docs/performance.md).
 CAUSTICA_HDI Ray shadow_ray(Vec3f surface, Vec3f light, float light_gap) {
   const Vec3f d = surface - light;
   const float length_d = length(d);
