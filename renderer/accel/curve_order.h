@@ -39,20 +39,16 @@ CurveOrder sort_by_code(Backend& backend, uint32_t n, int end_bit, CodeOf code_o
 // Which curve a radix tree's leaves follow. Both give a tree of the same octree cells, split in
 // halves; they differ in the order of the halves, and so in which primitives share a leaf or a
 // small subtree:
-// - triangles follow the Hilbert curve on a GPU, which never jumps between neighbouring cells: on
-//   an H200, dragon primary rays 3055..3083 -> 3318..3378 Mrays/s, incoherent 1204..1213 ->
-//   1229..1248, the cornell-caustics photon trace 1.45 -> 1.26..1.31 ms, shadow rays unchanged;
+// - triangles follow the Hilbert curve on a GPU, which never jumps between neighbouring cells, so
+//   a leaf's triangles lie closer together and primary and incoherent rays run faster;
 // - photons follow it on a GPU too: a leaf is a run of consecutive photons, and runs that never
-//   jump make tighter leaves, so a search tests fewer photons. Render pass at k = 64 on an H200
-//   (cornell-caustics 1024x1024, counting gathers): 6.02..6.05 -> 5.71..5.77 ms, and at k = 8
-//   2.84..2.86 -> 2.78, k = 128 7.91..7.93 -> 7.59..7.62, k = 32 unchanged. (With heaps alone it
-//   had made 13% more insertions, in the order they came.)
+//   jump make tighter leaves, so a search tests fewer photons.
+// The figures are in docs/performance.md, "Tree quality and photon order".
 enum class Curve { kMorton, kHilbert };
 
 // The curve a backend's structures follow, triangles and photons alike: Hilbert on a GPU. Morton
-// on the CPU, where a Hilbert code costs about 40 ns (a chain of dependent bit operations that the
-// compiler does not vectorise): the dragon's LBVH build went from 32 to 19 Mtris/s on two cores,
-// for rays 1 to 4% faster.
+// on the CPU, where a Hilbert code is a chain of dependent bit operations that the compiler does
+// not vectorise: it slowed the LBVH build far more than it sped the rays there.
 Curve backend_curve(const Backend& backend);
 
 // `boxes` holds one box per primitive (degenerate for points); `bounds`, in the backend's memory,

@@ -86,9 +86,8 @@ CAUSTICA_HDI RangeSplit split_at(const Aabb* box, uint32_t first, uint32_t mid, 
 
 // The split in the middle, in the order the range has: for a range the collapse turns into one
 // leaf whatever its inner splits (always_one_leaf), where SAH splits change nothing a ray meets but
-// the order of a leaf's triangles and each costs a binning's fixed setup (dragon on two CPU cores,
-// alternated runs: structure build 349..416 -> 317..354 ms), and for one whose centroids all fall
-// in one bin.
+// the order of a leaf's triangles and each costs a binning's fixed setup, and for one whose
+// centroids all fall in one bin.
 CAUSTICA_HDI RangeSplit split_in_middle(const Aabb* box, uint32_t first, uint32_t last) {
   return split_at(box, first, first + (last - first + 1) / 2 - 1, last);
 }
@@ -152,8 +151,7 @@ CAUSTICA_HDI void point_slot(BvhNode* nodes, uint32_t* root, const PendingRange&
 
 // Ranges of at most this many triangles are split all the way down by the thread that meets
 // them, the smaller half first so that at most log2 of it wait. Level by level, each of the last
-// levels cost a launch, a scan and a wait (about 50 us on an H200) for little work: five dragons
-// built in 22 instead of 39 ms (the dragon in 6.1 instead of 5.8).
+// levels would cost a launch, a scan and a wait on the host for little work.
 constexpr uint32_t kRangeFinishedAlone = 16;
 constexpr int kWaitingRanges = 5;
 static_assert(kRangeFinishedAlone <= (1u << (kWaitingRanges - 1)), "room for the waiting halves");
@@ -207,8 +205,7 @@ void rebuild_small_subtrees(Backend& backend, Bvh& bvh, const SmallSubtree* list
   uint32_t* root = new_root.data();
 
   // Level by level over every subtree at once, a range per thread: one thread per subtree left
-  // a GPU nearly idle, each thread's chain of a few thousand dependent steps taking 16 ms for the
-  // dragon on an H200.
+  // a GPU nearly idle behind each thread's chain of a few thousand dependent steps.
   Buffer<PendingRange> ranges(backend, count), next_ranges(backend, 0);
   PendingRange* start = ranges.data();
   const Aabb bounds = bvh.bounds;

@@ -6,9 +6,8 @@
 // of a scanned surface share a handful of octree cells, those splits cut the surface into boxes
 // that overlap and leave much empty space, and the leaves of up to four triangles that the
 // collapse makes (bvh4.h) group triangles by cell rather than by how well they fit together.
-// Rebuilt by SAH below kSahSubtreeTriangles, the dragon's rays on an H200 went from primary
-// 4200..4340 to 5040..5180, shadow 2210..2340 to 2470..2590 and incoherent 1670..1710 to
-// 1890..1910 Mrays/s (docs/performance.md, "Tree quality"); a full SAH build from the root was no
+// Rebuilding those subtrees by SAH below kSahSubtreeTriangles speeds every kind of ray
+// (docs/performance.md, "Tree quality and photon order"); a full SAH build from the root was no
 // better for shadow rays and needs its work spread over every level.
 //
 // Each maximal subtree of at most kSahSubtreeTriangles triangles is a contiguous range of the
@@ -25,9 +24,9 @@
 
 namespace caustica {
 
-// The largest subtree rebuilt: about 5,700 of them on the dragon (871,414 triangles). Limits of
-// 1024 and 4096 gave shadow rays 2% more but took the dragon's build from 6 to 13 and 39 ms on an
-// H200, since a range's splits are each one thread's.
+// The largest subtree rebuilt. Larger limits gained shadow rays little and cost the build several
+// times over, since a range's splits are each one thread's (docs/performance.md, "Tree quality
+// and photon order").
 constexpr uint32_t kSahSubtreeTriangles = 256;
 
 constexpr uint32_t kNoParent = 0xffffffffu;

@@ -98,8 +98,8 @@ CAUSTICA_HDI uint32_t hilbert_code(Vec3f p, const Aabb& bounds) {
 // primitives (a room's walls) in a subtree of their own at the root, where with plain codes a
 // wall sorted among small triangles swells the box of every node above it and every ray that
 // crosses the room enters them. Finer size classes were measured and rejected: they split a
-// scanned mesh's neighbouring small and medium triangles into overlapping subtrees (dragon
-// primary rays 2739 -> 1875 Mrays/s on an H200 with four classes).
+// scanned mesh's neighbouring small and medium triangles into overlapping subtrees, which slowed
+// the dragon's rays (docs/performance.md).
 CAUSTICA_HDI uint32_t size_class(const Aabb& box, const Aabb& bounds) {
   float ratio_squared = length_squared(box.extent()) / length_squared(bounds.extent());
   return ratio_squared <= 1.0f / 16.0f ? 1u : 0u;  // NaN (a zero-size scene) counts as huge
