@@ -16,8 +16,8 @@ struct Scratch {
   uint32_t stride_bytes;  // between element i and i + 1
   CAUSTICA_HDI Scratch(T* first, uint32_t stride) : base(first), stride_bytes(stride * sizeof(T)) {}
   // The offset in bytes in 32 bits (scratch is small), so that a GPU forms the address in one
-  // multiply-add where an element stride took two (H200, cornell-caustics 1024x1024: render pass
-  // 6.86..6.92 -> 6.77..6.80 ms at k = 64 and 4.48 -> 4.28 at k = 32).
+  // multiply-add where an element stride took two (docs/performance.md has the render pass's
+  // figures).
   CAUSTICA_HDI T& operator[](uint32_t i) const {
     return *reinterpret_cast<T*>(reinterpret_cast<char*>(base) + i * stride_bytes);
   }

@@ -1,10 +1,10 @@
 // The radiance estimate of density.h (the same k nearest photons, the same k-th distance) found
 // by counting instead of with a heap, for GPU searches in groups at larger k.
 //
-// A heap search spends most of its instructions keeping its heap: on an H200 at k = 64, half of
-// the gather's 3190 M warp instructions were heap insertions and the climbs that fill the heap,
-// each a chain of dependent shared-memory steps that a warp runs for whichever of its lanes has
-// one. Here:
+// A heap search spends most of its instructions keeping its heap: at k = 64 on a GPU, about half
+// of the gather's instructions are heap insertions and the climbs that fill the heap, each a
+// chain of dependent shared-memory steps that a warp runs for whichever of its lanes has one.
+// Here:
 // 1. A counting walk files every photon nearer than the limit under a bin of its squared
 //    distance (the float's exponent and top three mantissa bits: eight bins per octave). The bin
 //    where the count reaches k is the cut; once the bins below it hold k, the cut moves down a bin
@@ -16,10 +16,9 @@
 //    walking the tree again. Should the cut hold more photons than fit, the counting is repeated
 //    within it with finer bins first.
 // A lane's scratch is 288 bytes at any k (the heap's is 512 at k = 64, 1 KiB at k = 128).
-// Render pass, cornell-caustics 1024x1024 on an H200, heap against counting: k = 64 7.63 ->
-// 7.05 ms, k = 128 19.8 -> 9.38 ms; below k = 64 two walks cost more than small heaps
+// Counting wins from k = 64 up on a GPU; below, two walks cost more than small heaps
 // (kBinnedFromK, whitted.cc), and on the CPU, where a thread searches alone, counting is slower
-// at every k.
+// at every k (docs/performance.md has the render pass's figures).
 #pragma once
 
 #include "renderer/photon/density.h"
@@ -67,9 +66,8 @@ struct DistanceBins {
 
 // Adds to a bin's count. On a GPU, in shared memory, an atomic addition whose result nobody reads:
 // the additions of a batch's photons then go out one after the other without a wait, where a
-// read, an addition and a write each waited for the previous photon's write (H200, render pass
-// at k = 64 7.00..7.01 -> 6.87..6.89 ms, at k = 128 9.38 -> 9.25). Each lane adds to its own
-// words only, so the atomicity itself is not needed.
+// read, an addition and a write each waited for the previous photon's write. Each lane adds to
+// its own words only, so the atomicity itself is not needed.
 CAUSTICA_HDI void add_to_bin(uint32_t& count, uint32_t v) {
 #if defined(__CUDA_ARCH__)
   // Known at compile time once inlined; words private to a thread are in local memory, which

@@ -38,11 +38,10 @@ struct alignas(16) NeighbourPair {
 // pairs[(e - 1) / 2]. On a GPU each node has four children, entries 4i+1 .. 4i+4 in pairs[2i]
 // and pairs[2i + 1], so a step down the heap is two independent 16-byte loads and a comparison of
 // registers. The steps are a chain of dependent shared-memory reads there, the largest part of
-// the gather's time, and four children halve them: three below the root for k = 64 (render pass
-// 9.47..9.55 -> 8.95..9.06 ms on an H200, 22.5 against 24.3 at k = 128, even at k = 8 to 32).
-// Eight children took 8.8 ms at k = 64 but 6 to 11% longer at k = 8 to 32. On the CPU each node
-// has two children, pairs[i]: the four-child heap's extra comparisons cost more there than its
-// fewer steps saved (render pass 0.73 -> 0.77..0.81 s on two cores).
+// the gather's time, and four children halve them: three below the root for k = 64. Eight
+// children were faster at k = 64 only and slower at small k. On the CPU each node has two
+// children, pairs[i]: the four-child heap's extra comparisons cost more there than its fewer
+// steps saved (docs/performance.md has the figures).
 // In an array of pairs (which a Scratch<NeighbourPair> interleaves between threads) each 16-byte
 // load keeps to its own banks.
 // `pairs` (a NeighbourPair* or anything indexed like one, such as a Scratch<NeighbourPair>)
@@ -72,8 +71,8 @@ struct NeighbourHeap {
     if (size == k) return replace_farthest(x);
 #if defined(__CUDA_ARCH__)
     // On a GPU each candidate climbs from the end until there are k: the lanes of a warp fill
-    // their heaps at different photons, and one construction once full ran for each lane alone
-    // (frame_render 10.9 against 9.6 ms, H200).
+    // their heaps at different photons, and one construction once full ran for each lane alone,
+    // which measured slower.
     uint32_t i = size++;
     while (i > 0) {
       const uint32_t parent = (i - 1) / kArity;

@@ -12,11 +12,10 @@
 namespace caustica {
 namespace {
 
-// Workers per multiprocessor, measured on an H200 (1M photons, cornell-caustics): 256 -> 2.89 ms,
-// 512 -> 1.90, 768 -> 1.68, 1024 -> 1.62, 2048 -> 1.79. About what a multiprocessor holds at
-// once; many more only delay the late blocks' first paths to the end. The kernel asks for all of
-// them to fit at once, which caps its registers at 64 (at 72 only 896 fitted, and one block
-// waited; H200, 3 invocations alternated: photon trace 1.17..1.19 -> 1.12 ms).
+// Workers per multiprocessor, chosen by measurement (docs/performance.md): about what a
+// multiprocessor holds at once; many more only delay the late blocks' first paths to the end.
+// The kernel asks for all of them to fit at once, which caps its registers at 64 (at 72 fewer
+// fitted, and one block waited).
 constexpr unsigned kWorkersPerMultiprocessor = 1024;
 
 // Decorrelates photon streams from camera streams drawn with the same seed and pass.
@@ -245,8 +244,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
 
   // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
-  // one path per thread keeps its lanes waiting for its longest path: 10% of the lanes were busy
-  // on an H200. On the GPU a fixed set of workers therefore takes the next path as soon as its
+  // one path per thread keeps its lanes waiting for its longest path, most of them idle. On the
+  // GPU a fixed set of workers therefore takes the next path as soon as its
   // current one ends, and every lane traces a hit in every step. The result does not depend on
   // which worker traced a path: its samples and slots follow from its index alone.
   const uint32_t count = settings.photon_count;

@@ -92,42 +92,32 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
   return emitted;
 }
 
-// Requests per CPU thread in stage 4, each bounding the next one's search radius (density.h):
-// 1.26x faster on the CPU (cornell-caustics 512x512, k = 64). On a GPU the same chains cost more
-// than they save (11.7 ms at 1 request per thread, 13.1 at 2, 14.5 at 4, H200, 1024x1024; with
-// today's heaps, and each lane bounded by the nearest of the previous batch's 32 requests, 9.5 at
-// 1, 9.65 at 2, 10.0 at 4): a warp that searches as a group already shares its nodes.
+// Requests per CPU thread in stage 4, each bounding the next one's search radius (density.h),
+// which is faster on the CPU. On a GPU the same chains cost more than they save: a warp that
+// searches as a group already shares its nodes (docs/performance.md).
 constexpr uint32_t kGatherChain = 8;
 
-// From this k on, a GPU's estimates count (binned_estimate.h) instead of keeping heaps. The
-// render pass on an H200 (cornell-caustics 1024x1024), heaps against counting: k = 8 3.02 against
-// 4.60 ms, k = 32 4.47 against 5.73, k = 48 5.80 against 6.40 (two walks cost more than small
-// heaps), k = 64 7.61 against 7.02, k = 96 12.3 against 8.26, k = 128 19.8 against 9.38. On the
-// CPU, where a thread searches alone, counting took the render pass from 0.66 to 0.83 s at k = 64
-// and from 0.90 to 1.10 s at k = 128 (two cores, 512x512).
+// From this k on, a GPU's estimates count (binned_estimate.h) instead of keeping heaps: below it
+// two walks cost more than small heaps. On the CPU, where a thread searches alone, counting is
+// slower at every k (docs/performance.md has the render pass's figures).
 constexpr uint32_t kBinnedFromK = 64;
 constexpr bool gathers_count(DeviceKind device, uint32_t k) {
   return device == DeviceKind::kCuda && k >= kBinnedFromK;
 }
 // Registers per thread for the GPU gathers: fewer let more warps share a multiprocessor, which
 // hides the latency the searches wait on, until spilling costs more. A scheduler's 16384
-// registers hold 4 warps of the counting gather at its own 106 and 5 at 96 (28 bytes spilled):
-// render pass 6.77..6.80 -> 6.21..6.28 ms at k = 64, 9.13 -> 8.17 at k = 128; 80 (6 warps, 224
-// bytes spilled) took 6.33..6.35 ms and 72 took 7.05. The heap gather, at its own 80, went at
-// 72 (7 warps) from 2.95..2.97 to 2.84..2.88 ms at k = 8 and from 4.25..4.29 to 4.22 at k = 32;
-// 64 was as fast at k = 32 and faster at k = 8 (2.80..2.83) but spilled 144 bytes (H200,
-// cornell-caustics 1024x1024).
+// registers hold 4 warps of the counting gather at its own 106 and 5 at 96, which spills little;
+// the heap gather gains a warp at 72. Both limits were chosen by measurement (docs/performance.md,
+// "Registers").
 constexpr unsigned kCountingGatherRegisters = 96;
 constexpr unsigned kHeapGatherRegisters = 72;
 // Warps per block for the counting gather. Its 20 resident warps take 9 KiB of scratch each, and
 // the shared memory not asked for is L1, where the searches' nodes and photons hit (launch.cuh):
-// in blocks of 1 warp they needed the largest carveout (L1 hit rate 62%), in blocks of 2 the next
-// one (73%, 60 KiB more L1). Render pass at k = 64 5.57..5.60 -> 5.43..5.47 ms, at k = 128
-// 7.42..7.46 -> 7.20..7.23; blocks of 4 and 5 warps, which fit the same carveout, took 5.43..5.44
-// and 5.47..5.51 (a block holds its slot until its slowest warp ends), and fewer resident warps
-// with a smaller carveout still lost (16 warps: 5.87..5.90; 128 registers a thread: 5.78..5.79)
-// (H200, cornell-caustics 1024x1024). launch.cuh's own choice among shapes that keep 20 warps,
-// the least shared memory, would take blocks of 5.
+// in blocks of 1 warp they needed the largest carveout, in blocks of 2 the next one, with 60 KiB
+// more L1. Blocks of 4 and 5 warps, which fit the same carveout, were no faster (a block holds
+// its slot until its slowest warp ends), and fewer resident warps with a smaller carveout lost
+// (docs/performance.md, "L1 for the gather"). launch.cuh's own choice among shapes that keep 20
+// warps, the least shared memory, would take blocks of 5.
 constexpr unsigned kCountingGatherBlockWarps = 2;
 
 // Stage 4 of the pass: the caustic and global estimates of the requests in Hilbert order. A group
@@ -193,9 +183,8 @@ struct GatherEstimates {
 
 }  // namespace
 
-// Leaves of 16 photons for counting, whose walks file a leaf's photons in batches of 8: render pass
-// at k = 64 6.21..6.23 -> 6.02..6.03 ms, at k = 128 8.15 -> 7.94; but 4.22 -> 4.31 at k = 32 with
-// heaps, and leaves of 12 took 6.97..6.99 at k = 64 (H200, cornell-caustics 1024x1024).
+// Leaves of 16 photons for counting, whose walks file a leaf's photons in batches of 8; heaps keep
+// smaller leaves, which measured faster for them (docs/performance.md).
 uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested) {
   if (requested != 0) return requested;
   return gathers_count(device, k) ? 16u : 8u;
@@ -571,9 +560,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
 }
 
 // Stage 3: the requests in Hilbert order of their positions, so that the threads of a warp
-// search the same nodes and photons. Morton order jumps where Hilbert order does not: a warp's
-// 32 requests lay 19% farther apart (median half-extent 6.1 against 5.1 mm, cornell-caustics
-// 1024x1024), and the render pass took 9.03..9.11 against 8.52..8.63 ms on an H200.
+// search the same nodes and photons. Morton order jumps where Hilbert order does not, which puts
+// a warp's requests farther apart and slows the render pass (docs/performance.md).
 // The sort keeps equal codes in the order it is given them, and stage 2 appended the requests
 // in whatever order the walks ended. So they go to the sort in pixel and path order: taken in
 // append order, requests on one grid cell (pixels that a curved mirror shrinks onto one spot)

@@ -18,10 +18,8 @@ cudaStream_t cuda_stream(Backend& backend);
 namespace detail {
 
 // Threads per block. A block holds its multiprocessor slot until its slowest warp ends, and ray
-// kernels' warps end at very different times: 128 against 256 took incoherent rays from
-// 1514..1517 to 1611..1618 Mrays/s and the render pass from 8.05..8.08 to 7.98..8.00 ms (H200),
-// primary and shadow rays within noise; 64 gained incoherent rays a little more but lost 1% of
-// the primary rays.
+// kernels' warps end at very different times: 128 beat 256 on incoherent rays and the render
+// pass, and 64 lost primary rays (docs/performance.md, "Registers").
 constexpr unsigned kParallelForBlock = 128;
 
 // kMinBlocks: the blocks that must fit on a multiprocessor at once, which caps the registers per
