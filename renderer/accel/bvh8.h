@@ -86,15 +86,21 @@ Bvh8 collapse_to_bvh8(Backend& backend, const ClusteredTriangleBvh& binary);
 // tests.
 double sah_cost(Backend& backend, const Bvh8& bvh);
 
+// A grid's step from its exponent bits: 2^(exponent - 127).
+CAUSTICA_HDI float bvh8_grid_step(uint8_t exponent) {
+  const uint32_t bits = uint32_t(exponent) << 23;
+  float step;
+  memcpy(&step, &bits, sizeof step);
+  return step;
+}
+
 // Slot s's quantised box (what traversal tests), in world space.
 CAUSTICA_HDI Aabb bvh8_child_box(const Bvh8Node& n, int s) {
   Aabb b;
   const uint8_t* lower[3] = {n.lower_x, n.lower_y, n.lower_z};
   const uint8_t* upper[3] = {n.upper_x, n.upper_y, n.upper_z};
   for (int a = 0; a < 3; ++a) {
-    uint32_t bits = uint32_t(n.exponent[a]) << 23;
-    float step;
-    memcpy(&step, &bits, sizeof step);
+    const float step = bvh8_grid_step(n.exponent[a]);
     b.lower[a] = n.p[a] + float(lower[a][s]) * step;
     b.upper[a] = n.p[a] + float(upper[a][s]) * step;
   }

@@ -60,13 +60,6 @@ struct Bvh8Group {
   uint32_t bits;
 };
 
-CAUSTICA_HDI float bvh8_step_times(uint8_t exponent, float inv) {
-  const uint32_t bits = uint32_t(exponent) << 23;
-  float step;
-  memcpy(&step, &bits, sizeof step);
-  return step * inv;
-}
-
 // Four bytes of a node's row as one word: the compiler keeps the node in registers and takes the
 // bytes out with shifts (selecting between byte arrays would put the node in local memory).
 CAUSTICA_HDI uint32_t bvh8_row_word(const uint8_t* row, int half) {
@@ -108,7 +101,7 @@ CAUSTICA_HDI uint32_t bvh8_intersect_node(const Bvh8Node& node, const Bvh8Ray& r
                                           float t_max) {
   float scale[3], enter[3], leave[3];
   for (int a = 0; a < 3; ++a) {
-    scale[a] = bvh8_step_times(node.exponent[a], r.inv[a]);
+    scale[a] = bvh8_grid_step(node.exponent[a]) * r.inv[a];
     enter[a] = fmaf(node.p[a], r.inv[a], r.enter_offset[a]);
     leave[a] = fmaf(node.p[a], r.inv[a], r.leave_offset[a]);
   }

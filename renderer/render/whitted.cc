@@ -230,6 +230,12 @@ struct SpecularPaths {
   Buffer<uint32_t> counts, offsets;
   Buffer<GatherRequest> requests;
   uint32_t request_total = 0;
+
+  // Per-pixel arrays for `pixels` pixels and no requests yet.
+  static SpecularPaths for_pixels(Backend& backend, size_t pixels) {
+    return {Buffer<Vec3f>(backend, pixels), Buffer<uint32_t>(backend, pixels),
+            Buffer<uint32_t>(backend, pixels), Buffer<GatherRequest>(backend, 0)};
+  }
 };
 
 // Stage 1: primary hits (packets on the CPU, a warp per 8x4 pixels on a GPU).
@@ -258,8 +264,7 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
 template <typename Structure>
 SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                   const PassInputs& in, const Hit* primary) {
-  SpecularPaths out{Buffer<Vec3f>(backend, in.pixels), Buffer<uint32_t>(backend, in.pixels),
-                    Buffer<uint32_t>(backend, in.pixels), Buffer<GatherRequest>(backend, 0)};
+  SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
   Buffer<uint32_t> appended(backend, 1);
   Vec3f* direct_out = out.direct.data();
   uint32_t* count = out.counts.data();
@@ -350,15 +355,15 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     switch (m.type) {
       case MaterialType::kEmissive:
         if (dot(d, sh.geometric_normal) < 0.0f) {
-          leaves[i] = {pr.branch, pr.pixel, 0u,           pr.throughput, m.radiance,
+          leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, m.radiance,
                        Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
           is_leaf[i] = 1;
         }
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        leaves[i] = {pr.branch,   pr.pixel, 1u, pr.throughput, Vec3f(0.0f), sh.position,
-                     n, sh.geometric_normal, m.color};
+        leaves[i] = {pr.branch,           pr.pixel, 1u, pr.throughput, Vec3f(0.0f), sh.position, n,
+                     sh.geometric_normal, m.color};
         is_leaf[i] = 1;
         break;
       }
@@ -473,8 +478,7 @@ CAUSTICA_HDI Sampler diffuse_hit_sampler(const ShadingSettings& cfg, uint32_t pi
 template <typename Structure>
 SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
                                    const PassInputs& in, const Hit* primary) {
-  SpecularPaths out{Buffer<Vec3f>(backend, in.pixels), Buffer<uint32_t>(backend, in.pixels),
-                    Buffer<uint32_t>(backend, in.pixels), Buffer<GatherRequest>(backend, 0)};
+  SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
   Buffer<PathLeaf> leaves = trace_specular_waves(backend, structure, in, primary);
   const size_t n = leaves.size();
   const Buffer<uint32_t> order = order_leaves(backend, leaves);
@@ -518,7 +522,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
     const PathLeaf l = leaf[diffuse_at[r]];
     Ray* mine = shadow + r * slots;
     for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
-    Sampler s = diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    Sampler s =
+        diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
     (void)direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
                             inputs.cfg.area_light_samples, inputs.scene_radius, s,
                             [&](uint32_t slot, const Ray& ray) {
@@ -533,7 +538,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
   parallel_for(backend, "shadow_ray_shade", requests, [=] CAUSTICA_HD(size_t r) {
     PathLeaf& l = leaf[diffuse_at[r]];
     const uint8_t* mine = is_blocked + r * slots;
-    Sampler s = diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    Sampler s =
+        diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
     l.value = direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
                                 [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
