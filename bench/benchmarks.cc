@@ -20,7 +20,7 @@
 #include "renderer/base/sampling.h"
 #include "renderer/engine.h"
 #include "renderer/parallel/parallel_for.h"
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
@@ -183,8 +183,8 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
     // The camera's rays already queued, through trace_closest alone: with dacrt this is the
     // whole per-frame work of tracing them (the target is the dragon at 1024x1024).
     queue_camera_rays(*backend, camera, queued);
-    Measurement batch = measure(
-        o, *backend, [&] { trace_closest(*backend, bvh, queued.data(), pixels, hit); });
+    Measurement batch =
+        measure(o, *backend, [&] { trace_closest(*backend, bvh, queued.data(), pixels, hit); });
     report.line("primary_rays_batch", name, pixels / (batch.median * 1e3), "Mrays/s", &batch,
                 o.runs);
     batch.kernels.clear();  // reported with the line above
@@ -219,9 +219,8 @@ void ray_benchmarks(const BenchOptions& o, Backend* backend, const Structure& bv
     Buffer<uint8_t> blocked(*backend, shadow_list.size());
     const Ray* ray = shadow_rays.data();
     uint8_t* out = blocked.data();
-    Measurement m = measure(o, *backend, [&] {
-      trace_any(*backend, bvh, ray, shadow_list.size(), out);
-    });
+    Measurement m =
+        measure(o, *backend, [&] { trace_any(*backend, bvh, ray, shadow_list.size(), out); });
     report.line("shadow_rays", name, shadow_list.size() / (m.median * 1e3), "Mrays/s", &m, o.runs);
     if constexpr (kPerRay) {
       if (backend->kind() == DeviceKind::kCuda) {
@@ -300,7 +299,7 @@ struct GatherAtPoints {
   Vec3f* out;
   uint32_t k;
   float max_radius;
-  Kernel kernel;
+  DensityKernel kernel;
 
   template <typename Scratch>
   CAUSTICA_HDI void operator()(size_t i, Scratch scratch) const {

@@ -82,7 +82,7 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
   out << absl::StrFormat(
       "settings     %d photons per pass, k %d, max radius %g, kernel %s, max depth %d, photon "
       "bounces %d, area light samples %d, seed %d\n",
-      rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::Kernel_Name(rs.kernel()),
+      rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::DensityKernel_Name(rs.kernel()),
       rs.max_depth(), rs.max_photon_bounces(), rs.area_light_samples(), rs.seed());
   out << absl::StrFormat("structure    %s\n", structure_text(s));
   out << absl::StrFormat("memory       structure %s; photon maps %s; device %s\n",

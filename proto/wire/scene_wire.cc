@@ -158,13 +158,13 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_k_nearest(s.k_nearest);
   out.set_max_radius(s.max_radius);
   switch (s.kernel) {
-    case Kernel::kUniform:
+    case DensityKernel::kUniform:
       out.set_kernel(v1::UNIFORM);
       break;
-    case Kernel::kCone:
+    case DensityKernel::kCone:
       out.set_kernel(v1::CONE);
       break;
-    case Kernel::kEpanechnikov:
+    case DensityKernel::kEpanechnikov:
       out.set_kernel(v1::EPANECHNIKOV);
       break;
   }
@@ -345,13 +345,13 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
     case v1::KERNEL_UNSPECIFIED:
       break;
     case v1::UNIFORM:
-      s.kernel = Kernel::kUniform;
+      s.kernel = DensityKernel::kUniform;
       break;
     case v1::CONE:
-      s.kernel = Kernel::kCone;
+      s.kernel = DensityKernel::kCone;
       break;
     case v1::EPANECHNIKOV:
-      s.kernel = Kernel::kEpanechnikov;
+      s.kernel = DensityKernel::kEpanechnikov;
       break;
     default:
       return invalid(join_field(field, "kernel"), absl::StrCat(in.kernel(), " is not a kernel"));

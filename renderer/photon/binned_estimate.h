@@ -21,7 +21,7 @@
 // at every k (docs/performance.md has the render pass's figures).
 #pragma once
 
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 
 namespace caustica {
 
@@ -92,21 +92,21 @@ struct FluxSum {
   Vec3f by_distance{0.0f};  // flux times d (cone) or d^2 (Epanechnikov)
 
   CAUSTICA_HDI void add(const PhotonMapView& map, uint32_t index, float d2, Vec3f normal,
-                        Kernel kernel) {
+                        DensityKernel kernel) {
     const PhotonFlux ph = map.flux_of(index);
     if (!octahedral_along(ph.incoming, normal)) return;
     flux += ph.power;
-    if (kernel == Kernel::kCone) by_distance += ph.power * sqrtf(d2);
-    if (kernel == Kernel::kEpanechnikov) by_distance += ph.power * d2;
+    if (kernel == DensityKernel::kCone) by_distance += ph.power * sqrtf(d2);
+    if (kernel == DensityKernel::kEpanechnikov) by_distance += ph.power * d2;
   }
   // sum w(d / r) dPhi for the squared radius r2, each kernel normalised as kernel_weight is.
-  CAUSTICA_HDI Vec3f weighted(Kernel kernel, float r2) const {
+  CAUSTICA_HDI Vec3f weighted(DensityKernel kernel, float r2) const {
     switch (kernel) {
-      case Kernel::kUniform:
+      case DensityKernel::kUniform:
         return flux;
-      case Kernel::kCone:
+      case DensityKernel::kCone:
         return 3.0f * (flux - by_distance * (1.0f / sqrtf(r2)));
-      case Kernel::kEpanechnikov:
+      case DensityKernel::kEpanechnikov:
         return 2.0f * (flux - by_distance * (1.0f / r2));
     }
     return flux;
@@ -174,8 +174,9 @@ struct WarpLeafLog {
 template <typename Words>
 CAUSTICA_HDI RadianceEstimate estimate_radiance_binned(const PhotonMapView& map, Vec3f p,
                                                        Vec3f normal, Vec3f albedo, uint32_t k,
-                                                       float max_radius, Kernel kernel, Words words,
-                                                       float bound_squared, SearchGroup group) {
+                                                       float max_radius, DensityKernel kernel,
+                                                       Words words, float bound_squared,
+                                                       SearchGroup group) {
   const float max_d2 = max_radius * max_radius;
   if (k == 0) return {Vec3f(0.0f), max_d2};
   // Counting: the cut is searched for among the photons in [floor, ceiling); `known` photons lie

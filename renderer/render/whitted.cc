@@ -14,7 +14,7 @@
 #include "renderer/base/uninitialized.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/binned_estimate.h"
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 #include "renderer/photon/scattering.h"
 
 namespace caustica {
@@ -137,7 +137,7 @@ struct GatherEstimates {
   uint32_t chain;  // requests per thread
   uint32_t k;
   float max_radius;
-  Kernel kernel;
+  DensityKernel kernel;
 
   static size_t threads(uint32_t request_count, uint32_t lanes, uint32_t chain) {
     const size_t per_group = size_t(lanes) * chain;

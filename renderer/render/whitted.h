@@ -18,7 +18,7 @@ constexpr uint32_t kMaxSpecularDepth = 64;
 struct ShadingSettings {
   uint32_t k_nearest = 64;
   float max_radius = 1.0f;
-  Kernel kernel = Kernel::kEpanechnikov;
+  DensityKernel kernel = DensityKernel::kEpanechnikov;
   uint32_t max_depth = 6;
   uint32_t area_light_samples = 4;
   uint32_t seed = 1;
@@ -72,7 +72,8 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
   const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
   auto visible = [&](uint32_t slot, Vec3f light_point, Vec3f wi) {
-    return visible_slot(slot, shadow_ray(offset_origin(p, geometric_normal, wi), light_point, 1e-3f));
+    return visible_slot(slot,
+                        shadow_ray(offset_origin(p, geometric_normal, wi), light_point, 1e-3f));
   };
   for (uint32_t i = 0; i < scene.light_count; ++i) {
     const DeviceLight& l = scene.lights[i];
@@ -123,8 +124,9 @@ template <typename Structure>
 CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
                                 Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
                                 uint32_t area_samples, float scene_radius, Sampler& s) {
-  return direct_light_with(scene, p, normal, geometric_normal, albedo, area_samples, scene_radius,
-                           s, [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); });
+  return direct_light_with(
+      scene, p, normal, geometric_normal, albedo, area_samples, scene_radius, s,
+      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); });
 }
 
 }  // namespace caustica

@@ -8,6 +8,7 @@
 
 #include "renderer/accel/structure_kind.h"
 #include "renderer/base/vec.h"
+#include "renderer/photon/density_kernel.h"
 
 namespace caustica {
 
@@ -54,13 +55,11 @@ struct Camera {
   int height = 512;
 };
 
-enum class Kernel : uint32_t { kUniform = 0, kCone = 1, kEpanechnikov = 2 };
-
 struct RenderSettings {
   uint32_t photons_per_pass = 200000;  // photons emitted per pass (global and caustic together)
   uint32_t k_nearest = 64;             // photons per radiance estimate
   float max_radius = 0;                // gather radius cap; 0 = 5% of the scene's diagonal
-  Kernel kernel = Kernel::kEpanechnikov;
+  DensityKernel kernel = DensityKernel::kEpanechnikov;
   uint32_t max_depth = 6;  // specular bounces of camera rays
   uint32_t max_photon_bounces = 8;
   uint32_t area_light_samples = 4;  // shadow rays per diffuse hit for area lights

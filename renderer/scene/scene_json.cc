@@ -142,11 +142,11 @@ class SceneReader {
       std::string kernel;
       SCENE_RETURN_IF_ERROR(object.read("kernel", kRequired, &kernel));
       if (kernel == "uniform") {
-        s.kernel = Kernel::kUniform;
+        s.kernel = DensityKernel::kUniform;
       } else if (kernel == "cone") {
-        s.kernel = Kernel::kCone;
+        s.kernel = DensityKernel::kCone;
       } else if (kernel == "epanechnikov") {
-        s.kernel = Kernel::kEpanechnikov;
+        s.kernel = DensityKernel::kEpanechnikov;
       } else {
         return invalid_field(
             object.field_path("kernel"),

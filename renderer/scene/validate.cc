@@ -70,7 +70,7 @@ absl::Status validate_settings(const RenderSettings& s) {
     return invalid_field("settings.max_radius",
                          absl::StrCat(s.max_radius, " is not a finite number >= 0"));
   }
-  if (static_cast<uint32_t>(s.kernel) > static_cast<uint32_t>(Kernel::kEpanechnikov)) {
+  if (static_cast<uint32_t>(s.kernel) > static_cast<uint32_t>(DensityKernel::kEpanechnikov)) {
     return invalid_field("settings.kernel", "is not a known kernel");
   }
   SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));

@@ -29,7 +29,7 @@
 #include "renderer/parallel/cuda/cuda_backend.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/binned_estimate.h"
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 #include "renderer/render/whitted.h"
 #include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/structure_snapshot.h"
@@ -637,8 +637,8 @@ NearestResults search_photon_map(Backend& backend, const PhotonMap& map,
     count[i] = find_nearest(view, q[i], k, max_radius * max_radius, heap);
     for (uint32_t j = 0; j < kNnMaxK; ++j)
       out[i * kNnMaxK + j] = j < count[i] ? heap[j] : Neighbour{0.0f, 0u};
-    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius, Kernel(i % 3),
-                             storage);
+    l[i] = estimate_radiance(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
+                             DensityKernel(i % 3), storage);
   });
   return {counts.download(), found.download(), radiance.download()};
 }
@@ -772,12 +772,12 @@ std::vector<RadianceEstimate> grouped_estimates(Backend& backend, const PhotonMa
     if (binned) {
       uint32_t words[kBinnedWords];
       e[i] = estimate_radiance_binned(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
-                                      Kernel(i / 32 % 3), words, b[i], group);
+                                      DensityKernel(i / 32 % 3), words, b[i], group);
       return;
     }
     NeighbourPair heap[NeighbourHeap<NeighbourPair*>::pairs_for(kGroupMaxK)];
     e[i] = estimate_radiance_within(view, q[i], Vec3f(0, 0, 1), Vec3f(0.5f), k, max_radius,
-                                    Kernel(i / 32 % 3), heap, b[i], group);
+                                    DensityKernel(i / 32 % 3), heap, b[i], group);
   });
   return out.download();
 }

@@ -45,7 +45,7 @@ TEST(BinnedEstimate, MatchesBruteForce) {
     const Vec3f normal = normalize(Vec3f(g(rng), g(rng), 2.0f));
     const uint32_t k = std::vector<uint32_t>{1, 2, 7, 16, 64, 65, 200, 1024}[q % 8];
     const float max_radius = q % 3 == 0 ? 0.03f : 0.5f;
-    const Kernel kernel = Kernel(q % 3);
+    const DensityKernel kernel = DensityKernel(q % 3);
     const ReferenceEstimate expected =
         reference_estimate(stored, x, normal, Vec3f(0.5f), k, max_radius, kernel);
     float bound = INFINITY;
@@ -82,9 +82,9 @@ TEST(BinnedEstimate, RefinesCrowdedCutsAndTakesExactlyKAtTies) {
     const uint32_t k = std::vector<uint32_t>{10, 33, 64, 500}[q % 4];
     const RadianceEstimate got =
         estimate_radiance_binned(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f,
-                                 Kernel::kUniform, words.data(), INFINITY, {});
-    const ReferenceEstimate expected =
-        reference_estimate(stored, x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f, Kernel::kUniform);
+                                 DensityKernel::kUniform, words.data(), INFINITY, {});
+    const ReferenceEstimate expected = reference_estimate(stored, x, Vec3f(0, 0, 1), Vec3f(1.0f), k,
+                                                          1.0f, DensityKernel::kUniform);
     ASSERT_EQ(got.radius_squared, expected.estimate.radius_squared) << "query " << q;
     // Uniform kernel, unit powers: the sum is the number of photons taken.
     const double taken = got.radiance.x * kPi * kPi * got.radius_squared;
@@ -113,7 +113,7 @@ TEST(BinnedEstimate, AgreesWithTheHeapSearch) {
     const Vec3f x(std::clamp(previous.x + 0.01f * (u(rng) - 0.5f), 0.0f, 1.0f),
                   std::clamp(previous.y + 0.01f * (u(rng) - 0.5f), 0.0f, 1.0f), 0.0f);
     const uint32_t k = std::vector<uint32_t>{8, 64, 128}[q % 3];
-    const Kernel kernel = Kernel(q % 3);
+    const DensityKernel kernel = DensityKernel(q % 3);
     const float bound = carried_radius_squared(previous_r2, previous, x);
     const RadianceEstimate by_heap = estimate_radiance_within(
         map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 0.2f, kernel, heap.data(), bound, {});

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <random>
 
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 #include "tests/renderer/photon/reference_estimate.h"
 
 namespace caustica {
@@ -195,7 +195,8 @@ TEST(PhotonMap, KeepsEveryPhotonOnce) {
 // Each kernel, integrated over the unit disk, gives pi (the area), so estimates are unbiased for
 // constant density whatever the kernel.
 TEST(Kernels, IntegrateToDiskArea) {
-  for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
+  for (DensityKernel k :
+       {DensityKernel::kUniform, DensityKernel::kCone, DensityKernel::kEpanechnikov}) {
     double sum = 0;
     const int steps = 200000;
     for (int i = 0; i < steps; ++i) {
@@ -220,7 +221,8 @@ TEST(Density, RecoversUniformIrradiance) {
   buf.upload(photons);
   PhotonMap map = build_photon_map(*backend, buf);
   std::vector<NeighbourPair> heap(NeighbourHeap<NeighbourPair*>::pairs_for(kMaxNearest));
-  for (Kernel k : {Kernel::kUniform, Kernel::kCone, Kernel::kEpanechnikov}) {
+  for (DensityKernel k :
+       {DensityKernel::kUniform, DensityKernel::kCone, DensityKernel::kEpanechnikov}) {
     double mean = 0;
     const int queries = 400;
     for (int q = 0; q < queries; ++q) {
@@ -254,7 +256,7 @@ TEST(Density, CarriedBoundsChangeNothingButSpeed) {
     x = Vec3f(std::clamp(x.x + step(rng), 0.0f, 1.0f), std::clamp(x.y + step(rng), 0.0f, 1.0f),
               0.0f);
     const uint32_t k = q % 2 ? 64 : 17;
-    const Kernel kernel = Kernel(q % 3);
+    const DensityKernel kernel = DensityKernel(q % 3);
     const float max_radius = q % 500 < 5 ? 0.005f : 0.5f;  // a few searches find fewer than k
     const RadianceEstimate lone = estimate_radiance_within(
         map, x, Vec3f(0, 0, 1), Vec3f(1.0f), k, max_radius, kernel, heap.data(), INFINITY, {});
@@ -290,7 +292,7 @@ TEST(Density, EstimateMatchesBruteForce) {
     const Vec3f normal = normalize(Vec3f(g(rng), g(rng), 2.0f));
     const uint32_t k = std::vector<uint32_t>{1, 7, 64, 200}[q % 4];
     const float max_radius = q % 3 == 0 ? 0.03f : 0.5f;
-    const Kernel kernel = Kernel(q % 3);
+    const DensityKernel kernel = DensityKernel(q % 3);
     const RadianceEstimate got = estimate_radiance_within(
         map.view(), x, normal, Vec3f(0.5f), k, max_radius, kernel, heap.data(), INFINITY, {});
     const RadianceEstimate expected =
@@ -320,7 +322,7 @@ TEST(Density, TakesExactlyKWhenPhotonsTieAtTheKthDistance) {
     const uint32_t k = std::vector<uint32_t>{10, 33, 64}[q % 3];
     const RadianceEstimate got =
         estimate_radiance_within(map.view(), x, Vec3f(0, 0, 1), Vec3f(1.0f), k, 1.0f,
-                                 Kernel::kUniform, heap.data(), INFINITY, {});
+                                 DensityKernel::kUniform, heap.data(), INFINITY, {});
     // Uniform kernel, unit powers: the sum is the number of photons taken.
     const double taken = got.radiance.x * kPi * kPi * got.radius_squared;
     ASSERT_NEAR(taken, double(k), 1e-3 * k) << "query " << q;

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "renderer/photon/density.h"
+#include "renderer/photon/knn_estimate.h"
 
 namespace caustica {
 
@@ -20,7 +20,7 @@ struct ReferenceEstimate {
 
 inline ReferenceEstimate reference_estimate(const std::vector<Photon>& stored, Vec3f x,
                                             Vec3f normal, Vec3f albedo, uint32_t k,
-                                            float max_radius, Kernel kernel) {
+                                            float max_radius, DensityKernel kernel) {
   std::vector<std::pair<float, size_t>> by_distance;
   for (size_t i = 0; i < stored.size(); ++i) {
     const float d2 = length_squared(stored[i].position - x);

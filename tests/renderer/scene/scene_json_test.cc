@@ -40,7 +40,7 @@ TEST_F(ShapesSceneTest, CameraAndSettings) {
   EXPECT_EQ(s.photons_per_pass, 100000u);  // written 1e5
   EXPECT_EQ(s.k_nearest, 32u);
   EXPECT_EQ(s.max_radius, 0.5f);
-  EXPECT_EQ(s.kernel, Kernel::kCone);
+  EXPECT_EQ(s.kernel, DensityKernel::kCone);
   EXPECT_EQ(s.max_depth, 10u);
   EXPECT_EQ(s.max_photon_bounces, 12u);
   EXPECT_EQ(s.area_light_samples, 8u);

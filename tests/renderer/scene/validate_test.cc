@@ -90,7 +90,7 @@ TEST(ValidateScene, UnknownEnumValuesAreRejected) {
   scene.lights[0].type = static_cast<LightType>(7);
   EXPECT_THAT(error_of(scene), HasSubstr("lights[0] ('bulb'): has an unknown type"));
   scene = minimal_scene();
-  scene.settings.kernel = static_cast<Kernel>(5);
+  scene.settings.kernel = static_cast<DensityKernel>(5);
   EXPECT_THAT(error_of(scene), HasSubstr("settings.kernel"));
   scene = minimal_scene();
   scene.settings.structure = static_cast<StructureKind>(9);
