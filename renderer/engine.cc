@@ -40,7 +40,7 @@ absl::Status guarded(Fn&& fn) {
     return absl::InternalError(e.what());
   } catch (const std::invalid_argument& e) {
     // A structure refusing its input (too many triangles for its layout), or a setting read from
-    // the environment (CAUSTICA_KD_TRAVERSAL) that names nothing.
+    // the environment (CAUSTICA_KD_TRAVERSAL, CAUSTICA_BINNED_SAH_STAGES) that names nothing.
     return absl::InvalidArgumentError(e.what());
   }
 }

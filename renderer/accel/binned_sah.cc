@@ -1,6 +1,9 @@
 #include "renderer/accel/binned_sah.h"
 
 #include <cfloat>
+#include <charconv>
+#include <cstdlib>
+#include <stdexcept>
 
 #include "renderer/accel/sah_subtrees.h"
 #include "renderer/base/atomic.h"
@@ -16,34 +19,28 @@ constexpr uint32_t kNoNode = 0xffffffffu;
 // bin it spans.
 constexpr uint32_t kBinReductionChunk = 64;
 
-// Sorted positions per thread when the segments' boxes are reduced before the first level: far
-// fewer segments than positions, so long chunks keep the atomics on each segment's cell few (one
-// root segment had every chunk of kBinReductionChunk flush into the same cell).
-constexpr uint32_t kSegmentReductionChunk = 1024;
-
 // Past this many data-parallel levels (a run of very uneven splits), the nodes still large are
 // finished by the per-node stage.
-constexpr int kMaxDataParallelLevels = 48;
+constexpr int kMaxDataParallelLevels = 64;
 
-// A node of the data-parallel stage: sorted positions [first, last], the box of its triangles and
-// of their centroids, and the slot that is to point to it (child `side` of internal node
-// `parent`, or the root when parent is kNoParent).
+// A node of the data-parallel stages: sorted positions [first, last], the box of its triangles and
+// of their centroids, the slot that is to point to it (child `side` of internal node `parent`, or
+// the root when parent is kNoParent), and the bins its stage gives it. Its bins' cells are
+// cell[first] to cell[first + bins] (the huge bin last): a node has more triangles than bins, so
+// the nodes of a level never share a cell.
 struct LargeNode {
   uint32_t first, last;
   uint32_t parent, side;
   Aabb box, centroids;
+  uint32_t bins;
 };
 
 // A triangle whose box has more than this share of its node's box area takes the node's last bin
-// (kHugeBin), whatever its centroid: a room's walls, binned by centroid among the furniture's
-// triangles, widened every node they fell in to the size of the room down to their leaves, and
-// rays entered all of those (docs/structures.md, "binned-sah"). The sweep's last candidate then
-// splits the huge triangles from the rest.
+// (its bins' count), whatever its centroid: a room's walls, binned by centroid among the
+// furniture's triangles, widened every node they fell in to the size of the room down to their
+// leaves, and rays entered all of those (docs/structures.md, "binned-sah"). The sweep's last
+// candidate then splits the huge triangles from the rest. A node of K bins numbers its huge bin K.
 constexpr float kHugeShare = 0.25f;
-constexpr uint32_t kHugeBin = kBinnedSahBins;
-// Bins per node, the huge one included, and the key bits that number them.
-constexpr uint32_t kNodeBins = kBinnedSahBins + 1;
-constexpr int kKeyBinBits = kBinnedSahLogBins + 1;
 
 // One bin of one node, its bounds as ordered bits (atomic.h) so that atomics reduce them.
 struct BinCell {
@@ -65,18 +62,20 @@ struct NodeSplit {
 struct BinMap {
   int axis;
   float low, scale;
+  uint32_t bins;
 
-  CAUSTICA_HDI static BinMap of(const Aabb& centroids) {
-    const Vec3f e = centroids.extent();
+  CAUSTICA_HDI static BinMap of(const LargeNode& node) {
+    const Vec3f e = node.centroids.extent();
     const int axis = e.x >= e.y && e.x >= e.z ? 0 : e.y >= e.z ? 1 : 2;
     // Zeidan's b = K (1 - eps) (c - low) / extent keeps the highest centroid in the last bin.
-    return {axis, centroids.lower[axis], float(kBinnedSahBins) * (1.0f - 1e-6f) / e[axis]};
+    return {axis, node.centroids.lower[axis], float(node.bins) * (1.0f - 1e-6f) / e[axis],
+            node.bins};
   }
   // The bin of a triangle's box in a node whose box has half area `node_half_area`.
   CAUSTICA_HDI uint32_t bin(const Aabb& box, float node_half_area) const {
-    if (box.half_area() > kHugeShare * node_half_area) return kHugeBin;
+    if (box.half_area() > kHugeShare * node_half_area) return bins;
     const int b = int((box.center()[axis] - low) * scale);
-    return b < 0 ? 0u : b < int(kBinnedSahBins) ? uint32_t(b) : kBinnedSahBins - 1;
+    return b < 0 ? 0u : b < int(bins) ? uint32_t(b) : bins - 1;
   }
 };
 
@@ -85,23 +84,30 @@ struct BinMap {
 CAUSTICA_HDI bool degenerate(const Aabb& centroids) {
   const Vec3f e = centroids.extent();
   const float longest = e.x >= e.y && e.x >= e.z ? e.x : e.y >= e.z ? e.y : e.z;
-  return !(float(kBinnedSahBins) / longest <= FLT_MAX);
+  return !(float(kMaxBinnedSahBins) / longest <= FLT_MAX);
 }
 
-// The bin table entry of a sort key: node j's bins are kNodeBins consecutive cells.
-CAUSTICA_HDI uint32_t cell_of(uint32_t key) {
-  return (key >> kKeyBinBits) * kNodeBins + (key & ((1u << kKeyBinBits) - 1u));
-}
+// The triangles a thread has met in a row for one cell, flushed into it with one set of atomics.
+struct RunningBin {
+  uint32_t count = 0;
+  Aabb box, centroids;
 
-CAUSTICA_HDI void flush_bin(BinCell& cell, uint32_t count, const Aabb& box, const Aabb& centroids) {
-  atomic_fetch_add(&cell.count, count);
-  for (int a = 0; a < 3; ++a) {
-    atomic_min(&cell.lower[a], ordered_bits(box.lower[a]));
-    atomic_max(&cell.upper[a], ordered_bits(box.upper[a]));
-    atomic_min(&cell.centroid_lower[a], ordered_bits(centroids.lower[a]));
-    atomic_max(&cell.centroid_upper[a], ordered_bits(centroids.upper[a]));
+  CAUSTICA_HDI void add(const Aabb& b) {
+    ++count;
+    box.extend(b);
+    centroids.extend(b.center());
   }
-}
+  CAUSTICA_HDI void flush_into(BinCell& cell) {
+    atomic_fetch_add(&cell.count, count);
+    for (int a = 0; a < 3; ++a) {
+      atomic_min(&cell.lower[a], ordered_bits(box.lower[a]));
+      atomic_max(&cell.upper[a], ordered_bits(box.upper[a]));
+      atomic_min(&cell.centroid_lower[a], ordered_bits(centroids.lower[a]));
+      atomic_max(&cell.centroid_upper[a], ordered_bits(centroids.upper[a]));
+    }
+    *this = RunningBin{};
+  }
+};
 
 CAUSTICA_HDI void clear_bin(BinCell& b) {
   b.count = 0;
@@ -120,31 +126,30 @@ CAUSTICA_HDI void read_bin(const BinCell& cell, Aabb& box, Aabb& centroids) {
   }
 }
 
-// The cheapest of the node's kNodeBins - 1 candidate splits by SAH (left count x left area + right
-// count x right area). A node whose centroids bin has at least two bins in use, so one exists,
-// unless every triangle in it is huge.
+// The cheapest of the node's candidate splits between its bins + 1 cells (the huge bin last) by
+// SAH (left count x left area + right count x right area). A node whose centroids bin has at
+// least two bins in use, so one exists, unless every triangle in it is huge. Only the right
+// sides' costs are kept, and the cells read again, so that a thread's array stays small with
+// many bins.
 CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
-  Aabb box[kNodeBins], centroids[kNodeBins];
-  uint32_t count[kNodeBins];
-  for (uint32_t b = 0; b < kNodeBins; ++b) {
-    count[b] = cells[b].count;
-    read_bin(cells[b], box[b], centroids[b]);
-  }
-  float right_area[kNodeBins];
-  Aabb right;
+  const uint32_t cell_count = node.bins + 1;
+  float right_area[kMaxBinnedSahBins + 1];
+  Aabb right, box, centroids;
   uint32_t right_count = 0;
-  for (int b = int(kNodeBins) - 1; b > 0; --b) {
-    right.extend(box[b]);
-    right_count += count[b];
+  for (uint32_t b = cell_count - 1; b > 0; --b) {
+    read_bin(cells[b], box, centroids);
+    right.extend(box);
+    right_count += cells[b].count;
     right_area[b] = float(right_count) * right.half_area();
   }
   float best_cost = INFINITY;
   uint32_t best_bin = 0, best_left = 0, left_count = 0;
   Aabb left;
-  for (uint32_t b = 0; b + 1 < kNodeBins; ++b) {
-    left.extend(box[b]);
-    left_count += count[b];
-    const uint32_t n = node.last - node.first + 1;
+  const uint32_t n = node.last - node.first + 1;
+  for (uint32_t b = 0; b + 1 < cell_count; ++b) {
+    read_bin(cells[b], box, centroids);
+    left.extend(box);
+    left_count += cells[b].count;
     if (left_count == 0 || left_count == n) continue;
     const float cost = float(left_count) * left.half_area() + right_area[b + 1];
     if (cost < best_cost) {
@@ -155,14 +160,15 @@ CAUSTICA_HDI NodeSplit sweep_bins(const LargeNode& node, const BinCell* cells) {
   }
   if (best_cost == INFINITY) return {node.first, Aabb{}, Aabb{}, Aabb{}, Aabb{}, false};
   NodeSplit split{node.first + best_left - 1, Aabb{}, Aabb{}, Aabb{}, Aabb{}};
-  for (uint32_t b = 0; b < kNodeBins; ++b) {
-    if (count[b] == 0) continue;
+  for (uint32_t b = 0; b < cell_count; ++b) {
+    if (cells[b].count == 0) continue;
+    read_bin(cells[b], box, centroids);
     if (b <= best_bin) {
-      split.left.extend(box[b]);
-      split.left_centroids.extend(centroids[b]);
+      split.left.extend(box);
+      split.left_centroids.extend(centroids);
     } else {
-      split.right.extend(box[b]);
-      split.right_centroids.extend(centroids[b]);
+      split.right.extend(box);
+      split.right_centroids.extend(centroids);
     }
   }
   return split;
@@ -192,18 +198,83 @@ CAUSTICA_HDI uint32_t node_holding(const Range* nodes, uint32_t count, uint32_t 
 
 // Whether a child of `size` triangles with these centroids goes on to the next data-parallel
 // level (else: a leaf when it is one triangle, or the per-node stage).
-CAUSTICA_HDI bool stays_large(uint32_t size, const Aabb& centroids, bool last_level) {
-  return !last_level && size > kSahSubtreeTriangles && !degenerate(centroids);
+CAUSTICA_HDI bool stays_large(const BinnedSahSchedule& schedule, uint32_t size,
+                              const Aabb& centroids, bool last_level) {
+  return !last_level && size > schedule.per_node_limit() && !degenerate(centroids);
 }
 
-// The data-parallel stage and then the per-node stage over `segment_count` disjoint subtrees of
+// Puts a level's (node << bits | bin) keys in order, and with them the elements' indices: stable,
+// so each node's triangles keep their order within a bin, and both ways give the same order.
+class BinOrder {
+ public:
+  BinOrder(Backend& backend, uint32_t capacity) : backend_(backend) {
+    for (int b = 0; b < 2; ++b) {
+      keys_[b] = Buffer<uint32_t>(backend, capacity);
+      values_[b] = Buffer<uint32_t>(backend, capacity);
+    }
+  }
+  uint32_t* keys() { return keys_[current_].data(); }
+  uint32_t* values() { return values_[current_].data(); }
+
+  // Sorts the first `m` keys, whose nodes (of `node_count`, in position order) are `nodes`.
+  void sort(BinnedSahReorder reorder, const LargeNode* nodes, uint32_t node_count, uint32_t m,
+            int key_bin_bits) {
+    if (reorder == BinnedSahReorder::kRadixSort) {
+      backend_.sort_pairs(keys(), values(), m, int(bits_for(node_count)) + key_bin_bits);
+      return;
+    }
+    // Zeidan's segmented splits, least significant bit first: the keys' nodes are already in
+    // order, so each pass is a stable split of every node's elements by one bit of the bin.
+    node_start_.resize_discard(node_count);
+    flags_.resize_discard(size_t(m) + 1);
+    scan_.resize_discard(size_t(m) + 1);
+    uint32_t* start = node_start_.data();
+    {
+      const uint32_t* key = keys();
+      parallel_for(backend_, "binned_sah_node_starts", m, [=] CAUSTICA_HD(size_t i) {
+        const uint32_t j = key[i] >> key_bin_bits;
+        if (i == 0 || key[i - 1] >> key_bin_bits != j) start[j] = uint32_t(i);
+      });
+    }
+    for (int bit = 0; bit < key_bin_bits; ++bit) {
+      const uint32_t* key = keys();
+      const uint32_t* value = values();
+      uint32_t* key_out = keys_[current_ ^ 1].data();
+      uint32_t* value_out = values_[current_ ^ 1].data();
+      uint32_t* flag = flags_.data();
+      uint32_t* ones = scan_.data();
+      parallel_for(backend_, "binned_sah_split_flags", size_t(m) + 1,
+                   [=] CAUSTICA_HD(size_t i) { flag[i] = i < m ? (key[i] >> bit) & 1u : 0u; });
+      backend_.exclusive_scan(flag, ones, size_t(m) + 1);
+      parallel_for(backend_, "binned_sah_split_scatter", m, [=] CAUSTICA_HD(size_t i) {
+        const uint32_t j = key[i] >> key_bin_bits;
+        const uint32_t s = start[j], n = nodes[j].last - nodes[j].first + 1;
+        const uint32_t ones_before = ones[i] - ones[s];
+        const uint32_t zeros = n - (ones[s + n] - ones[s]);
+        const uint32_t to =
+            (key[i] >> bit) & 1u ? s + zeros + ones_before : uint32_t(i) - ones_before;
+        key_out[to] = key[i];
+        value_out[to] = value[i];
+      });
+      current_ ^= 1;
+    }
+  }
+
+ private:
+  Backend& backend_;
+  Buffer<uint32_t> keys_[2], values_[2];
+  Buffer<uint32_t> node_start_{backend_, 0}, flags_{backend_, 0}, scan_{backend_, 0};
+  int current_ = 0;
+};
+
+// The data-parallel stages and then the per-node stage over `segment_count` disjoint subtrees of
 // `bvh` (rebuild_subtrees_by_binned_sah), whose triangles at sorted position p are source[p] with
 // original index source_ids[p] (p itself when source_ids is null). Writes the triangles and their
 // ids in the new leaf order to `out_triangles` and `out_ids`, and, when the root is listed, the
 // root and the bounds to `bvh`.
 void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* source,
                        const uint32_t* source_ids, const SmallSubtree* segments,
-                       uint32_t segment_count, bool root_listed,
+                       uint32_t segment_count, bool root_listed, const BinnedSahSchedule& schedule,
                        Buffer<TriangleVertices>& out_triangles, Buffer<uint32_t>& out_ids) {
   const uint32_t count = bvh.leaf_count;
   // Per sorted position: the triangle there (a position of `source`) and its box, moved together
@@ -246,35 +317,58 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
                  [=] CAUSTICA_HD(size_t i) { seg[i] = segments[seg_index[i]]; });
     Buffer<BinCell> segment_cells(backend, segment_count);
     BinCell* seg_cell = segment_cells.data();
-    parallel_for(backend, "binned_sah_segment_clear", segment_count,
-                 [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
-    const size_t chunks = (size_t(count) + kSegmentReductionChunk - 1) / kSegmentReductionChunk;
-    parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
-      const uint32_t begin = uint32_t(c * kSegmentReductionChunk);
-      const uint32_t end =
-          begin + kSegmentReductionChunk < count ? begin + kSegmentReductionChunk : count;
-      uint32_t run = kNoNode, run_count = 0;
-      Aabb run_box, run_centroids;
-      // The last segment starting at or before p, found once and then followed along the chunk.
-      uint32_t last_started = node_holding(seg, segment_count, begin);
-      for (uint32_t p = begin; p < end; ++p) {
-        const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
-        if (next < segment_count && seg[next].first <= p) last_started = next;
-        const uint32_t j =
-            last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
-        if (j != run) {
-          if (run != kNoNode) flush_bin(seg_cell[run], run_count, run_box, run_centroids);
-          run = j;
-          run_count = 0;
-          run_box = run_centroids = Aabb{};
-        }
-        const Aabb b = box[p];
-        ++run_count;
-        run_box.extend(b);
-        run_centroids.extend(b.center());
+    if (segment_count == 1) {
+      // One segment, as a build from the root has: two reductions, where every chunk would flush
+      // into the one cell, and chunks long enough to keep those flushes few leave a GPU idle.
+      SmallSubtree only;
+      backend.copy_to_host(&only, seg, sizeof(SmallSubtree));
+      const uint32_t n = only.last - only.first + 1;
+      Buffer<Aabb> centroid_boxes(backend, n);
+      Aabb* centroid_box = centroid_boxes.data();
+      const Aabb* range = box + only.first;
+      parallel_for(backend, "binned_sah_root_centroids", n, [=] CAUSTICA_HD(size_t i) {
+        const Vec3f c = range[i].center();
+        centroid_box[i] = Aabb{c, c};
+      });
+      const Aabb b = backend.reduce_bounds(range, n), c = backend.reduce_bounds(centroid_box, n);
+      BinCell cell;
+      clear_bin(cell);
+      cell.count = n;
+      for (int a = 0; a < 3; ++a) {
+        cell.lower[a] = ordered_bits(b.lower[a]);
+        cell.upper[a] = ordered_bits(b.upper[a]);
+        cell.centroid_lower[a] = ordered_bits(c.lower[a]);
+        cell.centroid_upper[a] = ordered_bits(c.upper[a]);
       }
-      if (run != kNoNode) flush_bin(seg_cell[run], run_count, run_box, run_centroids);
-    });
+      backend.copy_to_device(seg_cell, &cell, sizeof(BinCell));
+    } else {
+      parallel_for(backend, "binned_sah_segment_clear", segment_count,
+                   [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
+      // Segments hold at most the hybrid's cut of triangles, so short chunks flush into each cell a
+      // few hundred times at most.
+      const size_t chunks = (size_t(count) + kBinReductionChunk - 1) / kBinReductionChunk;
+      parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
+        const uint32_t begin = uint32_t(c * kBinReductionChunk);
+        const uint32_t end =
+            begin + kBinReductionChunk < count ? begin + kBinReductionChunk : count;
+        uint32_t run = kNoNode;
+        RunningBin running;
+        // The last segment starting at or before p, found once and then followed along the chunk.
+        uint32_t last_started = node_holding(seg, segment_count, begin);
+        for (uint32_t p = begin; p < end; ++p) {
+          const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
+          if (next < segment_count && seg[next].first <= p) last_started = next;
+          const uint32_t j =
+              last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
+          if (j != run) {
+            if (run != kNoNode) running.flush_into(seg_cell[run]);
+            run = j;
+          }
+          if (j != kNoNode) running.add(box[p]);
+        }
+        if (run != kNoNode) running.flush_into(seg_cell[run]);
+      });
+    }
     if (root_listed) {
       // The root is the only segment: its box is the tree's bounds.
       BinCell root_cell;
@@ -290,7 +384,7 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       Aabb b, centroids;
       read_bin(seg_cell[j], b, centroids);
       const SmallSubtree s = seg[j];
-      large_slot[j] = stays_large(s.last - s.first + 1, centroids, false) ? 1u : 0u;
+      large_slot[j] = stays_large(schedule, s.last - s.first + 1, centroids, false) ? 1u : 0u;
       if (!large_slot[j]) small[atomic_fetch_add(small_count_word, 1u)] = s;
     });
     node_count = backend.exclusive_scan(large_slot, large_slot, segment_count);
@@ -300,8 +394,10 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       Aabb b, centroids;
       read_bin(seg_cell[j], b, centroids);
       const SmallSubtree s = seg[j];
-      if (stays_large(s.last - s.first + 1, centroids, false))
-        first_level[large_slot[j]] = {s.first, s.last, s.parent, s.side, b, centroids};
+      const uint32_t size = s.last - s.first + 1;
+      if (stays_large(schedule, size, centroids, false))
+        first_level[large_slot[j]] = {
+            s.first, s.last, s.parent, s.side, b, centroids, schedule.bins_for(size)};
     });
   }
 
@@ -324,27 +420,40 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
     }
     Buffer<uint32_t> moved_orders(backend, count);
     Buffer<Aabb> moved_boxes(backend, count);
-    Buffer<BinCell> cells(backend, 0);
+    // A node's cells start at its first position (LargeNode), so one cell a position covers every
+    // level.
+    Buffer<BinCell> cells(backend, count);
     Buffer<NodeSplit> splits(backend, 0);
     Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
+    // The key's low bits number a node's bins, the huge one included.
+    const int key_bin_bits = int(bits_for(schedule.max_bins() + 1));
+    const uint32_t bin_mask = (1u << key_bin_bits) - 1u;
+    BinOrder bin_order(backend, count);
     for (int level = 0; node_count > 0; ++level) {
       const bool last_level = level + 1 >= kMaxDataParallelLevels;
       const uint32_t m = element_count;
       const LargeNode* level_node = level_nodes.data();
       uint32_t* pos = element_pos.data();
-      uint32_t* key = keys.data();
-      uint32_t* value = values.data();
+      BinCell* cell = cells.data();
 
-      // Bins along each node's longest centroid axis, then one sort puts every node's triangles in
-      // bin order; the sort is stable and nodes are numbered in position order, so each node's
-      // triangles stay within its positions.
-      parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
-        const uint32_t j = node_holding(level_node, node_count, pos[i]);
-        const LargeNode& n = level_node[j];
-        key[i] = j << kKeyBinBits | BinMap::of(n.centroids).bin(box[pos[i]], n.box.half_area());
-        value[i] = uint32_t(i);
-      });
-      backend.sort_pairs(key, value, m, int(bits_for(node_count)) + kKeyBinBits);
+      // Bins along each node's longest centroid axis (the node's cells cleared on the way), then
+      // every node's triangles in bin order: a stable order, with nodes numbered in position
+      // order, so each node's triangles stay within its positions.
+      {
+        uint32_t* key = bin_order.keys();
+        uint32_t* value = bin_order.values();
+        parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
+          const uint32_t p = pos[i];
+          const uint32_t j = node_holding(level_node, node_count, p);
+          const LargeNode& n = level_node[j];
+          key[i] = j << key_bin_bits | BinMap::of(n).bin(box[p], n.box.half_area());
+          value[i] = uint32_t(i);
+          if (p - n.first <= n.bins) clear_bin(cell[p]);
+        });
+      }
+      bin_order.sort(schedule.reorder, level_node, node_count, m, key_bin_bits);
+      const uint32_t* key = bin_order.keys();
+      const uint32_t* value = bin_order.values();
       uint32_t* moved_order = moved_orders.data();
       Aabb* moved_box = moved_boxes.data();
       parallel_for(backend, "binned_sah_gather", m, [=] CAUSTICA_HD(size_t i) {
@@ -357,29 +466,23 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       });
 
       // The bins' counts and bounds, over chunks of the sorted elements.
-      cells.resize_discard(size_t(node_count) * kNodeBins);
-      BinCell* cell = cells.data();
-      parallel_for(backend, "binned_sah_clear_bins", cells.size(),
-                   [=] CAUSTICA_HD(size_t c) { clear_bin(cell[c]); });
+      auto cell_of = [=] CAUSTICA_HD(uint32_t k) {
+        return level_node[k >> key_bin_bits].first + (k & bin_mask);
+      };
       const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
       parallel_for(backend, "binned_sah_bins", chunks, [=] CAUSTICA_HD(size_t c) {
         const uint32_t begin = uint32_t(c * kBinReductionChunk);
         const uint32_t end = begin + kBinReductionChunk < m ? begin + kBinReductionChunk : m;
-        uint32_t run_key = key[begin], run_count = 0;
-        Aabb run_box, run_centroids;
+        uint32_t run_key = key[begin];
+        RunningBin running;
         for (uint32_t i = begin; i < end; ++i) {
           if (key[i] != run_key) {
-            flush_bin(cell[cell_of(run_key)], run_count, run_box, run_centroids);
+            running.flush_into(cell[cell_of(run_key)]);
             run_key = key[i];
-            run_count = 0;
-            run_box = run_centroids = Aabb{};
           }
-          const Aabb b = moved_box[i];
-          ++run_count;
-          run_box.extend(b);
-          run_centroids.extend(b.center());
+          running.add(moved_box[i]);
         }
-        flush_bin(cell[cell_of(run_key)], run_count, run_box, run_centroids);
+        running.flush_into(cell[cell_of(run_key)]);
       });
 
       // Each node's split; its slot, leaf children and small children are written at once, and
@@ -390,7 +493,7 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       uint32_t* more = continuing.data();
       parallel_for(backend, "binned_sah_split", node_count, [=] CAUSTICA_HD(size_t j) {
         const LargeNode n = level_node[j];
-        const NodeSplit s = sweep_bins(n, cell + j * kNodeBins);
+        const NodeSplit s = sweep_bins(n, cell + n.first);
         split_of[j] = s;
         more[j] = 0;
         if (!s.binned) {
@@ -412,7 +515,7 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
         for (uint32_t side = 0; side < 2; ++side) {
           const uint32_t size = last[side] - first[side] + 1;
           const Aabb& b = child_box[side];
-          if (stays_large(size, child_centroids[side], last_level)) {
+          if (stays_large(schedule, size, child_centroids[side], last_level)) {
             ++large;
           } else if (size == 1) {
             nodes[s.mid].child[side] = BvhChild{b.lower, kLeafFlag | first[side], b.upper};
@@ -442,9 +545,14 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
         const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
         for (uint32_t side = 0; side < 2; ++side) {
           const uint32_t size = last[side] - first[side] + 1;
-          if (stays_large(size, child_centroids[side], last_level)) {
-            next_node_list[slot] = {first[side], last[side],      s.mid,
-                                    side,        child_box[side], child_centroids[side]};
+          if (stays_large(schedule, size, child_centroids[side], last_level)) {
+            next_node_list[slot] = {first[side],
+                                    last[side],
+                                    s.mid,
+                                    side,
+                                    child_box[side],
+                                    child_centroids[side],
+                                    schedule.bins_for(size)};
             child_index[2 * j + side] = slot++;
           } else {
             child_index[2 * j + side] = kNoNode;
@@ -454,7 +562,7 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       // The elements of large children, in position order.
       uint8_t* kept = keep.data();
       parallel_for(backend, "binned_sah_partition", m, [=] CAUSTICA_HD(size_t i) {
-        const uint32_t j = key[i] >> kKeyBinBits;
+        const uint32_t j = key[i] >> key_bin_bits;
         const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
         kept[i] = child_index[2 * j + side] != kNoNode;
       });
@@ -491,18 +599,18 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
 
 void rebuild_subtrees_by_binned_sah(Backend& backend, BinaryTriangleBvh& tree,
                                     const SmallSubtree* segments, uint32_t segment_count,
-                                    bool root_listed) {
+                                    bool root_listed, const BinnedSahSchedule& schedule) {
   if (segment_count == 0) return;
   Buffer<TriangleVertices> triangles(backend, 0);
   Buffer<uint32_t> ids(backend, 0);
   binned_sah_stages(backend, tree.bvh, tree.triangles.data(), tree.triangle_ids.data(), segments,
-                    segment_count, root_listed, triangles, ids);
+                    segment_count, root_listed, schedule, triangles, ids);
   tree.triangles = std::move(triangles);
   tree.triangle_ids = std::move(ids);
 }
 
 BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
-                                       uint32_t count) {
+                                       uint32_t count, const BinnedSahSchedule& schedule) {
   BinaryTriangleBvh out;
   out.bvh.nodes.bind(backend);
   out.triangles.bind(backend);
@@ -522,9 +630,107 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   out.bvh.nodes.resize_discard(count - 1);
   Buffer<SmallSubtree> root_segment(backend, 1);
   root_segment.upload(std::vector<SmallSubtree>{{kNoParent, 0, 0, count - 1}});
-  binned_sah_stages(backend, out.bvh, triangles, nullptr, root_segment.data(), 1, true,
+  binned_sah_stages(backend, out.bvh, triangles, nullptr, root_segment.data(), 1, true, schedule,
                     out.triangles, out.triangle_ids);
   return out;
+}
+
+uint32_t BinnedSahSchedule::max_bins() const {
+  uint32_t most = 0;
+  for (int i = 0; i < stage_count; ++i) most = stage[i].bins > most ? stage[i].bins : most;
+  return most;
+}
+
+BinnedSahSchedule default_binned_sah_schedule() {
+  BinnedSahSchedule schedule;
+  schedule.stage[0] = {64, 16};
+  schedule.stage_count = 1;
+  return schedule;
+}
+
+namespace {
+
+// A whole number of at most 2^31 from `text`, or throws naming `what`.
+uint32_t stage_number(std::string_view text, const std::string& what) {
+  uint32_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
+      value > (1u << 31))
+    throw std::invalid_argument(what + " '" + std::string(text) +
+                                "' is not a whole number of at most 2^31");
+  return value;
+}
+
+}  // namespace
+
+BinnedSahSchedule parse_binned_sah_stages(std::string_view text, BinnedSahReorder reorder) {
+  BinnedSahSchedule schedule;
+  schedule.reorder = reorder;
+  if (text.empty()) throw std::invalid_argument("binned-sah stages: none given (ABOVE:BINS,...)");
+  while (true) {
+    const size_t comma = text.find(',');
+    const std::string_view entry = text.substr(0, comma);
+    const std::string name = "binned-sah stage " + std::to_string(schedule.stage_count + 1) +
+                             " ('" + std::string(entry) + "')";
+    if (schedule.stage_count == kMaxBinnedSahStages)
+      throw std::invalid_argument(name + ": at most " + std::to_string(kMaxBinnedSahStages) +
+                                  " stages");
+    const size_t colon = entry.find(':');
+    if (colon == std::string_view::npos)
+      throw std::invalid_argument(name + ": expected ABOVE:BINS");
+    const uint32_t above = stage_number(entry.substr(0, colon), name + ": ABOVE");
+    const uint32_t bins = stage_number(entry.substr(colon + 1), name + ": BINS");
+    if (bins < 2 || bins > kMaxBinnedSahBins)
+      throw std::invalid_argument(name + ": BINS must be within [2, " +
+                                  std::to_string(kMaxBinnedSahBins) + "]");
+    if (above < bins)
+      throw std::invalid_argument(name +
+                                  ": ABOVE must be at least BINS, so that a node has more "
+                                  "triangles than bins");
+    if (schedule.stage_count > 0 && above >= schedule.stage[schedule.stage_count - 1].above)
+      throw std::invalid_argument(name + ": ABOVE must be below the previous stage's " +
+                                  std::to_string(schedule.stage[schedule.stage_count - 1].above));
+    schedule.stage[schedule.stage_count++] = {above, bins};
+    if (comma == std::string_view::npos) break;
+    text.remove_prefix(comma + 1);
+  }
+  return schedule;
+}
+
+std::string binned_sah_stages_text(const BinnedSahSchedule& schedule) {
+  std::string text;
+  for (int i = 0; i < schedule.stage_count; ++i) {
+    if (i > 0) text += ',';
+    text += std::to_string(schedule.stage[i].above) + ':' + std::to_string(schedule.stage[i].bins);
+  }
+  return text;
+}
+
+const char* binned_sah_reorder_name(BinnedSahReorder reorder) {
+  return reorder == BinnedSahReorder::kSegmentedSplits ? "split" : "sort";
+}
+
+BinnedSahSchedule binned_sah_schedule_from_environment() {
+  BinnedSahSchedule schedule = default_binned_sah_schedule();
+  if (const char* stages = std::getenv("CAUSTICA_BINNED_SAH_STAGES"); stages && *stages) {
+    try {
+      schedule = parse_binned_sah_stages(stages);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("CAUSTICA_BINNED_SAH_STAGES: ") + e.what());
+    }
+  }
+  if (const char* reorder = std::getenv("CAUSTICA_BINNED_SAH_REORDER"); reorder && *reorder) {
+    const std::string name(reorder);
+    if (name == "sort") {
+      schedule.reorder = BinnedSahReorder::kRadixSort;
+    } else if (name == "split") {
+      schedule.reorder = BinnedSahReorder::kSegmentedSplits;
+    } else {
+      throw std::invalid_argument("CAUSTICA_BINNED_SAH_REORDER='" + name +
+                                  "' is not a binned-sah reorder (expected sort or split)");
+    }
+  }
+  return schedule;
 }
 
 }  // namespace caustica

@@ -1,45 +1,98 @@
-// A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4; Wald 2007), in two
-// stages:
-// - Nodes of more than kSahSubtreeTriangles triangles are split level by level over all of them
+// A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4; Wald 2007), in stages
+// that differ in the size of the nodes they split and so in how many bins those nodes use
+// (BinnedSahSchedule):
+// - Nodes of more than the schedule's per-node limit are split level by level over all of them
 //   at once, data-parallel over their triangles: each triangle takes a bin along its node's
 //   longest centroid axis (or the node's last bin when it is huge for its node, binned_sah.cc),
-//   one stable radix sort by (node, bin) puts every node's triangles in bin order (so a split is
-//   a position and the children need no partition pass), the bins' counts and bounds are
+//   with as many bins as its node's stage gives; the triangles are put in (node, bin) order,
+//   either by one stable radix sort of the key node << b | bin (Zeidan's fast variant) or by a
+//   stable split of every node's triangles per bit of the bin (his segmented splits), so a split
+//   is a position and the children need no partition pass; the bins' counts and bounds are
 //   reduced over chunks of the sorted run, and one thread per node sweeps the bins for the
-//   cheapest split.
-// - Smaller nodes are finished a node per thread by the SAH subtree builder the LBVH uses
-//   (sah_subtrees.h), with bins on all three axes.
+//   cheapest split. Zeidan runs his stages one after another; here the nodes of every stage split
+//   in the same level, each with its own stage's bins, which builds the same tree in fewer
+//   launches.
+// - Nodes within the per-node limit are finished a node per thread by the SAH subtree builder the
+//   LBVH uses (sah_subtrees.h), with bins on all three axes.
 // The tree keeps the radix tree's layout (internal node k splits between leaf positions k and
 // k + 1), so it collapses to 4-wide nodes like the LBVH (bvh4.h). Every decision is an integer
-// or an exact float operation (minima, maxima, counts), so each backend builds the same tree.
+// or an exact float operation (minima, maxima, counts), so each backend builds the same tree,
+// and both orderings build the same tree.
 //
 // The stages start from any number of disjoint subtrees at once (rebuild_subtrees_by_binned_sah):
 // the hybrid structure (hybrid_bvh.h) hands them the LBVH's subtrees below its cut, and a build
 // from the root is the case of one subtree, the whole range.
 #pragma once
 
+#include <string>
+#include <string_view>
+
 #include "renderer/accel/sah_subtrees.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
 
-// Bins along a node's longest centroid axis in the data-parallel stage, as a power of two
-// (docs/structures.md, "binned-sah").
-constexpr int kBinnedSahLogBins = 5;
-constexpr uint32_t kBinnedSahBins = 1u << kBinnedSahLogBins;
+constexpr int kMaxBinnedSahStages = 6;
+constexpr uint32_t kMaxBinnedSahBins = 128;
+
+// A stage of the data-parallel levels: the nodes of more than `above` triangles (and no more than
+// the previous stage's `above`) bin their centroids into `bins` bins.
+struct BinnedSahStage {
+  uint32_t above;
+  uint32_t bins;
+};
+
+// How a level puts every node's triangles in bin order: one radix sort of (node, bin) keys over
+// all of them, or a stable split of each node's triangles per bit of the bin, a scan each.
+enum class BinnedSahReorder : uint8_t { kRadixSort, kSegmentedSplits };
+
+// The stages, largest nodes first. The last stage's `above` is the per-node limit: nodes within
+// it go to the per-node stage. A plain value, copied into kernels.
+struct BinnedSahSchedule {
+  BinnedSahStage stage[kMaxBinnedSahStages] = {};
+  int stage_count = 0;
+  BinnedSahReorder reorder = BinnedSahReorder::kRadixSort;
+
+  // The bins of a node of `size` triangles, or 0 when the per-node stage splits it.
+  CAUSTICA_HDI uint32_t bins_for(uint32_t size) const {
+    for (int i = 0; i < stage_count; ++i)
+      if (size > stage[i].above) return stage[i].bins;
+    return 0;
+  }
+  CAUSTICA_HDI uint32_t per_node_limit() const { return stage[stage_count - 1].above; }
+  uint32_t max_bins() const;
+};
+
+// The stages chosen by measurement (docs/structures.md, "binned-sah: the stages").
+BinnedSahSchedule default_binned_sah_schedule();
+
+// A schedule from its text, "ABOVE:BINS,ABOVE:BINS,...", largest nodes first (the default is
+// binned_sah_stages_text(default_binned_sah_schedule())). Each stage's ABOVE must be below the
+// previous one's and at least its BINS, and BINS within [2, kMaxBinnedSahBins]; at most
+// kMaxBinnedSahStages stages. Throws std::invalid_argument naming the stage and the problem.
+BinnedSahSchedule parse_binned_sah_stages(std::string_view text,
+                                          BinnedSahReorder reorder = BinnedSahReorder::kRadixSort);
+std::string binned_sah_stages_text(const BinnedSahSchedule& schedule);
+const char* binned_sah_reorder_name(BinnedSahReorder reorder);
+
+// The schedule CAUSTICA_BINNED_SAH_STAGES (the text above) and CAUSTICA_BINNED_SAH_REORDER ("sort"
+// or "split") name, each defaulting when unset; throws std::invalid_argument naming the variable
+// and what it expects for anything else. For measuring stages without rebuilding.
+BinnedSahSchedule binned_sah_schedule_from_environment();
 
 // Rebuilds each of the `segment_count` subtrees of `tree` listed in `segments` (in the backend's
 // memory, in any order; disjoint ranges of its sorted triangles of at least two each, as
-// ListSmallSubtrees lists them) by the two stages: the data-parallel one over all of them at once,
-// level by level, then the per-node one below kSahSubtreeTriangles. Their triangles move only
-// within their ranges, and the nodes above them are untouched. `root_listed`: whether the root is
-// the one segment, whose box then becomes tree.bvh.bounds.
-void rebuild_subtrees_by_binned_sah(Backend& backend, BinaryTriangleBvh& tree,
-                                    const SmallSubtree* segments, uint32_t segment_count,
-                                    bool root_listed);
+// ListSmallSubtrees lists them) by the stages: the data-parallel ones over all of them at once,
+// level by level, then the per-node one within the schedule's per-node limit. Their triangles move
+// only within their ranges, and the nodes above them are untouched. `root_listed`: whether the root
+// is the one segment, whose box then becomes tree.bvh.bounds.
+void rebuild_subtrees_by_binned_sah(
+    Backend& backend, BinaryTriangleBvh& tree, const SmallSubtree* segments, uint32_t segment_count,
+    bool root_listed, const BinnedSahSchedule& schedule = default_binned_sah_schedule());
 
 // The binary SAH BVH over `count` triangles in the backend's memory.
-BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
-                                       uint32_t count);
+BinaryTriangleBvh build_binned_sah_bvh(
+    Backend& backend, const TriangleVertices* triangles, uint32_t count,
+    const BinnedSahSchedule& schedule = default_binned_sah_schedule());
 
 }  // namespace caustica

@@ -9,7 +9,8 @@
 namespace caustica {
 
 BinaryTriangleBvh build_hybrid_bvh(Backend& backend, const TriangleVertices* triangles,
-                                   uint32_t count, Curve curve, uint32_t lbvh_limit) {
+                                   uint32_t count, Curve curve, uint32_t lbvh_limit,
+                                   const BinnedSahSchedule& schedule) {
   if (lbvh_limit < 2)
     throw std::invalid_argument(
         "build_hybrid_bvh: the LBVH's subtree limit must be at least 2, not " +
@@ -22,8 +23,8 @@ BinaryTriangleBvh build_hybrid_bvh(Backend& backend, const TriangleVertices* tri
   if (count < 2) return tree;
   uint32_t segment_count = 0;
   backend.copy_to_host(&segment_count, listed.data(), sizeof(uint32_t));
-  rebuild_subtrees_by_binned_sah(backend, tree, segments.data(), segment_count,
-                                 count <= lbvh_limit);
+  rebuild_subtrees_by_binned_sah(backend, tree, segments.data(), segment_count, count <= lbvh_limit,
+                                 schedule);
   return tree;
 }
 

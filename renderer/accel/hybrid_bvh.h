@@ -7,6 +7,7 @@
 // tree's layout, so it collapses to the same 4-wide nodes as lbvh4 and binned-sah.
 #pragma once
 
+#include "renderer/accel/binned_sah.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
@@ -16,9 +17,11 @@ namespace caustica {
 constexpr uint32_t kHybridLbvhSubtreeTriangles = 1u << 14;
 
 // The hybrid binary tree over `count` triangles in the backend's memory, along `curve`, cut where
-// subtrees fall to at most `lbvh_limit` (>= 2) triangles.
-BinaryTriangleBvh build_hybrid_bvh(Backend& backend, const TriangleVertices* triangles,
-                                   uint32_t count, Curve curve,
-                                   uint32_t lbvh_limit = kHybridLbvhSubtreeTriangles);
+// subtrees fall to at most `lbvh_limit` (>= 2) triangles, and those rebuilt by `schedule`'s
+// stages.
+BinaryTriangleBvh build_hybrid_bvh(
+    Backend& backend, const TriangleVertices* triangles, uint32_t count, Curve curve,
+    uint32_t lbvh_limit = kHybridLbvhSubtreeTriangles,
+    const BinnedSahSchedule& schedule = default_binned_sah_schedule());
 
 }  // namespace caustica

@@ -44,14 +44,22 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
     case StructureKind::kLbvh4:
       return measured(backend, kind,
                       [&] { return build_triangle_bvh(backend, triangles, count, curve); });
-    case StructureKind::kBinnedSah:
+    case StructureKind::kBinnedSah: {
+      // Read before the build, so that a bad setting fails before any work.
+      const BinnedSahSchedule schedule = binned_sah_schedule_from_environment();
       return measured(backend, kind, [&] {
-        return collapse_triangle_bvh(backend, build_binned_sah_bvh(backend, triangles, count));
+        return collapse_triangle_bvh(backend,
+                                     build_binned_sah_bvh(backend, triangles, count, schedule));
       });
-    case StructureKind::kHybrid:
+    }
+    case StructureKind::kHybrid: {
+      const BinnedSahSchedule schedule = binned_sah_schedule_from_environment();
       return measured(backend, kind, [&] {
-        return collapse_triangle_bvh(backend, build_hybrid_bvh(backend, triangles, count, curve));
+        return collapse_triangle_bvh(
+            backend, build_hybrid_bvh(backend, triangles, count, curve, kHybridLbvhSubtreeTriangles,
+                                      schedule));
       });
+    }
     case StructureKind::kSiblingPair:
       return measured(backend, kind, [&] {
         return build_sibling_pair_bvh(backend,

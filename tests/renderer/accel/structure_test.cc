@@ -6,8 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -206,13 +208,15 @@ TEST_P(EveryStructure, MatchesBruteForceOnBundledScenes) {
   check(scene_triangles("ring"), 2000, 4);
 }
 
-// Roots that hold only leaves, and sizes around the leaf limit and the two builders' stage limit.
+// Roots that hold only leaves, and sizes around the leaf limit and the builders' stage limits.
 TEST_P(EveryStructure, MatchesBruteForceOnSmallSoups) {
   for (size_t n = 1; n <= 3 * kMaxLeafTriangles + 1; ++n) {
     SCOPED_TRACE(n);
     check(random_soup(n, uint32_t(100 + n)), 400, uint32_t(n), true);
   }
-  for (size_t n : {kSahSubtreeTriangles, kSahSubtreeTriangles + 1}) {
+  const size_t binned_limit = default_binned_sah_schedule().per_node_limit();
+  for (size_t n : {binned_limit, binned_limit + 1, size_t(kSahSubtreeTriangles),
+                   size_t(kSahSubtreeTriangles) + 1}) {
     SCOPED_TRACE(n);
     check(random_soup(n, uint32_t(n)), 2000, uint32_t(n), true);
   }
@@ -270,17 +274,20 @@ struct BinnedBuild {
   Buffer<TriangleVertices> input;
   BinaryTriangleBvh binary;
   TriangleBvh wide;
-  explicit BinnedBuild(const std::vector<TriangleVertices>& tris) : input(*backend, tris.size()) {
+  explicit BinnedBuild(const std::vector<TriangleVertices>& tris,
+                       const BinnedSahSchedule& schedule = default_binned_sah_schedule())
+      : input(*backend, tris.size()) {
     input.upload(tris);
-    binary = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()));
+    binary = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()), schedule);
     // The collapse takes over its tree's triangles, so it gets a build of its own.
     wide = collapse_triangle_bvh(
-        *backend, build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size())));
+        *backend, build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()), schedule));
   }
 };
 
-void check_binned_invariants(const std::vector<TriangleVertices>& tris) {
-  BinnedBuild b(tris);
+void check_binned_invariants(const std::vector<TriangleVertices>& tris,
+                             const BinnedSahSchedule& schedule = default_binned_sah_schedule()) {
+  BinnedBuild b(tris, schedule);
   {
     SCOPED_TRACE("binary");
     check_binary_invariants(b.binary, tris);
@@ -293,8 +300,8 @@ void check_binned_invariants(const std::vector<TriangleVertices>& tris) {
 // Sizes below, at and above the data-parallel stage's limit, and large enough for several of its
 // levels.
 TEST(BinnedSah, InvariantsOnRandomSoups) {
-  for (size_t n : {size_t(2), size_t(3), size_t(kSahSubtreeTriangles),
-                   size_t(kSahSubtreeTriangles + 1), size_t(1000), size_t(40000)}) {
+  const size_t limit = default_binned_sah_schedule().per_node_limit();
+  for (size_t n : {size_t(2), size_t(3), limit, limit + 1, size_t(1000), size_t(40000)}) {
     SCOPED_TRACE(n);
     check_binned_invariants(random_soup(n, uint32_t(7 + n)));
   }
@@ -370,6 +377,140 @@ TEST(BinnedSah, InnerNodesCostLessThanTheRadixTrees) {
                 lbvh);
     EXPECT_LT(binned, lbvh);
   }
+}
+
+// The message of the std::invalid_argument that `f` throws, or "" when it throws none.
+template <typename F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(BinnedSahSchedule, ParsesStagesAndNamesEachProblem) {
+  const BinnedSahSchedule s = parse_binned_sah_stages("65536:64,4096:32,128:8");
+  ASSERT_EQ(s.stage_count, 3);
+  EXPECT_EQ(s.per_node_limit(), 128u);
+  EXPECT_EQ(s.max_bins(), 64u);
+  EXPECT_EQ(s.bins_for(1000000), 64u);
+  EXPECT_EQ(s.bins_for(65537), 64u);
+  EXPECT_EQ(s.bins_for(65536), 32u);
+  EXPECT_EQ(s.bins_for(129), 8u);
+  EXPECT_EQ(s.bins_for(128), 0u);
+  EXPECT_EQ(binned_sah_stages_text(s), "65536:64,4096:32,128:8");
+  EXPECT_EQ(binned_sah_stages_text(
+                parse_binned_sah_stages(binned_sah_stages_text(default_binned_sah_schedule()))),
+            binned_sah_stages_text(default_binned_sah_schedule()));
+
+  EXPECT_NE(refusal([] { parse_binned_sah_stages(""); }).find("none given"), std::string::npos);
+  EXPECT_NE(
+      refusal([] { parse_binned_sah_stages("256"); }).find("stage 1 ('256'): expected ABOVE:BINS"),
+      std::string::npos);
+  EXPECT_NE(refusal([] {
+              parse_binned_sah_stages("4096:32,256:x");
+            }).find("stage 2 ('256:x'): BINS 'x' is not a whole number"),
+            std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_stages("-5:4"); }).find("ABOVE '-5'"), std::string::npos);
+  EXPECT_NE(
+      refusal([] { parse_binned_sah_stages("4096:256"); }).find("BINS must be within [2, 128]"),
+      std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_stages("4096:1"); }).find("BINS must be within"),
+            std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_stages("16:32"); }).find("ABOVE must be at least BINS"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              parse_binned_sah_stages("256:16,4096:32");
+            }).find("stage 2 ('4096:32'): ABOVE must be below the previous stage's 256"),
+            std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_stages("256:16,"); }).find("stage 2 (''): expected"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              parse_binned_sah_stages("7000:2,6000:2,5000:2,4000:2,3000:2,2000:2,1000:2");
+            }).find("stage 7"),
+            std::string::npos);
+}
+
+TEST(BinnedSahSchedule, ReadFromTheEnvironment) {
+  unsetenv("CAUSTICA_BINNED_SAH_STAGES");
+  unsetenv("CAUSTICA_BINNED_SAH_REORDER");
+  EXPECT_EQ(binned_sah_stages_text(binned_sah_schedule_from_environment()),
+            binned_sah_stages_text(default_binned_sah_schedule()));
+  EXPECT_EQ(binned_sah_schedule_from_environment().reorder, BinnedSahReorder::kRadixSort);
+  setenv("CAUSTICA_BINNED_SAH_STAGES", "1024:16,64:4", 1);
+  setenv("CAUSTICA_BINNED_SAH_REORDER", "split", 1);
+  const BinnedSahSchedule s = binned_sah_schedule_from_environment();
+  EXPECT_EQ(binned_sah_stages_text(s), "1024:16,64:4");
+  EXPECT_EQ(s.reorder, BinnedSahReorder::kSegmentedSplits);
+  setenv("CAUSTICA_BINNED_SAH_REORDER", "bucket", 1);
+  EXPECT_NE(refusal([] {
+              binned_sah_schedule_from_environment();
+            }).find("CAUSTICA_BINNED_SAH_REORDER='bucket' is not a binned-sah reorder"),
+            std::string::npos);
+  setenv("CAUSTICA_BINNED_SAH_REORDER", "sort", 1);
+  setenv("CAUSTICA_BINNED_SAH_STAGES", "64:4,1024:16", 1);
+  EXPECT_NE(refusal([] {
+              binned_sah_schedule_from_environment();
+            }).find("CAUSTICA_BINNED_SAH_STAGES: binned-sah stage 2"),
+            std::string::npos);
+  // The structure's builder reads it before any work, and refuses the same way.
+  EXPECT_NE(refusal([] {
+              BuiltStructure b(StructureKind::kBinnedSah, random_soup(100, 1));
+            }).find("CAUSTICA_BINNED_SAH_STAGES"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              BuiltStructure b(StructureKind::kHybrid, random_soup(100, 1));
+            }).find("CAUSTICA_BINNED_SAH_STAGES"),
+            std::string::npos);
+  unsetenv("CAUSTICA_BINNED_SAH_STAGES");
+  unsetenv("CAUSTICA_BINNED_SAH_REORDER");
+}
+
+// Schedules of other shapes than the default: many bins at the top, a data-parallel part down to
+// nodes of two triangles, a single coarse stage; each with both orderings.
+std::vector<BinnedSahSchedule> schedule_shapes() {
+  std::vector<BinnedSahSchedule> shapes;
+  for (const char* text : {"4096:128,512:16,32:8", "2:2", "1000:4"}) {
+    for (BinnedSahReorder reorder :
+         {BinnedSahReorder::kRadixSort, BinnedSahReorder::kSegmentedSplits})
+      shapes.push_back(parse_binned_sah_stages(text, reorder));
+  }
+  return shapes;
+}
+
+TEST(BinnedSahSchedule, EveryShapeKeepsTheInvariantsAndFindsBruteForcesHits) {
+  std::vector<TriangleVertices> mixed = random_soup(6000, 29);
+  const std::vector<TriangleVertices> huge = huge_triangles(300);
+  mixed.insert(mixed.end(), huge.begin(), huge.end());
+  mixed.insert(mixed.end(), 400, {Vec3f(2, 2, 2), Vec3f(3, 2, 2), Vec3f(2, 3, 2)});
+  for (const BinnedSahSchedule& schedule : schedule_shapes()) {
+    for (const std::vector<TriangleVertices>& tris : {mixed, sphere_triangles()}) {
+      SCOPED_TRACE(binned_sah_stages_text(schedule) + " by " +
+                   binned_sah_reorder_name(schedule.reorder) + ", " + std::to_string(tris.size()) +
+                   " triangles");
+      check_binned_invariants(tris, schedule);
+      if (::testing::Test::HasFatalFailure()) return;
+      BinnedBuild b(tris, schedule);
+      check_rays(tris, b.wide.view(), 2000, 37);
+    }
+  }
+}
+
+// The radix sort and the segmented splits put each level in the same order, so they build the
+// same tree; and the stages' bins change the tree (the test would not notice a schedule ignored).
+TEST(BinnedSahSchedule, BothOrderingsBuildTheSameTree) {
+  const std::vector<TriangleVertices> tris = random_soup(30000, 11);
+  const std::vector<BinnedSahSchedule> shapes = schedule_shapes();
+  for (size_t i = 0; i < shapes.size(); i += 2) {
+    SCOPED_TRACE(binned_sah_stages_text(shapes[i]));
+    BinnedBuild sorted(tris, shapes[i]), split(tris, shapes[i + 1]);
+    expect_same_binary_tree(sorted.binary, split.binary);
+  }
+  BinnedBuild coarse(tris, parse_binned_sah_stages("256:4")),
+      fine(tris, parse_binned_sah_stages("256:64"));
+  EXPECT_NE(internal_area_cost(coarse.binary), internal_area_cost(fine.binary));
 }
 
 }  // namespace
