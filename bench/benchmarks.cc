@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <iostream>
+#include <stdexcept>
 #include <type_traits>
 
 #include "absl/strings/str_cat.h"
@@ -24,6 +26,7 @@
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
+#include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/load_scene.h"
@@ -453,6 +456,26 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
                 gather.median, "ms", &gather, o.runs);
   }
+  if (wanted(o, "path_pass")) {
+    // One pass of the path integrator (settings.integrator "path"): a path a pixel.
+    Camera camera = scene->camera;
+    camera.width = o.width;
+    camera.height = o.height;
+    Film film(*backend, o.width, o.height);
+    uint32_t pass = 0;
+    try {
+      Measurement m = measure(o, *backend, [&] {
+        render_path_pass(*backend, resident, PinholeCamera::from(camera),
+                         {scene->settings.seed, pass++}, film);
+      });
+      const std::string label = name + absl::StrFormat(" %dx%d", o.width, o.height);
+      report.line("path_pass", label, m.median, "ms", &m, o.runs);
+      report.line("path_rate", label, double(o.width) * o.height / (m.median * 1e3), "Mpaths/s");
+    } catch (const std::invalid_argument& e) {
+      // A structure that answers batches only (dacrt): the other benchmarks go on.
+      std::cerr << "caustica-bench: path_pass skipped: " << e.what() << "\n";
+    }
+  }
   if (wanted(o, "photon_gather")) {
     scene->camera.width = o.width;
     scene->camera.height = o.height;
@@ -484,7 +507,7 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
 std::vector<std::string> benchmark_names() {
   std::vector<std::string> names = {"lbvh_build",      "primary_rays", "shadow_rays",
                                     "incoherent_rays", "photon_pass",  "frame",
-                                    "photon_gather"};
+                                    "photon_gather",   "path_pass"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
   return names;
 }
@@ -508,7 +531,7 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }
-  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame", "photon_gather"})) {
+  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame", "photon_gather", "path_pass"})) {
     for (StructureKind kind : o.structures) {
       Reporter with_structure = report.for_structure(structure_kind_name(kind));
       if (absl::Status s = photon_benchmarks(o, kind, with_structure); !s.ok()) return s;

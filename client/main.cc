@@ -10,6 +10,7 @@
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
 #include "renderer/accel/structure_kind.h"
+#include "tools/cli/integrator_option.h"
 #include "tools/cli/structure_option.h"
 
 namespace {
@@ -39,6 +40,11 @@ void add_frame_job(CLI::App* command, FrameJobOptions& job) {
   command->add_option("--photons", o.photons, "photons emitted per pass (changes the scene)");
   command->add_option("--k", o.k, "photons per radiance estimate (changes the scene)");
   add_structure_option(command, o.structure, "changes the scene");
+  command
+      ->add_option("--integrator", o.integrator,
+                   "photon or path, the unbiased path-traced reference (changes the scene)")
+      ->type_name("NAME")
+      ->transform(caustica::integrator_names());
 }
 
 // -o DIR and --format of the commands that write numbered frames.

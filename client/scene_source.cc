@@ -23,6 +23,7 @@ void SceneOverrides::apply(Scene& scene) const {
   if (photons) scene.settings.photons_per_pass = *photons;
   if (k) scene.settings.k_nearest = *k;
   if (structure) scene.settings.structure = *structure;
+  if (integrator) scene.settings.integrator = *integrator;
 }
 
 v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) const {
@@ -33,6 +34,7 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
   if (photons) request.mutable_settings()->set_photons_per_pass(*photons);
   if (k) request.mutable_settings()->set_k_nearest(*k);
   if (structure) request.mutable_settings()->set_structure(wire::encode_structure(*structure));
+  if (integrator) request.mutable_settings()->set_integrator(wire::encode_integrator(*integrator));
   return request;
 }
 

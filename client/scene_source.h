@@ -21,8 +21,9 @@ namespace caustica::client {
 struct SceneOverrides {
   std::optional<uint32_t> width, height, photons, k;
   std::optional<StructureKind> structure;
+  std::optional<Integrator> integrator;
 
-  bool empty() const { return !width && !height && !photons && !k && !structure; }
+  bool empty() const { return !width && !height && !photons && !k && !structure && !integrator; }
   void apply(Scene& scene) const;
   v1::UpdateSettingsRequest request(const std::string& scene_id) const;
 };

@@ -9,6 +9,7 @@
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
+#include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/validate.h"
@@ -39,7 +40,8 @@ absl::Status guarded(Fn&& fn) {
   } catch (const DeviceError& e) {
     return absl::InternalError(e.what());
   } catch (const std::invalid_argument& e) {
-    // A structure refusing its input (too many triangles for its layout), or a setting read from
+    // A structure refusing its input (too many triangles for its layout) or an integrator (the
+    // path integrator, a batch-only structure), or a setting read from
     // the environment (CAUSTICA_KD_TRAVERSAL, CAUSTICA_BINNED_SAH_STAGES) that names nothing.
     return absl::InvalidArgumentError(e.what());
   }
@@ -99,9 +101,11 @@ struct Engine::State {
     return maps;
   }
 
-  // The light-change pipeline: photons and maps for the film's next pass, reported.
+  // The light-change pipeline: photons and maps for the film's next pass, reported; none for
+  // the path integrator, which traces no photons.
   void prepare_photons(RebuildReport& report) {
     prepared.reset();  // frees the old maps before the new ones are allocated
+    if (scene.settings.integrator != Integrator::kPhoton) return;
     prepared = trace_pass_photons(film->passes(), report.timings, report.photons_emitted,
                                   report.caustic_photons, report.global_photons);
     report.rebuilt.push_back("photon_maps");
@@ -291,6 +295,15 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
     Backend& backend = *st.backend;
     for (uint32_t i = 0; i < passes; ++i) {
       const uint32_t pass = st.film->passes();
+      if (st.scene.settings.integrator == Integrator::kPath) {
+        auto t0 = std::chrono::steady_clock::now();
+        render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
+        backend.synchronize();
+        report.timings.render_ms += elapsed_ms(t0);
+        ++report.passes_rendered;
+        if (progress) progress(i + 1, passes);
+        continue;
+      }
       // Photons traced ahead by a light change serve the pass they were traced for.
       std::optional<PreparedPhotons> maps;
       if (st.prepared && st.prepared->pass == pass) {

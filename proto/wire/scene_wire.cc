@@ -56,6 +56,7 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
 // The wire's value of every structure: the one place where the two enums are matched, so that a
 // new StructureKind needs a wire value here before it builds.
 constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
+    // clang-format off
     {StructureKind::kLbvh4, v1::LBVH4},
     {StructureKind::kBinnedSah, v1::BINNED_SAH},
     {StructureKind::kHybrid, v1::HYBRID},
@@ -64,6 +65,7 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
     {StructureKind::kKdSiroh, v1::KD_SIROH},
     {StructureKind::kDacrt, v1::DACRT},
     {StructureKind::kBvh8, v1::BVH8},
+    // clang-format on
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 
@@ -173,7 +175,12 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_area_light_samples(s.area_light_samples);
   out.set_seed(s.seed);
   out.set_structure(encode_structure(s.structure));
+  out.set_integrator(encode_integrator(s.integrator));
   return out;
+}
+
+v1::Integrator encode_integrator(Integrator integrator) {
+  return integrator == Integrator::kPath ? v1::PATH : v1::PHOTON;
 }
 
 v1::Structure encode_structure(StructureKind kind) {
@@ -367,6 +374,19 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
                      absl::StrCat(in.structure(), " is not a structure"));
     }
     s.structure = *structure;
+  }
+  switch (in.integrator()) {
+    case v1::INTEGRATOR_UNSPECIFIED:
+      break;
+    case v1::PHOTON:
+      s.integrator = Integrator::kPhoton;
+      break;
+    case v1::PATH:
+      s.integrator = Integrator::kPath;
+      break;
+    default:
+      return invalid(join_field(field, "integrator"),
+                     absl::StrCat(in.integrator(), " is not an integrator"));
   }
   return s;
 }

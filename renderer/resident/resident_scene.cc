@@ -64,9 +64,11 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   const size_t n = scene.triangle_count();
   std::vector<TriangleVertices> triangles;
   std::vector<uint32_t> material_ids;
+  std::vector<uint32_t> triangle_area_light;
   std::vector<Vec3f> corner_normals;
   triangles.reserve(n);
   material_ids.reserve(n);
+  triangle_area_light.reserve(n);
   bool any_normals = false;
   for (const Mesh& m : scene.meshes) any_normals |= !m.normals.empty();
   if (any_normals) corner_normals.reserve(3 * n);
@@ -76,6 +78,7 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       const uint32_t* idx = &m.indices[3 * t];
       TriangleVertices tri{m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
       const uint32_t mat = m.material_ids[t];
+      uint32_t area_light = kNoAreaLight;
       if (scene.materials[mat].type == MaterialType::kEmissive) {
         DeviceLight a{};
         a.type = DeviceLightType::kArea;
@@ -86,8 +89,14 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         a.area = 0.5f * length(ng);
         a.direction = normalize(ng);
         a.color = scene.materials[mat].radiance;
-        if (a.area > 0) r.area_lights_host_.push_back(a);
+        // Area lights follow the other lights in `lights` in this order, and so keep it among
+        // themselves (rebuild_light_tables).
+        if (a.area > 0) {
+          area_light = uint32_t(r.area_lights_host_.size());
+          r.area_lights_host_.push_back(a);
+        }
       }
+      triangle_area_light.push_back(area_light);
       triangles.push_back(tri);
       material_ids.push_back(mat);
       if (any_normals) {
@@ -104,6 +113,8 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.triangles_.upload(triangles);
   r.material_ids_.bind(backend);
   r.material_ids_.upload(material_ids);
+  r.triangle_area_light_.bind(backend);
+  r.triangle_area_light_.upload(triangle_area_light);
   r.corner_normals_.bind(backend);
   r.corner_normals_.upload(corner_normals);
   r.materials_.bind(backend);
@@ -166,6 +177,7 @@ ResidentSceneView ResidentScene::view() const {
   v.triangles = triangles_.data();
   v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
   v.material_ids = material_ids_.data();
+  v.triangle_area_light = triangle_area_light_.data();
   v.materials = materials_.data();
   v.lights = lights_.data();
   v.light_cdf = light_cdf_.data();
@@ -179,9 +191,9 @@ ResidentSceneView ResidentScene::view() const {
 }
 
 size_t ResidentScene::bytes() const {
-  return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() + materials_.bytes() +
-         lights_.bytes() + light_cdf_.bytes() + area_light_index_.bytes() +
-         area_light_cdf_.bytes() + structure_.stats().bytes;
+  return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() +
+         triangle_area_light_.bytes() + materials_.bytes() + lights_.bytes() + light_cdf_.bytes() +
+         area_light_index_.bytes() + area_light_cdf_.bytes() + structure_.stats().bytes;
 }
 
 }  // namespace caustica

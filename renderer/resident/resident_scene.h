@@ -40,6 +40,9 @@ struct LightSample {
   float pdf_area;  // area lights: 1 / area
 };
 
+// A triangle that is no area light (ResidentSceneView::triangle_area_light).
+constexpr uint32_t kNoAreaLight = 0xffffffffu;
+
 // Plain pointers for kernels: everything of the scene but its structure, whose view kernels take
 // beside this one (structure.h).
 struct ResidentSceneView {
@@ -51,6 +54,9 @@ struct ResidentSceneView {
   const float* light_cdf;       // emission choice by power, size light_count + 1
   const uint32_t* area_lights;  // indices into `lights` of the area lights
   const float* area_light_cdf;  // shadow-ray choice among area lights by power
+  // Per triangle (original order): its area light's index into area_lights and area_light_cdf,
+  // or kNoAreaLight; how a path that meets a light weighs it against the shadow rays' choice.
+  const uint32_t* triangle_area_light;
   uint32_t light_count;
   uint32_t area_light_count;
   float total_power;  // sum over lights of average-channel power (W)
@@ -147,6 +153,7 @@ class ResidentScene {
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<uint32_t> material_ids_;
+  Buffer<uint32_t> triangle_area_light_;
   Buffer<DeviceMaterial> materials_;
   Buffer<DeviceLight> lights_;
   Buffer<float> light_cdf_;

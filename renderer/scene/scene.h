@@ -55,11 +55,18 @@ struct Camera {
   int height = 512;
 };
 
+// How a pass estimates the light reaching the camera: `kPhoton`, camera rays through their
+// specular chains to diffuse hits gathered from the photon maps (render/whitted.h), or `kPath`,
+// unbiased path tracing with next-event estimation (render/path_tracer.h), the reference the
+// photon mapper is checked against.
+enum class Integrator : uint32_t { kPhoton = 0, kPath = 1 };
+
 struct RenderSettings {
   uint32_t photons_per_pass = 200000;  // photons emitted per pass (global and caustic together)
   uint32_t k_nearest = 64;             // photons per radiance estimate
   float max_radius = 0;                // gather radius cap; 0 = 5% of the scene's diagonal
   DensityKernel kernel = DensityKernel::kEpanechnikov;
+  Integrator integrator = Integrator::kPhoton;
   uint32_t max_depth = 6;  // specular bounces of camera rays
   uint32_t max_photon_bounces = 8;
   uint32_t area_light_samples = 4;  // shadow rays per diffuse hit for area lights

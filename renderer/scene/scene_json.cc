@@ -160,6 +160,19 @@ class SceneReader {
         object.read_integer("area_light_samples", kOptional, &s.area_light_samples));
     SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));
     SCENE_RETURN_IF_ERROR(object.read_integer("seed", kOptional, &s.seed));
+    if (object.has("integrator")) {
+      std::string integrator;
+      SCENE_RETURN_IF_ERROR(object.read("integrator", kRequired, &integrator));
+      if (integrator == "photon") {
+        s.integrator = Integrator::kPhoton;
+      } else if (integrator == "path") {
+        s.integrator = Integrator::kPath;
+      } else {
+        return invalid_field(
+            object.field_path("integrator"),
+            absl::StrCat("unknown integrator '", integrator, "' (expected photon or path)"));
+      }
+    }
     if (object.has("structure")) {
       std::string structure;
       SCENE_RETURN_IF_ERROR(object.read("structure", kRequired, &structure));

@@ -73,6 +73,9 @@ absl::Status validate_settings(const RenderSettings& s) {
   if (static_cast<uint32_t>(s.kernel) > static_cast<uint32_t>(DensityKernel::kEpanechnikov)) {
     return invalid_field("settings.kernel", "is not a known kernel");
   }
+  if (static_cast<uint32_t>(s.integrator) > static_cast<uint32_t>(Integrator::kPath)) {
+    return invalid_field("settings.integrator", "is not a known integrator");
+  }
   SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.max_photon_bounces", s.max_photon_bounces, 0, kMaxPhotonBounces));

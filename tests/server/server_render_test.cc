@@ -346,6 +346,44 @@ TEST_F(ServerTest, UpdateSettingsChangesTheStructure) {
   EXPECT_GT(mean_rgb(frame_floats(frame)), 0.01) << "the image should not be black";
 }
 
+// The path integrator through the wire: uploaded with the scene, it renders with no photons traced
+// ahead of a light change; with a structure that answers batches only the render is refused as
+// INVALID_ARGUMENT, the scene still there and rendering once the structure changes.
+TEST_F(ServerTest, PathIntegratorRendersThroughTheServer) {
+  Scene scene = cornell_box(16, 16, 2000, 16, 2);
+  scene.settings.integrator = Integrator::kPath;
+  const std::string id = upload_scene(*stub_, scene);
+  EXPECT_EQ(get_scene(*stub_, id).settings().integrator(), v1::PATH);
+  v1::Frame frame;
+  grpc::Status rendered = render_frame(*stub_, id, 2, frame_format(v1::RGBA32F_LINEAR), &frame);
+  ASSERT_TRUE(rendered.ok()) << rendered.error_message();
+  EXPECT_GT(mean_rgb(frame_floats(frame)), 0.01) << "the image should not be black";
+
+  v1::UpdateSettingsRequest request;
+  request.set_scene_id(id);
+  request.mutable_settings()->set_structure(v1::DACRT);
+  v1::RebuildReport report;
+  {
+    grpc::ClientContext context;
+    set_deadline(context);
+    ASSERT_TRUE(stub_->UpdateSettings(&context, request, &report).ok());
+  }
+  EXPECT_EQ(report.photons_emitted(), 0u) << "the path integrator traces no photons";
+  rendered = render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &frame);
+  EXPECT_EQ(rendered.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(rendered.error_message().find("dacrt answers batches only"), std::string::npos)
+      << rendered.error_message();
+
+  request.mutable_settings()->set_structure(v1::LBVH4);
+  {
+    grpc::ClientContext context;
+    set_deadline(context);
+    ASSERT_TRUE(stub_->UpdateSettings(&context, request, &report).ok());
+  }
+  rendered = render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &frame);
+  EXPECT_TRUE(rendered.ok()) << rendered.error_message();
+}
+
 TEST_F(ServerTest, UploadedStructureIsReported) {
   Scene scene = cornell_box(16, 16, 2000, 16, 2);
   scene.settings.structure = StructureKind::kBinnedSah;

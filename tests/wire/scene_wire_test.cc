@@ -119,6 +119,35 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
+TEST(SceneWire, IntegratorRoundTripsAndUnspecifiedKeepsTheCurrentOne) {
+  for (const Integrator integrator : {Integrator::kPhoton, Integrator::kPath}) {
+    RenderSettings settings;
+    settings.integrator = integrator;
+    const v1::RenderSettings encoded = encode_settings(settings);
+    EXPECT_NE(encoded.integrator(), v1::INTEGRATOR_UNSPECIFIED);
+    for (const Integrator current : {Integrator::kPhoton, Integrator::kPath}) {
+      RenderSettings before;
+      before.integrator = current;
+      absl::StatusOr<RenderSettings> applied = apply_settings(encoded, before, "settings");
+      ASSERT_TRUE(applied.ok()) << applied.status();
+      EXPECT_EQ(applied->integrator, integrator);
+    }
+  }
+  RenderSettings current;
+  current.integrator = Integrator::kPath;
+  v1::RenderSettings update;
+  update.set_k_nearest(8);
+  absl::StatusOr<RenderSettings> applied = apply_settings(update, current, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->integrator, Integrator::kPath);
+  update.set_integrator(static_cast<v1::Integrator>(7));
+  applied = apply_settings(update, current, "update.settings");
+  ASSERT_FALSE(applied.ok());
+  EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(applied.status().message()),
+              ::testing::HasSubstr("update.settings.integrator: 7 is not an integrator"));
+}
+
 TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {
   RenderSettings current;
   current.structure = StructureKind::kBinnedSah;

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "tools/cli/integrator_option.h"
 #include "tools/cli/structure_option.h"
 #include "tools/render/render_job.h"
 
@@ -31,6 +32,11 @@ int main(int argc, char** argv) {
                      caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
       ->type_name("NAME")
       ->transform(caustica::structure_names());
+  app.add_option("--integrator", job.integrator,
+                 "photon (photon-mapped global illumination) or path (the unbiased path-traced "
+                 "reference) (default: the scene's, else photon)")
+      ->type_name("NAME")
+      ->transform(caustica::integrator_names());
   app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
   CLI11_PARSE(app, argc, argv);
   job.show_progress = isatty(STDERR_FILENO);

@@ -27,6 +27,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   if (job.passes) rs.passes = *job.passes;
   if (job.seed) rs.seed = *job.seed;
   if (job.structure) rs.structure = *job.structure;
+  if (job.integrator) rs.integrator = *job.integrator;
 
   absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({});
   if (!engine.ok()) return engine.status();
@@ -55,12 +56,18 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
                          structure_kind_name(summary.stats.structure),
                          summary.stats.structure_nodes, summary.stats.structure_bytes / 1048576.0,
                          summary.stats.structure_sah_cost, summary.stats.last_structure_build_ms);
-  log << absl::StrFormat(
-      "photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
-      rs.photons_per_pass, report->caustic_photons, report->global_photons);
-  log << absl::StrFormat("passes       %d at %dx%d, k = %d, max radius %.4g\n",
-                         report->passes_rendered, cam.width, cam.height, rs.k_nearest,
-                         (*engine)->shading(0).max_radius);
+  if (rs.integrator == Integrator::kPath) {
+    log << absl::StrFormat("integrator   path: one path a pixel a pass, no photons\n");
+    log << absl::StrFormat("passes       %d at %dx%d\n", report->passes_rendered, cam.width,
+                           cam.height);
+  } else {
+    log << absl::StrFormat(
+        "photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
+        rs.photons_per_pass, report->caustic_photons, report->global_photons);
+    log << absl::StrFormat("passes       %d at %dx%d, k = %d, max radius %.4g\n",
+                           report->passes_rendered, cam.width, cam.height, rs.k_nearest,
+                           (*engine)->shading(0).max_radius);
+  }
   log << absl::StrFormat(
       "time (ms)    photon trace %.1f | photon maps %.1f | render %.1f | total %.1f\n",
       t.photon_trace_ms, t.photon_map_build_ms, t.render_ms, t.total());

@@ -19,6 +19,7 @@ struct RenderJob {
   std::optional<int> width, height;
   std::optional<uint32_t> photons, k, passes, seed;
   std::optional<StructureKind> structure;
+  std::optional<Integrator> integrator;
   float exposure_stops = 0.0f;
   bool show_progress = false;  // progress line on stderr
 };

@@ -11,62 +11,21 @@
 #include "renderer/engine.h"
 #include "renderer/render/camera.h"
 #include "renderer/scene/load_scene.h"
+#include "tests/renderer/render/analytic_scenes.h"
 
 namespace caustica {
 namespace {
 
-Scene parse_or_die(const std::string& json) {
-  absl::StatusOr<Scene> scene = parse_scene(json, ".", "test.json");
-  EXPECT_TRUE(scene.ok()) << scene.status();
-  return scene.ok() ? *scene : Scene{};
-}
-
-std::unique_ptr<Engine> engine_with(const Scene& scene) {
-  auto engine = Engine::create({});
-  EXPECT_TRUE(engine.ok());
-  auto loaded = (*engine)->load(scene);
-  EXPECT_TRUE(loaded.ok()) << loaded.status();
-  return std::move(*engine);
-}
-
-// A 2 x 2 diffuse square at z = 0 lit by a point light at height 1: the radiance at every pixel
-// is rho / pi * I cos(theta) / r^2 (no other surface, so no indirect light and no photons stored).
+// The plane under a point light (analytic_scenes.h): 32 jittered passes average each pixel over
+// its area, which matches the value at its centre to second order; no other surface, so no
+// indirect light and no photons stored.
 TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
-  const float rho = 0.6f, intensity = 3.0f;
-  const Vec3f light(0.3f, -0.2f, 1.0f);
-  Scene scene = parse_or_die(absl::StrFormat(R"({
-    "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30,
-               "width": 128, "height": 128},
-    "settings": {"photons": 10000, "passes": 1},
-    "materials": {"grey": {"type": "diffuse", "albedo": [%f, %f, %f]}},
-    "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [%f, %f, %f]}],
-    "shapes": [{"type": "quad", "material": "grey",
-                "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
-  })",
-                                             rho, rho, rho, light.x, light.y, light.z, intensity,
-                                             intensity, intensity));
+  const PlaneUnderPointLight plane;
+  const Scene scene = plane.scene(R"({"photons": 10000, "passes": 1})");
   auto engine = engine_with(scene);
-  // 32 jittered passes average each pixel over its area, which matches the value at its centre
-  // to second order.
   ASSERT_TRUE(engine->render(32).ok());
-  std::span<const float> image = engine->image_linear();
-  PinholeCamera cam = PinholeCamera::from(scene.camera);
-  double worst = 0;
   int checked = 0;
-  for (int y = 4; y < 128; y += 8) {
-    for (int x = 4; x < 128; x += 8) {
-      // Where the pixel centre's ray meets the plane.
-      Ray r = cam.ray_through(x + 0.5f, y + 0.5f);
-      Vec3f p = r.origin + r.direction * (-r.origin.z / r.direction.z);
-      if (std::fabs(p.x) > 0.95f || std::fabs(p.y) > 0.95f) continue;
-      Vec3f d = light - p;
-      float dist2 = length_squared(d);
-      float expected = rho / kPi * intensity * (d.z / std::sqrt(dist2)) / dist2;
-      float got = image[4 * (y * 128 + x)];
-      worst = std::max(worst, double(std::fabs(got - expected) / expected));
-      ++checked;
-    }
-  }
+  const double worst = plane.worst_error(scene, engine->image_linear(), 8, checked);
   EXPECT_GT(checked, 150);
   EXPECT_LT(worst, 0.01) << "largest relative error";
   RecordProperty("max_relative_error", absl::StrFormat("%.5f", worst));
@@ -74,31 +33,16 @@ TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
               checked);
 }
 
-// Inside a closed diffuse sphere of albedo rho with a point light of power Phi at its centre, the
-// radiance everywhere is rho Phi / (4 pi^2 R^2 (1 - rho)): direct light plus every interreflection.
+// Inside the closed diffuse sphere (analytic_scenes.h): the photon maps carry every
+// interreflection.
 TEST(Analytic, InsideDiffuseSphereMatchesInterreflectionSeries) {
-  const float rho = 0.5f, radius = 1.0f, intensity = 2.0f;
-  const float phi = 4.0f * kPi * intensity;
-  Scene scene =
-      parse_or_die(absl::StrFormat(R"({
-    "camera": {"position": [0.1, 0.05, 0.0], "look_at": [0.1, 0.05, 1], "up": [0, 1, 0],
-               "fov": 90, "width": 64, "height": 64},
-    "settings": {"photons": 200000, "k": 64, "max_radius": 0.2, "max_photon_bounces": 40,
-                 "passes": 4},
-    "materials": {"wall": {"type": "diffuse", "albedo": [%f, %f, %f]}},
-    "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [%f, %f, %f]}],
-    "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": %f, "rings": 96,
-                "segments": 192, "material": "wall"}]
-  })",
-                                   rho, rho, rho, intensity, intensity, intensity, radius));
-  auto engine = engine_with(scene);
+  const InsideDiffuseSphere sphere;
+  auto engine = engine_with(sphere.scene(R"({"photons": 200000, "k": 64, "max_radius": 0.2,
+                                             "max_photon_bounces": 40, "passes": 4})"));
   auto report = engine->render(4);
   ASSERT_TRUE(report.ok()) << report.status();
-  std::span<const float> image = engine->image_linear();
-  double mean = 0;
-  for (size_t i = 0; i < image.size(); i += 4) mean += image[i + 1];
-  mean /= double(image.size() / 4);
-  const double expected = rho * phi / (4 * kPi * kPi * radius * radius * (1 - rho));
+  const double mean = InsideDiffuseSphere::mean(engine->image_linear());
+  const double expected = sphere.expected();
   const double error = std::fabs(mean - expected) / expected;
   EXPECT_LT(error, 0.03) << "mean " << mean << " expected " << expected;
   std::printf("inside diffuse sphere: mean radiance %.5f, analytic %.5f, relative error %.3f%%\n",

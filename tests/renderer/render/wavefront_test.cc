@@ -85,8 +85,8 @@ TEST(PhotonTrace, RayQueuesGiveTheSamePhotons) {
   const TracedPhotons walked = trace_photons(*backend, resident, settings);
   settings.ray_queues = true;
   const TracedPhotons queued = trace_photons(*backend, resident, settings);
-  for (auto [a, b] : {std::pair{&walked.caustic, &queued.caustic},
-                      std::pair{&walked.global, &queued.global}}) {
+  for (auto [a, b] :
+       {std::pair{&walked.caustic, &queued.caustic}, std::pair{&walked.global, &queued.global}}) {
     const std::vector<Photon> x = a->download(), y = b->download();
     ASSERT_GT(x.size(), 100u);
     ASSERT_EQ(x.size(), y.size());

@@ -1,0 +1,177 @@
+#include "renderer/render/path_tracer.h"
+
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+#include "renderer/accel/ray_queries.h"
+#include "renderer/base/rng.h"
+#include "renderer/base/sampling.h"
+#include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/scattering.h"
+#include "renderer/render/whitted.h"
+
+namespace caustica {
+namespace {
+
+// Veach's power heuristic (beta = 2): the weight of a sample drawn with pdf `a` when `b` could
+// have drawn it too.
+CAUSTICA_HDI float power_heuristic(float a, float b) {
+  const float a2 = a * a, b2 = b * b;
+  return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
+}
+
+// The solid-angle pdf with which a shadow ray to area light `a` would have chosen the direction
+// that meets it at distance `dist` with cosine `cos_light` there.
+CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist,
+                                  float cos_light) {
+  const DeviceLight& l = scene.lights[scene.area_lights[a]];
+  const float choice = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
+  return choice * dist * dist / (cos_light * l.area);
+}
+
+// One shadow ray to a point drawn on an area light chosen by power, weighed against the
+// cosine-weighted bounce that could have found the same point. `normal` faces the viewer.
+template <typename Structure>
+CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Structure& structure,
+                                     Vec3f p, Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
+                                     Sampler& s) {
+  const float u = s.next_float();
+  const Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
+  const uint32_t a = ResidentSceneView::sample_cdf(scene.area_light_cdf, scene.area_light_count, u);
+  const DeviceLight& l = scene.lights[scene.area_lights[a]];
+  const Vec3f y = l.position + l.edge1 * b.x + l.edge2 * b.y;
+  const Vec3f d = y - p;
+  const float dist = length(d);
+  if (!(dist > 0.0f)) return Vec3f(0.0f);
+  const Vec3f wi = d / dist;
+  const float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
+  if (cos_x <= 0.0f || cos_y <= 0.0f) return Vec3f(0.0f);
+  const float light_pdf = area_light_pdf(scene, a, dist, cos_y);
+  if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
+  // Stops just short of the light, whose own triangle must not block it.
+  if (any_hit(structure, shadow_ray(offset_origin(p, geometric_normal, wi), y, 1e-3f)))
+    return Vec3f(0.0f);
+  const float weight = power_heuristic(light_pdf, cos_x * kInvPi);
+  return albedo * l.color * (kInvPi * cos_x * weight / light_pdf);
+}
+
+// The radiance a path from the camera along `ray` carries back.
+template <typename Structure>
+CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& structure, Ray ray,
+                              float scene_radius, Sampler& s) {
+  Vec3f radiance(0.0f), throughput(1.0f);
+  // The solid-angle pdf of the last bounce's direction when it was a diffuse one, else 0: a light
+  // met after it is weighed against the shadow ray that could have found it.
+  float bounce_pdf = 0.0f;
+  for (uint32_t bounce = 0; bounce < kPathSafetyBounces; ++bounce) {
+    const Hit hit = closest_hit(structure, ray);
+    if (!hit.valid()) break;  // black background
+    const SurfaceHit sh = surface_at(scene, hit);
+    const DeviceMaterial& m = scene.materials[sh.material];
+    const Vec3f d = ray.direction;
+    if (m.type == MaterialType::kEmissive) {
+      const float cos_light = -dot(d, sh.geometric_normal);
+      if (cos_light > 0.0f) {
+        float weight = 1.0f;
+        const uint32_t a = scene.triangle_area_light[hit.triangle];
+        if (bounce_pdf > 0.0f && a != kNoAreaLight)
+          weight = power_heuristic(bounce_pdf, area_light_pdf(scene, a, hit.t, cos_light));
+        radiance += throughput * m.radiance * weight;
+      }
+      break;  // lights do not reflect
+    }
+    switch (m.type) {
+      case MaterialType::kDiffuse: {
+        const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        const Vec3f ng =
+            dot(d, sh.geometric_normal) < 0.0f ? sh.geometric_normal : -sh.geometric_normal;
+        // Point, spot and directional lights: a shadow ray each (no area samples here).
+        radiance += throughput *
+                    direct_light(scene, structure, sh.position, n, ng, m.color, 0, scene_radius, s);
+        if (scene.area_light_count > 0)
+          radiance +=
+              throughput * sample_area_light(scene, structure, sh.position, n, ng, m.color, s);
+        const Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
+        const Vec3f wi = Frame::from_normal(n).to_world(local);
+        // A direction under the surface itself (a shading normal tilted from the geometric one)
+        // would leak through it.
+        if (local.z <= 0.0f || dot(wi, ng) <= 0.0f) return radiance;
+        bounce_pdf = local.z * kInvPi;
+        throughput *= m.color;  // f cos / pdf = (albedo / pi) cos / (cos / pi)
+        ray = Ray{};
+        ray.origin = offset_origin(sh.position, sh.geometric_normal, wi);
+        ray.direction = wi;
+        break;
+      }
+      case MaterialType::kMirror: {
+        const Vec3f r = reflect(d, sh.shading_normal);
+        throughput *= m.color;
+        bounce_pdf = 0.0f;
+        ray = Ray{};
+        ray.origin = offset_origin(sh.position, sh.geometric_normal, r);
+        ray.direction = r;
+        break;
+      }
+      case MaterialType::kDielectric: {
+        // One branch, drawn by the Fresnel reflectance, so the weight is 1 either way.
+        const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+        const float fr = fresnel_dielectric(side.cos_i, side.eta);
+        Vec3f next = reflect(d, side.normal);
+        Vec3f refracted;
+        if (s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) next = refracted;
+        bounce_pdf = 0.0f;
+        ray = Ray{};
+        ray.origin = offset_origin(sh.position, sh.geometric_normal, next);
+        ray.direction = next;
+        break;
+      }
+      case MaterialType::kEmissive:
+        break;
+    }
+    if (bounce + 1 >= kPathRouletteFrom) {
+      const float survive = min_f(kPathSurvivalCap, max_component(throughput));
+      if (!(s.next_float() < survive)) break;
+      throughput = throughput / survive;
+    }
+  }
+  return radiance;
+}
+
+// One pass's paths through `structure`, a view that answers single rays, added to `accum`. (A
+// named function: nvcc admits no extended lambda inside the generic one that visits the views.)
+template <typename Structure>
+void trace_paths_through(const Structure& structure, Backend& backend,
+                         const ResidentSceneView& scene, float scene_radius,
+                         const PinholeCamera& camera, const PathSettings& settings, Vec3f* accum) {
+  const size_t pixels = size_t(camera.width) * camera.height;
+  const uint32_t seed = settings.seed, pass = settings.pass;
+  parallel_for(backend, "path_trace", pixels, [=] CAUSTICA_HD(size_t pixel) {
+    Sampler s(seed, uint32_t(pixel), pass);
+    const float x = float(pixel % camera.width) + s.next_float();
+    const float y = float(pixel / camera.width) + s.next_float();
+    accum[pixel] += trace_path(scene, structure, camera.ray_through(x, y), scene_radius, s);
+  });
+}
+
+}  // namespace
+
+void render_path_pass(Backend& backend, const ResidentScene& resident, const PinholeCamera& camera,
+                      const PathSettings& settings, Film& film) {
+  const ResidentSceneView scene = resident.view();
+  const float scene_radius = resident.radius();
+  Vec3f* accum = film.accumulator();
+  resident.structure().visit([&](const auto& structure) {
+    if constexpr (StructureView<std::decay_t<decltype(structure)>>) {
+      trace_paths_through(structure, backend, scene, scene_radius, camera, settings, accum);
+    } else {
+      throw std::invalid_argument(
+          std::string("the path integrator traces one ray at a time, and the structure ") +
+          structure_kind_name(resident.structure().kind()) +
+          " answers batches only: choose another structure for it");
+    }
+  });
+  film.add_pass();
+}
+
+}  // namespace caustica

@@ -1,0 +1,110 @@
+// Scenes with closed-form answers, and the engine helpers, shared by the integrators' suites.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <span>
+#include <string>
+
+#include "absl/strings/str_format.h"
+#include "renderer/engine.h"
+#include "renderer/render/camera.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+
+inline Scene parse_or_die(const std::string& json) {
+  absl::StatusOr<Scene> scene = parse_scene(json, ".", "test.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  return scene.ok() ? *scene : Scene{};
+}
+
+inline std::unique_ptr<Engine> engine_with(const Scene& scene) {
+  auto engine = Engine::create({});
+  EXPECT_TRUE(engine.ok());
+  auto loaded = (*engine)->load(scene);
+  EXPECT_TRUE(loaded.ok()) << loaded.status();
+  return std::move(*engine);
+}
+
+// A 2 x 2 diffuse square of albedo rho at z = 0, seen from above by a `size` x `size` camera, lit
+// by a point light of intensity I at `light`: no other surface, so every point's radiance is
+// rho / pi * I cos(theta) / r^2. `settings` is the scene's settings object.
+struct PlaneUnderPointLight {
+  float rho = 0.6f, intensity = 3.0f;
+  Vec3f light{0.3f, -0.2f, 1.0f};
+  int size = 128;
+
+  Scene scene(const std::string& settings) const {
+    return parse_or_die(absl::StrFormat(R"({
+      "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov": 30,
+                 "width": %d, "height": %d},
+      "settings": %s,
+      "materials": {"grey": {"type": "diffuse", "albedo": [%f, %f, %f]}},
+      "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [%f, %f, %f]}],
+      "shapes": [{"type": "quad", "material": "grey",
+                  "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
+    })",
+                                        size, size, settings, rho, rho, rho, light.x, light.y,
+                                        light.z, intensity, intensity, intensity));
+  }
+
+  // The largest relative error over every `step`-th pixel whose centre's ray meets the square
+  // away from its edges; `checked` counts them.
+  double worst_error(const Scene& scene, std::span<const float> image, int step,
+                     int& checked) const {
+    const PinholeCamera cam = PinholeCamera::from(scene.camera);
+    double worst = 0;
+    checked = 0;
+    for (int y = step / 2; y < size; y += step) {
+      for (int x = step / 2; x < size; x += step) {
+        const Ray r = cam.ray_through(x + 0.5f, y + 0.5f);
+        const Vec3f p = r.origin + r.direction * (-r.origin.z / r.direction.z);
+        if (std::fabs(p.x) > 0.95f || std::fabs(p.y) > 0.95f) continue;
+        const Vec3f d = light - p;
+        const float dist2 = length_squared(d);
+        const float expected = rho / kPi * intensity * (d.z / std::sqrt(dist2)) / dist2;
+        const float got = image[4 * (y * size + x)];
+        worst = std::max(worst, double(std::fabs(got - expected) / expected));
+        ++checked;
+      }
+    }
+    return worst;
+  }
+};
+
+// Inside a closed diffuse sphere of albedo rho and radius R with a point light of power Phi at its
+// centre, the radiance everywhere is rho Phi / (4 pi^2 R^2 (1 - rho)): direct light plus every
+// interreflection.
+struct InsideDiffuseSphere {
+  float rho = 0.5f, radius = 1.0f, intensity = 2.0f;
+
+  Scene scene(const std::string& settings) const {
+    return parse_or_die(absl::StrFormat(R"({
+      "camera": {"position": [0.1, 0.05, 0.0], "look_at": [0.1, 0.05, 1], "up": [0, 1, 0],
+                 "fov": 90, "width": 64, "height": 64},
+      "settings": %s,
+      "materials": {"wall": {"type": "diffuse", "albedo": [%f, %f, %f]}},
+      "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [%f, %f, %f]}],
+      "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": %f, "rings": 96,
+                  "segments": 192, "material": "wall"}]
+    })",
+                                        settings, rho, rho, rho, intensity, intensity, intensity,
+                                        radius));
+  }
+  double expected() const {
+    const double phi = 4.0 * kPi * intensity;
+    return rho * phi / (4 * kPi * kPi * radius * radius * (1 - rho));
+  }
+  // The image's mean green radiance.
+  static double mean(std::span<const float> image) {
+    double sum = 0;
+    for (size_t i = 0; i < image.size(); i += 4) sum += image[i + 1];
+    return sum / double(image.size() / 4);
+  }
+};
+
+}  // namespace caustica
