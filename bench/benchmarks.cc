@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "bench/convergence.h"
 #include "bench/measure.h"
 #include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
@@ -507,7 +508,7 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
 std::vector<std::string> benchmark_names() {
   std::vector<std::string> names = {"lbvh_build",      "primary_rays", "shadow_rays",
                                     "incoherent_rays", "photon_pass",  "frame",
-                                    "photon_gather",   "path_pass"};
+                                    "photon_gather",   "path_pass",    "convergence"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
   return names;
 }
@@ -539,6 +540,11 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   }
   if (any_of(serving_benchmark_names())) {
     if (absl::Status s = run_serving_benchmarks(o, report); !s.ok()) return s;
+  }
+  // Thousands of passes: run only when named.
+  if (std::find(o.only.begin(), o.only.end(), "convergence") != o.only.end()) {
+    if (o.photon_scene.empty()) return absl::InvalidArgumentError("convergence needs --scene");
+    if (absl::Status s = convergence_benchmark(o, report); !s.ok()) return s;
   }
 
   return absl::OkStatus();

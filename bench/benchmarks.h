@@ -32,6 +32,9 @@ struct BenchOptions {
   bool kernels = false;
   // --ray-queues: the photon trace and the render pass through the ray queues for every structure.
   bool ray_queues = false;
+  // convergence: the path-traced reference's passes, and the most passes each integrator runs.
+  uint32_t reference_passes = 4096;
+  uint32_t convergence_passes = 256;
 };
 
 // The names run_benchmarks knows, in the order it runs them.

@@ -42,6 +42,12 @@ int main(int argc, char** argv) {
         if (name == "all" || caustica::parse_structure_kind(name)) return "";
         return caustica::unknown_structure_message(name, "all, ");
       });
+  app.add_option("--reference-passes", options.reference_passes,
+                 "convergence: passes of the path-traced reference")
+      ->check(CLI::Range(1, 1 << 20));
+  app.add_option("--convergence-passes", options.convergence_passes,
+                 "convergence: the most passes each integrator runs (doubling from 1)")
+      ->check(CLI::Range(1, 1 << 20));
   app.add_flag("--kernels", options.kernels,
                "after each measured benchmark, print its launches' times: one JSON line per "
                "launch name with launches and milliseconds per run, the most time first");

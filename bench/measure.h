@@ -95,6 +95,13 @@ class Reporter {
     if (m != nullptr && runs > 0) kernels(name, scene, *m, runs);
     out_.flush();
   }
+  // A line of fields of its own (`fields`: JSON members, comma-separated, without braces).
+  void point(const std::string& name, const std::string& scene, const std::string& fields) {
+    out_ << absl::StrFormat(R"({"name": "%s", "scene": "%s", "device": "%s", )", name, scene,
+                            device_)
+         << fields << "}\n";
+    out_.flush();
+  }
   // One line per launch name of `m`'s measured runs (--kernels), the most time first, under the
   // benchmark line `benchmark` that the measurement gave.
   void kernels(const std::string& benchmark, const std::string& scene, const Measurement& m,
