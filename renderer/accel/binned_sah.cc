@@ -427,6 +427,15 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
     Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
     // The key's low bits number a node's bins, the huge one included.
     const int key_bin_bits = int(bits_for(schedule.max_bins() + 1));
+    // A level's nodes are disjoint and each holds more than the per-node limit, which bounds
+    // their number and so the key's node bits.
+    const uint32_t most_nodes = count / (schedule.per_node_limit() + 1) + 1;
+    if (int(bits_for(most_nodes)) + key_bin_bits > 32) {
+      throw std::invalid_argument(
+          "binned-sah stages " + binned_sah_stages_text(schedule) + ": " + std::to_string(count) +
+          " triangles make more (node, bin) keys than 32 bits hold; raise the per-node limit or "
+          "use fewer bins");
+    }
     const uint32_t bin_mask = (1u << key_bin_bits) - 1u;
     BinOrder bin_order(backend, count);
     for (int level = 0; node_count > 0; ++level) {
