@@ -1,4 +1,4 @@
-// The radiance estimate of density.h (the same k nearest photons, the same k-th distance) found
+// The radiance estimate of knn_estimate.h (the same k nearest photons, the same k-th distance) found
 // by counting instead of with a heap, for GPU searches in groups at larger k.
 //
 // A heap search spends most of its instructions keeping its heap: at k = 64 on a GPU, about half

@@ -1,6 +1,6 @@
 // The photon map: photons sorted along a space-filling curve under the same Karras LBVH as the
 // triangles (Fabianowski 2011 ch. 6 builds his photon map with this machinery), queried by exact
-// k-nearest neighbours (density.h).
+// k-nearest neighbours (range_query.h, knn_estimate.h).
 //
 // The hierarchy's leaves are runs of `photons_per_leaf` consecutive photons, not single photons:
 // a gather then fetches one node per run instead of two per photon, and the nodes cost a few bytes

@@ -92,7 +92,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
   return emitted;
 }
 
-// Requests per CPU thread in stage 4, each bounding the next one's search radius (density.h),
+// Requests per CPU thread in stage 4, each bounding the next one's search radius (knn_estimate.h),
 // which is faster on the CPU. On a GPU the same chains cost more than they save: a warp that
 // searches as a group already shares its nodes (docs/performance.md).
 constexpr uint32_t kGatherChain = 8;
