@@ -43,6 +43,19 @@ TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
   }
 }
 
+TEST(ClientOptions, UnknownIntegratorIsRefusedNamingBoth) {
+  for (const char* args : {"render s-1 -o out.png --integrator bdpt",
+                           "animate s-1 --script s.json -o out "
+                           "--integrator bdpt"}) {
+    const ClientRun run = run_client(args);
+    EXPECT_NE(run.exit_code, 0) << args;
+    EXPECT_THAT(run.output, HasSubstr("unknown integrator 'bdpt' (expected photon or path)"))
+        << args;
+  }
+  const ClientRun help = run_client("render --help");
+  EXPECT_THAT(help.output, HasSubstr("--integrator"));
+}
+
 TEST(ClientOptions, HelpListsTheStructures) {
   for (const char* args : {"scene upload --help", "render --help"}) {
     const ClientRun run = run_client(args);

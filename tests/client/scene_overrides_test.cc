@@ -35,5 +35,17 @@ TEST(SceneOverrides, StructureGoesToUpdateSettings) {
       << "no override keeps the scene's structure";
 }
 
+TEST(SceneOverrides, IntegratorChangesTheSceneOrGoesToUpdateSettings) {
+  SceneOverrides overrides;
+  overrides.integrator = Integrator::kPath;
+  EXPECT_FALSE(overrides.empty()) << "an integrator alone is an override";
+  Scene scene;
+  overrides.apply(scene);
+  EXPECT_EQ(scene.settings.integrator, Integrator::kPath);
+  EXPECT_EQ(overrides.request("s-1").settings().integrator(), v1::PATH);
+  EXPECT_EQ(SceneOverrides{}.request("s-1").settings().integrator(), v1::INTEGRATOR_UNSPECIFIED)
+      << "no override keeps the scene's integrator";
+}
+
 }  // namespace
 }  // namespace caustica::client
