@@ -296,6 +296,7 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
     for (uint32_t i = 0; i < passes; ++i) {
       const uint32_t pass = st.film->passes();
       if (st.scene.settings.integrator == Integrator::kPath) {
+        st.last_photon_map_bytes = 0;  // no maps for it
         auto t0 = std::chrono::steady_clock::now();
         render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
         backend.synchronize();

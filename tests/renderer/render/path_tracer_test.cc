@@ -122,6 +122,8 @@ const char* kCornellLike = R"({
     "lights": [{"type": "point", "position": [0.3, 1.5, 0.5], "intensity": [1, 1, 1]}],
     "shapes": [{"type": "quad", "material": "white",
                 "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]},
+               {"type": "quad", "material": "white",
+                "vertices": [[-1, 0, -1], [1, 0, -1], [1, 2, -1], [-1, 2, -1]]},
                {"type": "quad", "material": "lamp",
                 "vertices": [[-0.3, 1.9, -0.3], [0.3, 1.9, -0.3], [0.3, 1.9, 0.3], [-0.3, 1.9, 0.3]]}]
   })";
@@ -162,8 +164,10 @@ TEST(PathTracer, EngineTracesNoPhotonsForItAndSwitchesIntegrators) {
   ASSERT_TRUE(photon_pass.ok());
   EXPECT_GT(photon_pass->photons_emitted, 0u);
 
+  EXPECT_GT(engine->scene_stats().photon_map_bytes, 0u);
   ASSERT_TRUE(engine->set_settings(scene.settings).ok());
   ASSERT_TRUE(engine->render(2).ok());
+  EXPECT_EQ(engine->scene_stats().photon_map_bytes, 0u) << "no maps held for the path integrator";
   const std::vector<float> again(engine->image_linear().begin(), engine->image_linear().end());
   EXPECT_EQ(first, again);  // the same seed and passes: the same paths
 }
