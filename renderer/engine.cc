@@ -295,19 +295,13 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
     Backend& backend = *st.backend;
     for (uint32_t i = 0; i < passes; ++i) {
       const uint32_t pass = st.film->passes();
-      if (st.scene.settings.integrator == Integrator::kPath) {
-        st.last_photon_map_bytes = 0;  // no maps for it
-        auto t0 = std::chrono::steady_clock::now();
-        render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
-        backend.synchronize();
-        report.timings.render_ms += elapsed_ms(t0);
-        ++report.passes_rendered;
-        if (progress) progress(i + 1, passes);
-        continue;
-      }
-      // Photons traced ahead by a light change serve the pass they were traced for.
+      const bool path = st.scene.settings.integrator == Integrator::kPath;
+      // Photons traced ahead by a light change serve the pass they were traced for; the path
+      // integrator takes none.
       std::optional<PreparedPhotons> maps;
-      if (st.prepared && st.prepared->pass == pass) {
+      if (path) {
+        st.last_photon_map_bytes = 0;
+      } else if (st.prepared && st.prepared->pass == pass) {
         maps = std::move(st.prepared);
       } else {
         maps = st.trace_pass_photons(pass, report.timings, report.photons_emitted,
@@ -316,8 +310,12 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
       st.prepared.reset();
 
       auto t0 = std::chrono::steady_clock::now();
-      render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass),
-                  *st.film);
+      if (path) {
+        render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
+      } else {
+        render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass),
+                    *st.film);
+      }
       backend.synchronize();
       report.timings.render_ms += elapsed_ms(t0);
       ++report.passes_rendered;

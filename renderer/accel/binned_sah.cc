@@ -332,7 +332,6 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
       });
       const Aabb b = backend.reduce_bounds(range, n), c = backend.reduce_bounds(centroid_box, n);
       BinCell cell;
-      clear_bin(cell);
       cell.count = n;
       for (int a = 0; a < 3; ++a) {
         cell.lower[a] = ordered_bits(b.lower[a]);
@@ -341,6 +340,8 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
         cell.centroid_upper[a] = ordered_bits(c.upper[a]);
       }
       backend.copy_to_device(seg_cell, &cell, sizeof(BinCell));
+      // When the root is that segment, its box is the tree's bounds.
+      if (root_listed) bvh.bounds = b;
     } else {
       parallel_for(backend, "binned_sah_segment_clear", segment_count,
                    [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
@@ -368,13 +369,6 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
         }
         if (run != kNoNode) running.flush_into(seg_cell[run]);
       });
-    }
-    if (root_listed) {
-      // The root is the only segment: its box is the tree's bounds.
-      BinCell root_cell;
-      backend.copy_to_host(&root_cell, seg_cell, sizeof(BinCell));
-      Aabb root_centroids;
-      read_bin(root_cell, bvh.bounds, root_centroids);
     }
     // Segments too small or too degenerate to bin go to the per-node stage at once; the others
     // become the first level's nodes, in position order.

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "renderer/accel/bvh8.h"
+#include "renderer/accel/wide_sah_cost.h"
 #include "renderer/base/atomic.h"
 #include "renderer/parallel/parallel_for.h"
 
@@ -316,17 +317,11 @@ Bvh8 build_bvh8(Backend& backend, const TriangleVertices* triangles, uint32_t co
   return collapse_to_bvh8(backend, build_hploc_bvh(backend, triangles, count, curve));
 }
 
-double sah_cost(Backend& backend, const Bvh8& bvh) {
-  const float root_area = bvh.bounds.half_area();
-  if (bvh.count == 0 || !(root_area > 0.0f)) return double(bvh.count);
-  if (bvh.count == 1) return 1.0;
-  const size_t n = bvh.nodes.size();
-  Buffer<float> terms(backend, n);
-  float* term = terms.data();
-  const Bvh8Node* nodes = bvh.nodes.data();
-  const float inv_root = 1.0f / root_area;
-  parallel_for(backend, "bvh8_sah_cost_terms", n, [=] CAUSTICA_HD(size_t i) {
-    const Bvh8Node& node = nodes[i];
+namespace {
+
+// An 8-wide node's children's terms (wide_sah_cost), over the quantised boxes traversal tests.
+struct Bvh8ChildrenTerms {
+  CAUSTICA_HDI float operator()(const Bvh8Node& node, float inv_root) const {
     float sum = 0.0f;
     for (int s = 0; s < 8; ++s) {
       const uint8_t meta = node.meta[s];
@@ -334,9 +329,15 @@ double sah_cost(Backend& backend, const Bvh8& bvh) {
       const float area = bvh8_child_box(node, s).half_area() * inv_root;
       sum += bvh8_slot_is_internal(meta) ? area : float(bvh8_leaf_triangles(meta)) * area;
     }
-    term[i] = sum;
-  });
-  return 1.0 + backend.reduce_sum(term, n);
+    return sum;
+  }
+};
+
+}  // namespace
+
+double sah_cost(Backend& backend, const Bvh8& bvh) {
+  return wide_sah_cost(backend, "bvh8_sah_cost_terms", bvh.nodes.data(), bvh.nodes.size(),
+                       bvh.count, bvh.bounds.half_area(), Bvh8ChildrenTerms{});
 }
 
 }  // namespace caustica

@@ -310,6 +310,26 @@ void brute_force_terminals(Backend& backend, const DacrtView& view, const Ray* r
   });
 }
 
+// Places reference i (of id `id`, in a node of `count` references from `first` on, active as
+// node `a`) in the children it goes to: `left` and `right` are the exclusive scans of the
+// references going left and right, so each child keeps its references in their order, the left
+// child's before the right's.
+CAUSTICA_HDI void gather_split_reference(size_t i, const uint32_t* left, const uint32_t* right,
+                                         uint32_t first, uint32_t count, uint32_t a, uint32_t id,
+                                         uint32_t* next_node, uint32_t* next_id) {
+  const bool goes_left = left[i + 1] != left[i], goes_right = right[i + 1] != right[i];
+  if (goes_left) {
+    const uint32_t at = right[first] + left[i];
+    next_node[at] = 2 * a;
+    next_id[at] = id;
+  }
+  if (goes_right) {
+    const uint32_t at = left[first + count] + right[i];
+    next_node[at] = 2 * a + 1;
+    next_id[at] = id;
+  }
+}
+
 // Splits every active node of `level` into two nodes of `next`: triangles left of, right of or
 // across the split, rays into the children their segment meets. kQuery kClosest leaves a ray out
 // of children behind its nearest hit so far, kAny leaves blocked rays out altogether.
@@ -413,37 +433,15 @@ void divide_level(Backend& backend, const DacrtView& view, const Ray* rays, floa
   });
   uint32_t *next_tri_node = next.tri_node.data(), *next_tri_id = next.tri_id.data();
   parallel_for(backend, "dacrt_gather_triangles", tri_refs, [=] CAUSTICA_HD(size_t i) {
-    const bool left = tri_left[i + 1] != tri_left[i], right = tri_right[i + 1] != tri_right[i];
-    if (!left && !right) return;
-    const uint32_t c = tri_node[i], a = active_id[c];
-    const uint32_t start = tri_first[c], end = start + tris[c];
-    if (left) {
-      const uint32_t at = tri_right[start] + tri_left[i];
-      next_tri_node[at] = 2 * a;
-      next_tri_id[at] = tri_id[i];
-    }
-    if (right) {
-      const uint32_t at = tri_left[end] + tri_right[i];
-      next_tri_node[at] = 2 * a + 1;
-      next_tri_id[at] = tri_id[i];
-    }
+    const uint32_t c = tri_node[i];
+    gather_split_reference(i, tri_left, tri_right, tri_first[c], tris[c], active_id[c], tri_id[i],
+                           next_tri_node, next_tri_id);
   });
   uint32_t *next_ray_node = next.ray_node.data(), *next_ray_id = next.ray_id.data();
   parallel_for(backend, "dacrt_gather_rays", ray_refs, [=] CAUSTICA_HD(size_t i) {
-    const bool left = ray_left[i + 1] != ray_left[i], right = ray_right[i + 1] != ray_right[i];
-    if (!left && !right) return;
-    const uint32_t c = ray_node[i], a = active_id[c];
-    const uint32_t start = ray_first[c], end = start + rays_in[c];
-    if (left) {
-      const uint32_t at = ray_right[start] + ray_left[i];
-      next_ray_node[at] = 2 * a;
-      next_ray_id[at] = ray_id[i];
-    }
-    if (right) {
-      const uint32_t at = ray_left[end] + ray_right[i];
-      next_ray_node[at] = 2 * a + 1;
-      next_ray_id[at] = ray_id[i];
-    }
+    const uint32_t c = ray_node[i];
+    gather_split_reference(i, ray_left, ray_right, ray_first[c], rays_in[c], active_id[c],
+                           ray_id[i], next_ray_node, next_ray_id);
   });
 }
 

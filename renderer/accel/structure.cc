@@ -5,6 +5,7 @@
 #include "renderer/accel/binned_sah.h"
 #include "renderer/accel/hybrid_bvh.h"
 #include "renderer/accel/kd_tree.h"
+#include "renderer/accel/wide_sah_cost.h"
 #include "renderer/parallel/parallel_for.h"
 
 namespace caustica {
@@ -84,20 +85,11 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
   throw DeviceError("build_structure: unknown structure kind");
 }
 
-double sah_cost(Backend& backend, const TriangleBvh& bvh) {
-  const float root_area = bvh.bvh.bounds.half_area();
-  const uint32_t triangles = bvh.bvh.triangle_count;
-  if (triangles == 0 || !(root_area > 0.0f)) return double(triangles);
-  if (triangles == 1) return 1.0;
-  // Per node: its children's terms relative to the root's area (C_T for an inner child, C_I per
-  // triangle of a leaf); the root itself adds 1.
-  const size_t n = bvh.bvh.nodes.size();
-  Buffer<float> terms(backend, n);
-  float* term = terms.data();
-  const Bvh4Node* nodes = bvh.bvh.nodes.data();
-  const float inv_root = 1.0f / root_area;
-  parallel_for(backend, "sah_cost_terms", n, [=] CAUSTICA_HD(size_t i) {
-    const Bvh4Node& node = nodes[i];
+namespace {
+
+// A 4-wide node's children's terms (wide_sah_cost).
+struct Bvh4ChildrenTerms {
+  CAUSTICA_HDI float operator()(const Bvh4Node& node, float inv_root) const {
     float sum = 0.0f;
     for (int c = 0; c < 4; ++c) {
       const uint32_t child = node.child[c];
@@ -105,9 +97,15 @@ double sah_cost(Backend& backend, const TriangleBvh& bvh) {
       const float area = node.child_bounds(c).half_area() * inv_root;
       sum += is_leaf(child) ? float(leaf_count(child)) * area : area;
     }
-    term[i] = sum;
-  });
-  return 1.0 + backend.reduce_sum(term, n);
+    return sum;
+  }
+};
+
+}  // namespace
+
+double sah_cost(Backend& backend, const TriangleBvh& bvh) {
+  return wide_sah_cost(backend, "sah_cost_terms", bvh.bvh.nodes.data(), bvh.bvh.nodes.size(),
+                       bvh.bvh.triangle_count, bvh.bvh.bounds.half_area(), Bvh4ChildrenTerms{});
 }
 
 double sah_cost(Backend&, const DacrtTriangles& dacrt) { return double(dacrt.triangles.size()); }

@@ -21,13 +21,12 @@ CAUSTICA_HDI float power_heuristic(float a, float b) {
   return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
 }
 
-// The solid-angle pdf with which a shadow ray to area light `a` would have chosen the direction
-// that meets it at distance `dist` with cosine `cos_light` there.
-CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist,
+// The solid-angle pdf with which a shadow ray would have chosen a direction that meets area light
+// `a` at squared distance `dist2` with cosine `cos_light` there.
+CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist2,
                                   float cos_light) {
-  const DeviceLight& l = scene.lights[scene.area_lights[a]];
-  const float choice = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
-  return choice * dist * dist / (cos_light * l.area);
+  return area_light_choice_pdf(scene, a) * dist2 /
+         (cos_light * scene.lights[scene.area_lights[a]].area);
 }
 
 // One shadow ray to a point drawn on an area light chosen by power, weighed against the
@@ -36,24 +35,17 @@ template <typename Structure>
 CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Structure& structure,
                                      Vec3f p, Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
                                      Sampler& s) {
-  const float u = s.next_float();
-  const Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
-  const uint32_t a = ResidentSceneView::sample_cdf(scene.area_light_cdf, scene.area_light_count, u);
-  const DeviceLight& l = scene.lights[scene.area_lights[a]];
-  const Vec3f y = l.position + l.edge1 * b.x + l.edge2 * b.y;
-  const Vec3f d = y - p;
-  const float dist = length(d);
-  if (!(dist > 0.0f)) return Vec3f(0.0f);
-  const Vec3f wi = d / dist;
-  const float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
-  if (cos_x <= 0.0f || cos_y <= 0.0f) return Vec3f(0.0f);
-  const float light_pdf = area_light_pdf(scene, a, dist, cos_y);
+  const AreaLightPoint y = draw_area_light_point(scene, p, s);
+  if (!(y.dist2 > 0.0f)) return Vec3f(0.0f);
+  const float cos_x = dot(normal, y.wi);
+  if (cos_x <= 0.0f || y.cos_light <= 0.0f) return Vec3f(0.0f);
+  const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
   if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
   // Stops just short of the light, whose own triangle must not block it.
-  if (any_hit(structure, shadow_ray(offset_origin(p, geometric_normal, wi), y, 1e-3f)))
+  if (any_hit(structure, shadow_ray(offset_origin(p, geometric_normal, y.wi), y.position, 1e-3f)))
     return Vec3f(0.0f);
   const float weight = power_heuristic(light_pdf, cos_x * kInvPi);
-  return albedo * l.color * (kInvPi * cos_x * weight / light_pdf);
+  return albedo * y.light->color * (kInvPi * cos_x * weight / light_pdf);
 }
 
 // The radiance a path from the camera along `ray` carries back.
@@ -76,7 +68,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         float weight = 1.0f;
         const uint32_t a = scene.triangle_area_light[hit.triangle];
         if (bounce_pdf > 0.0f && a != kNoAreaLight)
-          weight = power_heuristic(bounce_pdf, area_light_pdf(scene, a, hit.t, cos_light));
+          weight = power_heuristic(bounce_pdf, area_light_pdf(scene, a, hit.t * hit.t, cos_light));
         radiance += throughput * m.radiance * weight;
       }
       break;  // lights do not reflect

@@ -38,6 +38,29 @@ struct GatherRequest {
   uint32_t order;  // among its pixel's requests, in the order the specular tree met them
 };
 
+// Whether a branch spawned from a hit at `depth` with `throughput` is followed.
+CAUSTICA_HDI bool branch_continues(uint32_t depth, uint32_t max_depth, Vec3f throughput) {
+  return !(depth >= max_depth || max_component(throughput) <= 0.0f);
+}
+
+// The branches a mirror or dielectric hit (material `m`, `sh`, ray direction `d`) spawns with the
+// path's `throughput`: spawn(direction, throughput, choice), choice 1 for the refraction and 0
+// for a reflection; a dielectric's both Fresnel branches, the refraction first.
+template <typename Spawn>
+CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& sh, Vec3f d,
+                                    Vec3f throughput, Spawn spawn) {
+  if (m.type == MaterialType::kMirror) {
+    spawn(reflect(d, sh.shading_normal), throughput * m.color, uint64_t(0));
+    return;
+  }
+  DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+  float fr = fresnel_dielectric(side.cos_i, side.eta);
+  Vec3f refracted;
+  if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
+    spawn(refracted, throughput * (1.0f - fr), uint64_t(1));
+  spawn(reflect(d, side.normal), throughput * fr, uint64_t(0));
+}
+
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
 // pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput)` is
 // called at every diffuse hit in a fixed order; emitted light seen along the tree is returned.
@@ -59,8 +82,8 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = pr.ray.direction;
-    auto spawn = [&](Vec3f dir, Vec3f throughput) {
-      if (pr.depth >= max_depth || max_component(throughput) <= 0.0f) return;
+    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t) {
+      if (!branch_continues(pr.depth, max_depth, throughput)) return;
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
@@ -76,17 +99,9 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
         break;
       }
       case MaterialType::kMirror:
-        spawn(reflect(d, sh.shading_normal), pr.throughput * m.color);
+      case MaterialType::kDielectric:
+        specular_branches(m, sh, d, pr.throughput, spawn);
         break;
-      case MaterialType::kDielectric: {
-        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-        float fr = fresnel_dielectric(side.cos_i, side.eta);
-        Vec3f refracted;
-        if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
-          spawn(refracted, pr.throughput * (1.0f - fr));
-        spawn(reflect(d, side.normal), pr.throughput * fr);
-        break;
-      }
     }
   }
   return emitted;
@@ -344,7 +359,7 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     const DeviceMaterial& m = in.scene.materials[sh.material];
     const Vec3f d = pr.ray.direction;
     auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
-      if (pr.depth >= in.max_depth || max_component(throughput) <= 0.0f) return;
+      if (!branch_continues(pr.depth, in.max_depth, throughput)) return;
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
@@ -368,17 +383,9 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
         break;
       }
       case MaterialType::kMirror:
-        spawn(reflect(d, sh.shading_normal), pr.throughput * m.color, 0);
+      case MaterialType::kDielectric:
+        specular_branches(m, sh, d, pr.throughput, spawn);
         break;
-      case MaterialType::kDielectric: {
-        DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-        float fr = fresnel_dielectric(side.cos_i, side.eta);
-        Vec3f refracted;
-        if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
-          spawn(refracted, pr.throughput * (1.0f - fr), 1);
-        spawn(reflect(d, side.normal), pr.throughput * fr, 0);
-        break;
-      }
     }
   });
 }

@@ -60,6 +60,40 @@ CAUSTICA_HDI uint32_t direct_light_dimensions(const ResidentSceneView& scene,
   return scene.area_light_count > 0 && area_samples > 0 ? 3 * area_samples : 0;
 }
 
+// A point drawn uniformly on an area light chosen by power (three sample dimensions), as a
+// shadow ray from `p` aims at it.
+struct AreaLightPoint {
+  uint32_t index;  // into scene.area_lights and scene.area_light_cdf
+  const DeviceLight* light;
+  Vec3f position;
+  Vec3f wi;          // unit, from p to the point
+  float dist2;       // squared distance from p
+  float cos_light;   // at the light, towards p (its front faces p when positive)
+  float choice_pdf;  // of choosing this light
+};
+
+// The probability of choosing area light `a` (an index into scene.area_lights) by power.
+CAUSTICA_HDI float area_light_choice_pdf(const ResidentSceneView& scene, uint32_t a) {
+  return scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
+}
+
+CAUSTICA_HDI AreaLightPoint draw_area_light_point(const ResidentSceneView& scene, Vec3f p,
+                                                  Sampler& s) {
+  AreaLightPoint y;
+  float u = s.next_float();
+  y.index = ResidentSceneView::sample_cdf(scene.area_light_cdf, scene.area_light_count, u);
+  y.light = &scene.lights[scene.area_lights[y.index]];
+  y.choice_pdf = area_light_choice_pdf(scene, y.index);
+  Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
+  y.position = y.light->position + y.light->edge1 * b.x + y.light->edge2 * b.y;
+  Vec3f d = y.position - p;
+  y.dist2 = length_squared(d);
+  float dist = sqrtf(y.dist2);
+  y.wi = d / dist;
+  y.cos_light = -dot(y.light->direction, y.wi);
+  return y;
+}
+
 // Direct light at a diffuse point: every point, spot and directional light with one shadow ray
 // each, and `area_samples` shadow rays to area lights chosen by power. `visible(slot, ray)` says
 // whether the shadow ray `ray` (slot: direct_light_slots) reaches its light. `normal` faces the
@@ -99,20 +133,12 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
   if (scene.area_light_count > 0 && area_samples > 0) {
     Vec3f area_sum(0.0f);
     for (uint32_t k = 0; k < area_samples; ++k) {
-      float u = s.next_float();
-      uint32_t a = ResidentSceneView::sample_cdf(scene.area_light_cdf, scene.area_light_count, u);
-      const DeviceLight& l = scene.lights[scene.area_lights[a]];
-      float choice_pdf = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
-      Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
-      Vec3f y = l.position + l.edge1 * b.x + l.edge2 * b.y;
-      Vec3f d = y - p;
-      float dist2 = length_squared(d);
-      float dist = sqrtf(dist2);
-      Vec3f wi = d / dist;
-      float cos_x = dot(normal, wi), cos_y = -dot(l.direction, wi);
-      if (cos_x <= 0.0f || cos_y <= 0.0f || choice_pdf <= 0.0f) continue;
-      if (!visible(scene.light_count + k, y, wi)) continue;
-      area_sum += f * l.color * (cos_x * cos_y * l.area / (dist2 * choice_pdf));
+      const AreaLightPoint y = draw_area_light_point(scene, p, s);
+      const DeviceLight& l = *y.light;
+      float cos_x = dot(normal, y.wi);
+      if (cos_x <= 0.0f || y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
+      if (!visible(scene.light_count + k, y.position, y.wi)) continue;
+      area_sum += f * l.color * (cos_x * y.cos_light * l.area / (y.dist2 * y.choice_pdf));
     }
     sum += area_sum / float(area_samples);
   }
