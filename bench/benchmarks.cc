@@ -424,22 +424,26 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     scene->camera.height = o.height;
     scene->settings.k_nearest = o.k;
     scene->settings.photons_per_pass = o.photons;
+    scene->settings.estimator = o.estimator;
     auto engine = Engine::create({.backend = *made, .photons_per_leaf = o.photons_per_leaf});
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
-    report.line("frame", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k), m.median,
-                "ms", &m, o.runs);
+    report.line("frame",
+                name + absl::StrFormat(" %dx%d k=%d %s", o.width, o.height, o.k,
+                                       estimator_kind_name(o.estimator)),
+                m.median, "ms", &m, o.runs);
     // Light change to finished frame: new lights, then one pass (photons, maps, render).
     std::vector<Light> lights = scene->lights;
     Measurement change = measure(o, (*engine)->backend(), [&] {
       (void)(*engine)->set_lights(lights);
       (void)(*engine)->render(1);
     });
-    report.line("light_change_to_frame", name, change.median, "ms", &change, o.runs);
+    report.line("light_change_to_frame", name + " " + estimator_kind_name(o.estimator),
+                change.median, "ms", &change, o.runs);
 
-    // The render pass alone on maps already built: camera rays, specular chains, shadow rays and
-    // both k-nearest gathers, as the frame target counts it.
+    // The k-nearest render pass alone on maps already built: camera rays, specular chains, shadow
+    // rays and both gathers, as the frame target counts it.
     const RenderSettings& rs = scene->settings;
     PhotonTraceSettings trace{o.photons, rs.max_photon_bounces, rs.seed, 0};
     trace.ray_queues = o.ray_queues;
@@ -448,14 +452,18 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
     Film film(*backend, o.width, o.height);
     const PinholeCamera camera = PinholeCamera::from(scene->camera);
-    uint32_t pass = 0;
+    uint32_t pass = 0, requests = 0;
     Measurement gather = measure(o, *backend, [&] {
       ShadingSettings shading = (*engine)->shading(pass++);
       shading.ray_queues = o.ray_queues;
-      render_pass(*backend, resident, caustic, global, camera, shading, film);
+      if (o.branch_survival >= 0.0f) shading.branch_survival = o.branch_survival;
+      render_pass(*backend, resident, caustic, global, camera, shading, film, &requests);
     });
-    report.line("frame_render", name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k),
-                gather.median, "ms", &gather, o.runs);
+    const std::string label = name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k);
+    report.line("frame_render", label, gather.median, "ms", &gather, o.runs);
+    // Of the last pass: the diffuse hits the gathers estimated, per pixel.
+    report.line("gather_requests_per_pixel", label, double(requests) / (double(o.width) * o.height),
+                "requests");
   }
   if (wanted(o, "path_pass")) {
     // One pass of the path integrator (settings.integrator "path"): a path a pixel.

@@ -24,6 +24,8 @@ struct BenchOptions {
   int width = 1024, height = 1024;
   uint32_t photons = 1000000;
   uint32_t k = 64;
+  // The frame benchmarks' estimator (--estimator); the convergence benchmark runs every one.
+  EstimatorKind estimator = EstimatorKind::kKnn;
   uint32_t photons_per_leaf = 0;  // 0: what the engine takes for the device and k
   std::string device = "cpu";     // serving benchmarks: the server's --device
   // The triangle structures to measure, each in turn (--structure NAME|all).
@@ -32,6 +34,9 @@ struct BenchOptions {
   bool kernels = false;
   // --ray-queues: the photon trace and the render pass through the ray queues for every structure.
   bool ray_queues = false;
+  // --branch-survival: frame_render's cap on deep camera branches' survival (negative: the
+  // renderer's own, kBranchSurvival).
+  float branch_survival = -1.0f;
   // convergence: the path-traced reference's passes, and the most passes each integrator runs.
   uint32_t reference_passes = 4096;
   uint32_t convergence_passes = 256;

@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_join.h"
 #include "bench/benchmarks.h"
+#include "tools/cli/setting_names.h"
 
 int main(int argc, char** argv) {
   caustica::BenchOptions options;
@@ -26,6 +27,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 16384));
   app.add_option("--photons", options.photons, "photons per photon pass");
   app.add_option("--k", options.k, "photons per radiance estimate in the frame benchmark");
+  app.add_option("--estimator", options.estimator,
+                 "the frame benchmarks' estimator: knn or sppm (the convergence benchmark runs "
+                 "both)")
+      ->type_name("NAME")
+      ->transform(caustica::estimator_names());
   app.add_option("--photons-per-leaf", options.photons_per_leaf,
                  "photons per leaf of the photon maps' hierarchy; 0 (the default) takes what the "
                  "engine takes for the device and --k")
@@ -48,12 +54,17 @@ int main(int argc, char** argv) {
   app.add_option("--convergence-passes", options.convergence_passes,
                  "convergence: the most passes each integrator runs (doubling from 1)")
       ->check(CLI::Range(1, 1 << 20));
+  app.add_option("--branch-survival", options.branch_survival,
+                 "frame_render: the most a deep camera branch survives Russian roulette with (0 "
+                 "ends every branch at depth 6; default: the renderer's)")
+      ->check(CLI::Range(0.0, 1.0));
   app.add_flag("--kernels", options.kernels,
                "after each measured benchmark, print its launches' times: one JSON line per "
                "launch name with launches and milliseconds per run, the most time first");
-  app.add_flag("--ray-queues", options.ray_queues,
-               "photon and frame benchmarks: trace through the ray queues (batches of closest and "
-               "any hits) even for structures that answer single rays, as batch-only ones always do");
+  app.add_flag(
+      "--ray-queues", options.ray_queues,
+      "photon and frame benchmarks: trace through the ray queues (batches of closest and "
+      "any hits) even for structures that answer single rays, as batch-only ones always do");
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera,
                "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");

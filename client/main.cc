@@ -10,7 +10,7 @@
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
 #include "renderer/accel/structure_kind.h"
-#include "tools/cli/integrator_option.h"
+#include "tools/cli/setting_names.h"
 #include "tools/cli/structure_option.h"
 
 namespace {
@@ -45,6 +45,11 @@ void add_frame_job(CLI::App* command, FrameJobOptions& job) {
                    "photon or path, the unbiased path-traced reference (changes the scene)")
       ->type_name("NAME")
       ->transform(caustica::integrator_names());
+  command
+      ->add_option("--estimator", o.estimator,
+                   "knn or sppm, the photon integrator's density estimator (changes the scene)")
+      ->type_name("NAME")
+      ->transform(caustica::estimator_names());
 }
 
 // -o DIR and --format of the commands that write numbered frames.

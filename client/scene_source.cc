@@ -24,6 +24,7 @@ void SceneOverrides::apply(Scene& scene) const {
   if (k) scene.settings.k_nearest = *k;
   if (structure) scene.settings.structure = *structure;
   if (integrator) scene.settings.integrator = *integrator;
+  if (estimator) scene.settings.estimator = *estimator;
 }
 
 v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) const {
@@ -35,6 +36,7 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
   if (k) request.mutable_settings()->set_k_nearest(*k);
   if (structure) request.mutable_settings()->set_structure(wire::encode_structure(*structure));
   if (integrator) request.mutable_settings()->set_integrator(wire::encode_integrator(*integrator));
+  if (estimator) request.mutable_settings()->set_estimator(wire::encode_estimator(*estimator));
   return request;
 }
 

@@ -22,8 +22,11 @@ struct SceneOverrides {
   std::optional<uint32_t> width, height, photons, k;
   std::optional<StructureKind> structure;
   std::optional<Integrator> integrator;
+  std::optional<EstimatorKind> estimator;
 
-  bool empty() const { return !width && !height && !photons && !k && !structure && !integrator; }
+  bool empty() const {
+    return !width && !height && !photons && !k && !structure && !integrator && !estimator;
+  }
   void apply(Scene& scene) const;
   v1::UpdateSettingsRequest request(const std::string& scene_id) const;
 };

@@ -6,6 +6,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "renderer/estimator/estimator.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
@@ -61,26 +62,33 @@ absl::Status no_cuda_backend() {
 
 }  // namespace
 
-// Photon maps traced for one pass ahead of the render that gathers from them.
-struct PreparedPhotons {
-  uint32_t pass = 0;
-  PhotonMap caustic, global;
-};
+// The estimator the settings name, with the engine's leaf-size knob.
+EstimatorOptions estimator_options(const RenderSettings& rs, uint32_t photons_per_leaf) {
+  return {rs.estimator, rs.k_nearest, photons_per_leaf, rs.sppm_alpha, rs.sppm_radius};
+}
+
+bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
+  return a.estimator == b.estimator && a.sppm_alpha == b.sppm_alpha &&
+         a.sppm_radius == b.sppm_radius;
+}
 
 struct Engine::State {
   std::shared_ptr<Backend> backend;
   Scene scene;
   std::optional<ResidentScene> resident;
   std::optional<Film> film;
-  std::optional<PreparedPhotons> prepared;
+  // Owns the photon maps (those traced ahead by a light change serve the pass they were traced
+  // for) and whatever lives across passes.
+  std::unique_ptr<Estimator> estimator;
   Epochs epochs;
   double last_build_ms = 0;
   size_t last_photon_map_bytes = 0;
-  uint32_t photons_per_leaf = 0;  // 0: photons_per_leaf_for the device and k
+  uint32_t photons_per_leaf = 0;  // 0: the estimator's own choice
 
-  // Traces the photons of pass `pass` and builds both maps, adding the cost to `timings`.
-  PreparedPhotons trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
-                                     uint64_t& caustic_count, uint64_t& global_count) {
+  // Traces the photons of pass `pass` and has the estimator build its maps from them, adding the
+  // cost to `timings`.
+  void trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
+                          uint64_t& caustic_count, uint64_t& global_count) {
     const RenderSettings& rs = scene.settings;
     auto t0 = std::chrono::steady_clock::now();
     TracedPhotons traced = trace_photons(
@@ -92,23 +100,26 @@ struct Engine::State {
     global_count = traced.global.size();
 
     auto t1 = std::chrono::steady_clock::now();
-    const uint32_t per_leaf = photons_per_leaf_for(backend->kind(), rs.k_nearest, photons_per_leaf);
-    PreparedPhotons maps{pass, build_photon_map(*backend, traced.caustic, per_leaf),
-                         build_photon_map(*backend, traced.global, per_leaf)};
+    estimator->prepare(*backend, traced, pass);
     backend->synchronize();
     timings.photon_map_build_ms += elapsed_ms(t1);
-    last_photon_map_bytes = maps.caustic.bytes() + maps.global.bytes();
-    return maps;
+    last_photon_map_bytes = estimator->map_bytes();
   }
 
   // The light-change pipeline: photons and maps for the film's next pass, reported; none for
   // the path integrator, which traces no photons.
   void prepare_photons(RebuildReport& report) {
-    prepared.reset();  // frees the old maps before the new ones are allocated
+    estimator->drop_maps();  // frees the old maps before the new ones are allocated
     if (scene.settings.integrator != Integrator::kPhoton) return;
-    prepared = trace_pass_photons(film->passes(), report.timings, report.photons_emitted,
-                                  report.caustic_photons, report.global_photons);
+    trace_pass_photons(film->passes(), report.timings, report.photons_emitted,
+                       report.caustic_photons, report.global_photons);
     report.rebuilt.push_back("photon_maps");
+  }
+
+  // The film and what the estimator keeps across passes start again.
+  void restart_accumulation() {
+    film->clear();
+    estimator->reset();
   }
 };
 
@@ -171,7 +182,7 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     State& st = *state_;
-    st.prepared.reset();
+    st.estimator.reset();
     st.resident.reset();
     st.film.reset();
     auto start = std::chrono::steady_clock::now();
@@ -180,6 +191,8 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
     st.last_build_ms = elapsed_ms(start);
     st.scene = scene;
     st.film.emplace(*st.backend, scene.camera.width, scene.camera.height);
+    st.estimator =
+        make_estimator(*st.backend, estimator_options(scene.settings, st.photons_per_leaf));
     ++st.epochs.geometry;
     ++st.epochs.lights;
     ++st.epochs.camera;
@@ -190,6 +203,7 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   });
   if (!status.ok()) {
     // Nothing half-built stays behind: a failed load leaves an engine without a scene.
+    state_->estimator.reset();
     state_->resident.reset();
     state_->film.reset();
     return status;
@@ -205,10 +219,10 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
     return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    st.prepared.reset();
+    st.estimator->drop_maps();
     st.resident->set_lights(lights);
     st.scene.lights = lights;
-    st.film->clear();
+    st.restart_accumulation();
     ++st.epochs.lights;
     report.rebuilt = {"lights", "film"};
     st.prepare_photons(report);
@@ -228,9 +242,8 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
       st.film.reset();
       st.film.emplace(*st.backend, camera.width, camera.height);
-    } else {
-      st.film->clear();
     }
+    st.restart_accumulation();
     st.scene.camera = camera;
     ++st.epochs.camera;
     report.rebuilt = {"film"};
@@ -246,16 +259,18 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   if (absl::Status s = validate_settings(settings); !s.ok()) return s;
   const RenderSettings& old = st.scene.settings;
+  const bool estimator_change = !same_estimator(settings, old);
+  // A new estimator has no maps: the photons are traced again for it.
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||
-                              settings.seed != old.seed;
+                              settings.seed != old.seed || estimator_change;
   const bool structure_change = settings.structure != old.structure;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (structure_change) {
       // The photons traced ahead went through the old structure: they are traced again through
       // the new one, as after any geometry change.
-      st.prepared.reset();
+      st.estimator->drop_maps();
       auto start = std::chrono::steady_clock::now();
       st.resident->rebuild_structure(settings.structure);
       st.backend->synchronize();
@@ -263,8 +278,10 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
       report.timings.structure_build_ms = st.last_build_ms;
       ++st.epochs.geometry;
     }
+    if (estimator_change)
+      st.estimator = make_estimator(*st.backend, estimator_options(settings, st.photons_per_leaf));
     st.scene.settings = settings;
-    st.film->clear();
+    st.restart_accumulation();
     ++st.epochs.settings;
     report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
                                       : std::vector<std::string>{"film"};
@@ -298,23 +315,19 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
       const bool path = st.scene.settings.integrator == Integrator::kPath;
       // Photons traced ahead by a light change serve the pass they were traced for; the path
       // integrator takes none.
-      std::optional<PreparedPhotons> maps;
       if (path) {
         st.last_photon_map_bytes = 0;
-      } else if (st.prepared && st.prepared->pass == pass) {
-        maps = std::move(st.prepared);
-      } else {
-        maps = st.trace_pass_photons(pass, report.timings, report.photons_emitted,
-                                     report.caustic_photons, report.global_photons);
+        st.estimator->drop_maps();
+      } else if (!st.estimator->prepared_for(pass)) {
+        st.trace_pass_photons(pass, report.timings, report.photons_emitted, report.caustic_photons,
+                              report.global_photons);
       }
-      st.prepared.reset();
 
       auto t0 = std::chrono::steady_clock::now();
       if (path) {
         render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
       } else {
-        render_pass(backend, *st.resident, maps->caustic, maps->global, camera, shading(pass),
-                    *st.film);
+        st.estimator->render(backend, *st.resident, camera, shading(pass), *st.film);
       }
       backend.synchronize();
       report.timings.render_ms += elapsed_ms(t0);
@@ -349,7 +362,7 @@ SceneStats Engine::scene_stats() const {
   s.structure_sah_cost = structure.sah_cost;
   s.photon_map_bytes = st.last_photon_map_bytes;
   s.device_bytes = st.resident->bytes() + (st.film ? st.film->bytes() : 0) +
-                   (st.prepared ? st.prepared->caustic.bytes() + st.prepared->global.bytes() : 0);
+                   (st.estimator ? st.estimator->map_bytes() + st.estimator->state_bytes() : 0);
   s.lights = st.resident->view().light_count;
   s.last_structure_build_ms = st.last_build_ms;
   return s;

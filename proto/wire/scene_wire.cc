@@ -176,11 +176,19 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_seed(s.seed);
   out.set_structure(encode_structure(s.structure));
   out.set_integrator(encode_integrator(s.integrator));
+  out.set_estimator(encode_estimator(s.estimator));
+  out.set_sppm_alpha(s.sppm_alpha);
+  out.set_sppm_radius(s.sppm_radius == SppmRadius::kGlobal ? v1::SPPM_RADIUS_GLOBAL
+                                                           : v1::SPPM_RADIUS_PIXEL);
   return out;
 }
 
 v1::Integrator encode_integrator(Integrator integrator) {
   return integrator == Integrator::kPath ? v1::PATH : v1::PHOTON;
+}
+
+v1::Estimator encode_estimator(EstimatorKind estimator) {
+  return estimator == EstimatorKind::kSppm ? v1::SPPM : v1::KNN;
 }
 
 v1::Structure encode_structure(StructureKind kind) {
@@ -387,6 +395,33 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
     default:
       return invalid(join_field(field, "integrator"),
                      absl::StrCat(in.integrator(), " is not an integrator"));
+  }
+  switch (in.estimator()) {
+    case v1::ESTIMATOR_UNSPECIFIED:
+      break;
+    case v1::KNN:
+      s.estimator = EstimatorKind::kKnn;
+      break;
+    case v1::SPPM:
+      s.estimator = EstimatorKind::kSppm;
+      break;
+    default:
+      return invalid(join_field(field, "estimator"),
+                     absl::StrCat(in.estimator(), " is not an estimator"));
+  }
+  if (in.has_sppm_alpha()) s.sppm_alpha = in.sppm_alpha();
+  switch (in.sppm_radius()) {
+    case v1::SPPM_RADIUS_UNSPECIFIED:
+      break;
+    case v1::SPPM_RADIUS_PIXEL:
+      s.sppm_radius = SppmRadius::kPixel;
+      break;
+    case v1::SPPM_RADIUS_GLOBAL:
+      s.sppm_radius = SppmRadius::kGlobal;
+      break;
+    default:
+      return invalid(join_field(field, "sppm_radius"),
+                     absl::StrCat(in.sppm_radius(), " is not a radius rule"));
   }
   return s;
 }

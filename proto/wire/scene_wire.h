@@ -34,6 +34,7 @@ v1::Camera encode_camera(const Camera& camera);
 v1::RenderSettings encode_settings(const RenderSettings& settings);  // every field set
 v1::Structure encode_structure(StructureKind kind);
 v1::Integrator encode_integrator(Integrator integrator);
+v1::Estimator encode_estimator(EstimatorKind estimator);
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name);
 // Bytes the mesh chunks of `scene` carry in total.
 size_t mesh_bytes(const Scene& scene);

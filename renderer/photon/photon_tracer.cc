@@ -78,6 +78,39 @@ struct PhotonPathState {
   bool only_specular;  // no diffuse bounce yet on this path
 };
 
+// Where a path's stored photons go: its first kSlotsPerPath in slots of its own, in path order
+// with no atomics; the rare later ones (Russian roulette ends nearly every path sooner) appended
+// to an overflow list with their path and bounce as a sort key, so that their order too follows
+// from the paths alone.
+constexpr uint32_t kSlotsPerPath = 7;
+
+struct PhotonStores {
+  Photon* slot;
+  uint8_t* caustic_flag;
+  uint8_t* global_flag;
+  uint32_t slots_per_path;
+  Photon* overflow;
+  uint64_t* overflow_key;
+  uint8_t* overflow_kind;
+  uint32_t* overflow_count;
+  uint32_t overflow_room;
+
+  CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon,
+                          bool caustic) const {
+    if (bounce <= slots_per_path) {
+      const size_t k = size_t(path) * slots_per_path + (bounce - 1);
+      slot[k] = photon;
+      (caustic ? caustic_flag : global_flag)[k] = 1;
+      return;
+    }
+    const uint32_t at = atomic_fetch_add(overflow_count, 1u);
+    if (at >= overflow_room) return;  // counted: the trace runs again with room for all
+    overflow[at] = photon;
+    overflow_key[at] = uint64_t(path) << 32 | bounce;
+    overflow_kind[at] = caustic ? kCausticPhoton : kGlobalPhoton;
+  }
+};
+
 // What every path's emission and bounces read, copied by value into kernels.
 struct PhotonPathInputs {
   ResidentSceneView scene;
@@ -85,9 +118,7 @@ struct PhotonPathInputs {
   float radius;
   float inv_count;
   uint32_t seed, pass, max_bounces;
-  Photon* slot;
-  uint8_t* caustic_flag;
-  uint8_t* global_flag;
+  PhotonStores stores;
 
   // Path `path`'s emission: its light, chosen by power, and its first ray.
   CAUSTICA_HDI void start(PhotonPathState& p, uint32_t path) const {
@@ -114,11 +145,8 @@ struct PhotonPathInputs {
     Vec3f next_dir;
     if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
     if (m.type == MaterialType::kDiffuse) {
-      if (p.bounce > 0) {
-        size_t k = size_t(p.path) * (max_bounces - 1) + (p.bounce - 1);
-        slot[k] = Photon{sh.position, p.power, -d};
-        (p.only_specular ? caustic_flag : global_flag)[k] = 1;
-      }
+      if (p.bounce > 0)
+        stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d}, p.only_specular);
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;
       p.power = p.power * m.color / survive;
@@ -227,20 +255,25 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   out.emitted = settings.photon_count;
 
   const uint32_t max_bounces = settings.max_bounces;
-  // One slot per path and hit after the first.
-  const size_t slots = size_t(settings.photon_count) * (max_bounces - 1);
+  const uint32_t count = settings.photon_count;
+  // Slots for each path's first stores (a photon at every hit after the first).
+  const uint32_t per_path = std::min(max_bounces - 1, kSlotsPerPath);
+  const size_t slots = size_t(count) * per_path;
   Buffer<Photon> slot_photons(backend, slots);
   Buffer<uint8_t> caustic_flags(backend, slots);
   Buffer<uint8_t> global_flags(backend, slots);
-  caustic_flags.fill_zero();
-  global_flags.fill_zero();
+  // Room for the later stores: a path stores past its slots only when roulette spares it through
+  // kSlotsPerPath diffuse bounces, a few in a hundred; a trace that finds too little room runs
+  // again with exactly enough.
+  size_t overflow_room = count / 8 + 64;
+  Buffer<Photon> overflow(backend, 0);
+  Buffer<uint64_t> overflow_keys(backend, 0);
+  Buffer<uint8_t> overflow_kinds(backend, 0);
+  Buffer<uint32_t> overflow_counter(backend, 1);
 
-  Photon* slot = slot_photons.data();
-  uint8_t* caustic_flag = caustic_flags.data();
-  uint8_t* global_flag = global_flags.data();
   const Vec3f center = resident.bounds().center();
   const float radius = resident.radius();
-  const float inv_count = 1.0f / float(settings.photon_count);
+  const float inv_count = 1.0f / float(count);
   const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
 
   // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
@@ -248,7 +281,6 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   // GPU a fixed set of workers therefore takes the next path as soon as its
   // current one ends, and every lane traces a hit in every step. The result does not depend on
   // which worker traced a path: its samples and slots follow from its index alone.
-  const uint32_t count = settings.photon_count;
   const bool regenerate = backend.kind() == DeviceKind::kCuda;
   const uint32_t workers =
       regenerate ? uint32_t(std::min<size_t>(
@@ -256,34 +288,74 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
                  : count;
   Buffer<uint32_t> next_path(backend, 1);
   uint32_t* next = next_path.data();
-  parallel_for(backend, "photon_next_path", 1,
-               [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
 
-  const PhotonPathInputs in{scene, center, radius, inv_count, seed, pass, max_bounces,
-                            slot, caustic_flag, global_flag};
-  if constexpr (StructureView<Structure>) {
-    if (settings.ray_queues) {
-      trace_photon_waves(backend, structure, in, count);
+  size_t overflowed = 0;
+  while (true) {
+    caustic_flags.fill_zero();
+    global_flags.fill_zero();
+    overflow_counter.fill_zero();
+    overflow.resize_discard(overflow_room);
+    overflow_keys.resize_discard(overflow_room);
+    overflow_kinds.resize_discard(overflow_room);
+    parallel_for(backend, "photon_next_path", 1,
+                 [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
+    const PhotonStores stores{slot_photons.data(),    caustic_flags.data(),
+                              global_flags.data(),    per_path,
+                              overflow.data(),        overflow_keys.data(),
+                              overflow_kinds.data(),  overflow_counter.data(),
+                              uint32_t(overflow_room)};
+    const PhotonPathInputs in{scene, center, radius, inv_count, seed, pass, max_bounces, stores};
+    if constexpr (StructureView<Structure>) {
+      if (settings.ray_queues) {
+        trace_photon_waves(backend, structure, in, count);
+      } else {
+        trace_photons_per_thread(backend, structure, in, count, regenerate, workers, next);
+      }
     } else {
-      trace_photons_per_thread(backend, structure, in, count, regenerate, workers, next);
+      trace_photon_waves(backend, structure, in, count);
     }
-  } else {
-    trace_photon_waves(backend, structure, in, count);
+    overflowed = overflow_counter.download()[0];
+    if (overflowed <= overflow_room) break;
+    overflow_room = overflowed;
   }
 
+  // The overflow in path and bounce order, its kinds alongside.
+  Buffer<uint32_t> overflow_order(backend, overflowed);
+  Buffer<uint8_t> caustic_overflow(backend, overflowed), global_overflow(backend, overflowed);
+  {
+    uint32_t* order = overflow_order.data();
+    parallel_for(backend, "photon_overflow_order", overflowed,
+                 [=] CAUSTICA_HD(size_t i) { order[i] = uint32_t(i); });
+    backend.sort_pairs(overflow_keys.data(), order, overflowed);
+    const uint8_t* kind = overflow_kinds.data();
+    uint8_t* caustic = caustic_overflow.data();
+    uint8_t* global = global_overflow.data();
+    parallel_for(backend, "photon_overflow_kinds", overflowed, [=] CAUSTICA_HD(size_t i) {
+      caustic[i] = kind[order[i]] == kCausticPhoton;
+      global[i] = kind[order[i]] == kGlobalPhoton;
+    });
+  }
 
-  // Compaction: the indices of stored slots, in path order, then a gather.
-  auto compact = [&](Buffer<uint8_t>& flags, Buffer<Photon>& into) {
-    Buffer<uint32_t> index(backend, slots);
-    size_t count = backend.select_flagged(nullptr, flags.data(), slots, index.data());
-    into.resize_discard(count);
+  // Compaction: the stored slots' photons in path order, then the overflow's of the same kind.
+  const Photon* slot = slot_photons.data();
+  const Photon* later = overflow.data();
+  const uint32_t* later_order = overflow_order.data();
+  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags,
+                     Buffer<Photon>& into) {
+    Buffer<uint32_t> index(backend, slots), later_index(backend, overflowed);
+    const size_t slotted = backend.select_flagged(nullptr, flags.data(), slots, index.data());
+    const size_t extra =
+        backend.select_flagged(later_order, overflow_flags.data(), overflowed, later_index.data());
+    into.resize_discard(slotted + extra);
     Photon* dst = into.data();
     const uint32_t* idx = index.data();
-    parallel_for(backend, "photon_compact", count,
-                 [=] CAUSTICA_HD(size_t i) { dst[i] = slot[idx[i]]; });
+    const uint32_t* later_idx = later_index.data();
+    parallel_for(backend, "photon_compact", slotted + extra, [=] CAUSTICA_HD(size_t i) {
+      dst[i] = i < slotted ? slot[idx[i]] : later[later_idx[i - slotted]];
+    });
   };
-  compact(caustic_flags, out.caustic);
-  compact(global_flags, out.global);
+  compact(caustic_flags, caustic_overflow, out.caustic);
+  compact(global_flags, global_overflow, out.global);
   return out;
 }
 

@@ -14,7 +14,7 @@ namespace caustica {
 
 struct PhotonTraceSettings {
   uint32_t photon_count = 0;  // paths emitted
-  uint32_t max_bounces = 8;   // surface interactions per path
+  uint32_t max_bounces = 64;  // surface interactions per path, a cap behind Russian roulette
   uint32_t seed = 1;
   uint32_t pass = 0;
   // Trace the paths in waves of batched closest hits even where the structure answers single

@@ -58,6 +58,22 @@ struct SearchGroup {
 #endif
 };
 
+// The threads of the caller's warp in a parallel_for over `n` threads (the caller being thread
+// `i`), as a search group: on a GPU every lane of the warp whose index is below n, which makes the
+// same calls as long as the kernel's control flow keeps the warp together; on the CPU a lone
+// thread.
+CAUSTICA_HDI SearchGroup launch_warp(size_t i, size_t n) {
+#if defined(__CUDA_ARCH__)
+  const size_t first = i - (i & 31u);
+  const size_t in_warp = n - first < 32 ? n - first : 32;
+  return {in_warp == 32 ? ~0u : (1u << in_warp) - 1u};
+#else
+  (void)i;
+  (void)n;
+  return {};
+#endif
+}
+
 // A record of the leaves a walk visited, for a later walk that needs no more of them: this one
 // records nothing and replays nothing (binned_estimate.h has one that does).
 struct NoLeafLog {

@@ -9,6 +9,7 @@
 #include "renderer/base/sampling.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/scattering.h"
+#include "renderer/render/visible_points.h"
 #include "renderer/render/whitted.h"
 
 namespace caustica {
@@ -157,10 +158,7 @@ void render_path_pass(Backend& backend, const ResidentScene& resident, const Pin
     if constexpr (StructureView<std::decay_t<decltype(structure)>>) {
       trace_paths_through(structure, backend, scene, scene_radius, camera, settings, accum);
     } else {
-      throw std::invalid_argument(
-          std::string("the path integrator traces one ray at a time, and the structure ") +
-          structure_kind_name(resident.structure().kind()) +
-          " answers batches only: choose another structure for it");
+      throw batch_only_refusal("the path integrator", resident.structure().kind());
     }
   });
   film.add_pass();

@@ -24,6 +24,7 @@ struct PendingRay {
   Ray ray;
   Vec3f throughput;
   uint32_t depth;
+  uint64_t branch;  // PathRay::branch
 };
 
 // Room for the pending branches of a specular walk, left unconstructed (a walk uses a handful).
@@ -38,10 +39,43 @@ struct GatherRequest {
   uint32_t order;  // among its pixel's requests, in the order the specular tree met them
 };
 
-// Whether a branch spawned from a hit at `depth` with `throughput` is followed.
-CAUSTICA_HDI bool branch_continues(uint32_t depth, uint32_t max_depth, Vec3f throughput) {
-  return !(depth >= max_depth || max_component(throughput) <= 0.0f);
+// The branch key of the child `choice` (0 reflection, 1 refraction) of a branch at `depth`: the
+// tree's choices from the top bit, one per depth, so that as integers the leaves of a tree order
+// as the depth-first walks meet them.
+CAUSTICA_HDI uint64_t child_branch(uint64_t branch, uint32_t depth, uint64_t choice) {
+  return branch | (choice << (63u - depth));
 }
+
+// Russian roulette on the deep branches of a pixel's specular tree (kBranchRouletteFrom). Each
+// draw is a hash of the pixel, the pass and the branch's key, so the walks and the ray queues,
+// which meet the branches in different orders, draw the same numbers.
+class BranchRoulette {
+ public:
+  CAUSTICA_HD BranchRoulette(const ShadingSettings& cfg, uint32_t pixel)
+      : key_(pcg_hash(cfg.seed ^ 0x2545f491u ^ pcg_hash(pixel ^ pcg_hash(cfg.pass + 0x9e3779b9u)))),
+        survival_(cfg.branch_survival) {}
+
+  // Whether the child `branch` spawned at `depth` with `throughput` is followed, its throughput
+  // rescaled when roulette spares it.
+  CAUSTICA_HDI bool spares(uint64_t branch, uint32_t depth, uint32_t max_depth,
+                           Vec3f& throughput) const {
+    const float carried = max_component(throughput);
+    if (depth >= max_depth || !(carried > 0.0f)) return false;
+    if (depth < kBranchRouletteFrom) return true;
+    const float survive = min_f(carried, survival_);
+    // A reflection's key is its parent's, so the depth tells a chain of reflections apart: with
+    // one number for the whole chain, a lucky draw kept every branch of it.
+    const uint32_t h = pcg_hash(
+        key_ ^ pcg_hash(uint32_t(branch) ^ pcg_hash(uint32_t(branch >> 32) ^ pcg_hash(depth))));
+    if (float(h >> 8) * (1.0f / 16777216.0f) >= survive) return false;
+    throughput = throughput / survive;
+    return true;
+  }
+
+ private:
+  uint32_t key_;
+  float survival_;
+};
 
 // The branches a mirror or dielectric hit (material `m`, `sh`, ray direction `d`) spawns with the
 // path's `throughput`: spawn(direction, throughput, choice), choice 1 for the refraction and 0
@@ -67,11 +101,12 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& s
 template <typename Structure, typename OnDiffuse>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
-                                      uint32_t max_depth, OnDiffuse on_diffuse) {
+                                      uint32_t max_depth, const BranchRoulette& roulette,
+                                      OnDiffuse on_diffuse) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
-  stack[top++] = {camera_ray, Vec3f(1.0f), 0};
+  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0};
   bool first = true;
   Vec3f emitted(0.0f);
   while (top > 0) {
@@ -82,12 +117,13 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = pr.ray.direction;
-    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t) {
-      if (!branch_continues(pr.depth, max_depth, throughput)) return;
+    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
+      const uint64_t branch = child_branch(pr.branch, pr.depth, choice);
+      if (!roulette.spares(branch, pr.depth, max_depth, throughput)) return;
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
-      stack[top++] = {r, throughput, pr.depth + 1};
+      stack[top++] = {r, throughput, pr.depth + 1, branch};
     };
     switch (m.type) {
       case MaterialType::kEmissive:
@@ -299,6 +335,7 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           uint32_t made = 0;
           Vec3f emitted = walk_specular_tree(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
+              BranchRoulette(in.cfg, uint32_t(pixel)),
               [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
                 direct += throughput * direct_light(in.scene, structure, sh.position, n,
                                                     sh.geometric_normal, m.color,
@@ -330,9 +367,8 @@ struct PathRay {
   Vec3f throughput;
   uint32_t pixel;
   uint32_t depth;
-  // The tree's choices down to this ray from the top bit, one per depth: 0 for a mirror's or a
-  // dielectric's reflection, which the walks follow first, 1 for a refraction. As integers, the
-  // leaves of a tree order as the walks meet them.
+  // The tree's choices down to this ray (child_branch): 0 for a mirror's or a dielectric's
+  // reflection, which the walks follow first, 1 for a refraction.
   uint64_t branch;
 };
 
@@ -358,14 +394,15 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     const SurfaceHit sh = surface_at(in.scene, hit);
     const DeviceMaterial& m = in.scene.materials[sh.material];
     const Vec3f d = pr.ray.direction;
+    const BranchRoulette roulette(in.cfg, pr.pixel);
     auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
-      if (!branch_continues(pr.depth, in.max_depth, throughput)) return;
+      const uint64_t branch = child_branch(pr.branch, pr.depth, choice);
+      if (!roulette.spares(branch, pr.depth, in.max_depth, throughput)) return;
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
       const uint32_t slot = atomic_fetch_add(next_count, 1u);
-      next[slot] = {r, throughput, pr.pixel, pr.depth + 1,
-                    pr.branch | (choice << (63u - pr.depth))};
+      next[slot] = {r, throughput, pr.pixel, pr.depth + 1, branch};
     };
     switch (m.type) {
       case MaterialType::kEmissive:
@@ -666,7 +703,7 @@ template <typename Structure>
 void render_pass_through(const Structure& structure, Backend& backend,
                          const ResidentScene& resident, const PhotonMap& caustic_map,
                          const PhotonMap& global_map, const PinholeCamera& camera,
-                         const ShadingSettings& settings, Film& film) {
+                         const ShadingSettings& settings, Film& film, uint32_t* requests) {
   const PassInputs in(resident, camera, settings);
   SpecularPaths paths;
   {
@@ -685,16 +722,17 @@ void render_pass_through(const Structure& structure, Backend& backend,
   const Buffer<Vec3f> gathered = gather_photon_estimates(backend, in, caustic_map, global_map,
                                                          paths, request_order.order.data());
   accumulate_film(backend, paths, gathered, film);
+  if (requests != nullptr) *requests = paths.request_total;
 }
 
 }  // namespace
 
 void render_pass(Backend& backend, const ResidentScene& resident, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,
-                 const ShadingSettings& settings, Film& film) {
+                 const ShadingSettings& settings, Film& film, uint32_t* requests) {
   resident.structure().visit([&](const auto& structure) {
     render_pass_through(structure, backend, resident, caustic_map, global_map, camera, settings,
-                        film);
+                        film, requests);
   });
 }
 

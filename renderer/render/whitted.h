@@ -15,11 +15,22 @@ namespace caustica {
 
 constexpr uint32_t kMaxSpecularDepth = 64;
 
+// Russian roulette on camera paths through mirrors and glass: a branch spawned from depth
+// kBranchRouletteFrom on goes on with probability min(its throughput's largest channel,
+// kBranchSurvival) and its throughput divided by that, so deep paths are pruned without bias and
+// the depth cap is only a safety net. The cap below 1 ends the lossless chains too (total internal
+// reflection inside a faceted glass sphere), but each survival multiplies such a chain's weight by
+// 1 / kBranchSurvival, so a low cap makes fireflies; the shallower branches are all followed:
+// pruned there, the gathers' remaining requests cost more than the dropped ones saved
+// (docs/convergence.md, "Path length").
+constexpr uint32_t kBranchRouletteFrom = 6;
+constexpr float kBranchSurvival = 0.8f;
+
 struct ShadingSettings {
   uint32_t k_nearest = 64;
   float max_radius = 1.0f;
   DensityKernel kernel = DensityKernel::kEpanechnikov;
-  uint32_t max_depth = 6;
+  uint32_t max_depth = kMaxSpecularDepth;
   uint32_t area_light_samples = 4;
   uint32_t seed = 1;
   uint32_t pass = 0;
@@ -30,6 +41,10 @@ struct ShadingSettings {
   // structure answers single rays; structures that answer batches only always do. The image is
   // the same either way.
   bool ray_queues = false;
+  // The most a deep camera branch survives Russian roulette with (kBranchSurvival); 1 leaves
+  // lossless branches to the depth cap, 0 ends every branch at kBranchRouletteFrom. A tuning knob
+  // of the benchmark's.
+  float branch_survival = kBranchSurvival;
 };
 
 // Photons per leaf of the photon maps for a pass's gathers at `k` on `device`: `requested` when not
@@ -42,9 +57,10 @@ uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested 
 // camera rays (accel/camera_tiles.h); per pixel the specular tree with emitted and direct light,
 // which leaves one gather request per diffuse hit; the requests' photon-map estimates in Hilbert
 // order; and per pixel the sum of its requests' estimates.
+// `requests`, when given, gets the pass's gather requests (diffuse hits of the specular trees).
 void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
                  const PhotonMap& global_map, const PinholeCamera& camera,
-                 const ShadingSettings& settings, Film& film);
+                 const ShadingSettings& settings, Film& film, uint32_t* requests = nullptr);
 
 // Shadow rays direct_light_with may ask for at one point: one per point, spot or directional
 // light (slot = the light's index) and one per area sample (slot = light_count + sample).

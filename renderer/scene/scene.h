@@ -9,6 +9,7 @@
 #include "renderer/accel/structure_kind.h"
 #include "renderer/base/vec.h"
 #include "renderer/photon/density_kernel.h"
+#include "renderer/photon/estimator_kind.h"
 
 namespace caustica {
 
@@ -67,10 +68,16 @@ struct RenderSettings {
   float max_radius = 0;                // gather radius cap; 0 = 5% of the scene's diagonal
   DensityKernel kernel = DensityKernel::kEpanechnikov;
   Integrator integrator = Integrator::kPhoton;
-  uint32_t max_depth = 6;  // specular bounces of camera rays
-  uint32_t max_photon_bounces = 8;
-  uint32_t area_light_samples = 4;  // shadow rays per diffuse hit for area lights
-  uint32_t passes = 1;              // progressive passes, fresh photons each
+  // How the photon integrator turns photons into radiance (estimator/estimator.h).
+  EstimatorKind estimator = EstimatorKind::kKnn;
+  float sppm_alpha = 0.7f;  // the fraction of new photons SPPM keeps as its radii shrink
+  SppmRadius sppm_radius = SppmRadius::kPixel;
+  // Caps on path length, safety nets only: Russian roulette ends camera branches by their
+  // throughput and photon paths by their surfaces' albedo long before (docs/convergence.md).
+  uint32_t max_depth = 64;           // specular bounces of camera rays
+  uint32_t max_photon_bounces = 64;  // surface interactions of a photon path
+  uint32_t area_light_samples = 4;   // shadow rays per diffuse hit for area lights
+  uint32_t passes = 1;               // progressive passes, fresh photons each
   uint32_t seed = 1;
   // The triangle structure rays are traced through; changing it rebuilds the geometry.
   StructureKind structure = kDefaultStructure;

@@ -173,6 +173,31 @@ class SceneReader {
             absl::StrCat("unknown integrator '", integrator, "' (expected photon or path)"));
       }
     }
+    if (object.has("estimator")) {
+      std::string estimator;
+      SCENE_RETURN_IF_ERROR(object.read("estimator", kRequired, &estimator));
+      const std::optional<EstimatorKind> kind = parse_estimator_kind(estimator);
+      if (!kind) {
+        return invalid_field(
+            object.field_path("estimator"),
+            absl::StrCat("unknown estimator '", estimator, "' (expected knn or sppm)"));
+      }
+      s.estimator = *kind;
+    }
+    SCENE_RETURN_IF_ERROR(object.read("sppm_alpha", kOptional, &s.sppm_alpha));
+    if (object.has("sppm_radius")) {
+      std::string radius;
+      SCENE_RETURN_IF_ERROR(object.read("sppm_radius", kRequired, &radius));
+      if (radius == "pixel") {
+        s.sppm_radius = SppmRadius::kPixel;
+      } else if (radius == "global") {
+        s.sppm_radius = SppmRadius::kGlobal;
+      } else {
+        return invalid_field(
+            object.field_path("sppm_radius"),
+            absl::StrCat("unknown radius rule '", radius, "' (expected pixel or global)"));
+      }
+    }
     if (object.has("structure")) {
       std::string structure;
       SCENE_RETURN_IF_ERROR(object.read("structure", kRequired, &structure));

@@ -76,6 +76,17 @@ absl::Status validate_settings(const RenderSettings& s) {
   if (static_cast<uint32_t>(s.integrator) > static_cast<uint32_t>(Integrator::kPath)) {
     return invalid_field("settings.integrator", "is not a known integrator");
   }
+  if (static_cast<uint32_t>(s.estimator) > static_cast<uint32_t>(EstimatorKind::kSppm)) {
+    return invalid_field("settings.estimator", "is not a known estimator");
+  }
+  if (!(s.sppm_alpha > 0 && s.sppm_alpha < 1)) {
+    return invalid_field(
+        "settings.sppm_alpha",
+        absl::StrCat(s.sppm_alpha, " is not a number between 0 and 1 (exclusive)"));
+  }
+  if (static_cast<uint32_t>(s.sppm_radius) > static_cast<uint32_t>(SppmRadius::kGlobal)) {
+    return invalid_field("settings.sppm_radius", "is not a known radius rule");
+  }
   SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.max_photon_bounces", s.max_photon_bounces, 0, kMaxPhotonBounces));

@@ -56,6 +56,13 @@ TEST(ClientOptions, UnknownIntegratorIsRefusedNamingBoth) {
   EXPECT_THAT(help.output, HasSubstr("--integrator"));
 }
 
+TEST(ClientOptions, UnknownEstimatorIsRefusedNamingEvery) {
+  const ClientRun run = run_client("render s-1 -o out.png --estimator ppm");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_THAT(run.output, HasSubstr("unknown estimator 'ppm' (expected knn or sppm)"));
+  EXPECT_THAT(run_client("stream --help").output, HasSubstr("--estimator"));
+}
+
 TEST(ClientOptions, HelpListsTheStructures) {
   for (const char* args : {"scene upload --help", "render --help"}) {
     const ClientRun run = run_client(args);

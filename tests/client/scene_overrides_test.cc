@@ -47,5 +47,16 @@ TEST(SceneOverrides, IntegratorChangesTheSceneOrGoesToUpdateSettings) {
       << "no override keeps the scene's integrator";
 }
 
+TEST(SceneOverrides, EstimatorChangesTheSceneOrGoesToUpdateSettings) {
+  SceneOverrides overrides;
+  overrides.estimator = EstimatorKind::kSppm;
+  EXPECT_FALSE(overrides.empty()) << "an estimator alone is an override";
+  Scene scene;
+  overrides.apply(scene);
+  EXPECT_EQ(scene.settings.estimator, EstimatorKind::kSppm);
+  EXPECT_EQ(overrides.request("s-1").settings().estimator(), v1::SPPM);
+  EXPECT_EQ(SceneOverrides{}.request("s-1").settings().estimator(), v1::ESTIMATOR_UNSPECIFIED);
+}
+
 }  // namespace
 }  // namespace caustica::client

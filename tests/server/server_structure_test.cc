@@ -1,5 +1,6 @@
 // End to end over loopback: every bundled scene rendered by the real caustica-server through every
-// ray-tracing structure, chosen at upload and switched by UpdateSettings, against the lbvh4 image.
+// ray-tracing structure, chosen at upload and switched by UpdateSettings, against the lbvh4 image,
+// and with every density estimator.
 // The server runs on the device CAUSTICA_TEST_DEVICE names (the harness passes it on), so the
 // same test covers a GPU server.
 #include <gtest/gtest.h>
@@ -165,6 +166,46 @@ TEST_F(ServerTest, EveryStructureRendersEveryBundledSceneAsLbvh4Does) {
       EXPECT_TRUE(switched == uploaded.at(kind)) << "switched and uploaded frames differ";
     }
     delete_scene(*stub_, id);
+  }
+}
+
+// Every estimator through the server, for every bundled scene: uploaded with it in the settings
+// and switched to it by UpdateSettings after a knn upload, the two frames the same to the bit (the
+// film and SPPM's statistics restart at pass 0 with the same seed either way), and SceneInfo
+// naming it.
+TEST_F(ServerTest, EveryEstimatorRendersEveryBundledScene) {
+  const std::vector<std::filesystem::path> files = bundled_scenes();
+  ASSERT_GE(files.size(), 3u) << CAUSTICA_SCENES_DIR;
+  for (const std::filesystem::path& file : files) {
+    const std::string name = file.parent_path().filename().string();
+    SCOPED_TRACE(name);
+    const std::string switched_id =
+        upload_scene(*stub_, small_scene(file, kDefaultStructure), absl::StrCat(name, "-knn"));
+    for (EstimatorKind kind : kEstimatorKinds) {
+      SCOPED_TRACE(estimator_kind_name(kind));
+      Scene scene = small_scene(file, kDefaultStructure);
+      scene.settings.estimator = kind;
+      const std::string id =
+          upload_scene(*stub_, scene, absl::StrCat(name, "-", estimator_kind_name(kind)));
+      EXPECT_EQ(get_scene(*stub_, id).settings().estimator(), wire::encode_estimator(kind));
+      const std::string uploaded = render_linear(*stub_, id);
+      ASSERT_FALSE(uploaded.empty());
+      EXPECT_GT(mean_rgb(frame_floats(uploaded)), 0.001) << "the image should not be black";
+      delete_scene(*stub_, id);
+
+      v1::UpdateSettingsRequest request;
+      request.set_scene_id(switched_id);
+      request.mutable_settings()->set_estimator(wire::encode_estimator(kind));
+      v1::RebuildReport report;
+      grpc::ClientContext context;
+      set_deadline(context);
+      ASSERT_TRUE(stub_->UpdateSettings(&context, request, &report).ok());
+      EXPECT_EQ(get_scene(*stub_, switched_id).settings().estimator(),
+                wire::encode_estimator(kind));
+      EXPECT_TRUE(render_linear(*stub_, switched_id) == uploaded)
+          << "switched and uploaded frames differ";
+    }
+    delete_scene(*stub_, switched_id);
   }
 }
 

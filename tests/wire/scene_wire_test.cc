@@ -119,6 +119,35 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
+TEST(SceneWire, EstimatorSettingsRoundTripAndUnspecifiedKeepsTheCurrentOnes) {
+  RenderSettings settings;
+  settings.estimator = EstimatorKind::kSppm;
+  settings.sppm_alpha = 0.5f;
+  settings.sppm_radius = SppmRadius::kGlobal;
+  const v1::RenderSettings encoded = encode_settings(settings);
+  EXPECT_EQ(encoded.estimator(), v1::SPPM);
+  absl::StatusOr<RenderSettings> applied = apply_settings(encoded, RenderSettings{}, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->estimator, EstimatorKind::kSppm);
+  EXPECT_EQ(applied->sppm_alpha, 0.5f);
+  EXPECT_EQ(applied->sppm_radius, SppmRadius::kGlobal);
+  // Unset fields keep what is in use.
+  applied = apply_settings(v1::RenderSettings{}, settings, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->estimator, EstimatorKind::kSppm);
+  EXPECT_EQ(applied->sppm_radius, SppmRadius::kGlobal);
+  v1::RenderSettings bad;
+  bad.set_estimator(static_cast<v1::Estimator>(9));
+  applied = apply_settings(bad, settings, "update.settings");
+  ASSERT_FALSE(applied.ok());
+  EXPECT_EQ(applied.status().message(), "update.settings.estimator: 9 is not an estimator");
+  bad = v1::RenderSettings{};
+  bad.set_sppm_radius(static_cast<v1::SppmRadius>(5));
+  applied = apply_settings(bad, settings, "update.settings");
+  ASSERT_FALSE(applied.ok());
+  EXPECT_EQ(applied.status().message(), "update.settings.sppm_radius: 5 is not a radius rule");
+}
+
 TEST(SceneWire, IntegratorRoundTripsAndUnspecifiedKeepsTheCurrentOne) {
   for (const Integrator integrator : {Integrator::kPhoton, Integrator::kPath}) {
     RenderSettings settings;

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "tools/cli/integrator_option.h"
+#include "tools/cli/setting_names.h"
 #include "tools/cli/structure_option.h"
 #include "tools/render/render_job.h"
 
@@ -37,6 +37,11 @@ int main(int argc, char** argv) {
                  "reference) (default: the scene's, else photon)")
       ->type_name("NAME")
       ->transform(caustica::integrator_names());
+  app.add_option("--estimator", job.estimator,
+                 "knn (the k nearest photons) or sppm (progressive, converging) (default: the "
+                 "scene's, else knn)")
+      ->type_name("NAME")
+      ->transform(caustica::estimator_names());
   app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
   CLI11_PARSE(app, argc, argv);
   job.show_progress = isatty(STDERR_FILENO);

@@ -20,6 +20,7 @@ struct RenderJob {
   std::optional<uint32_t> photons, k, passes, seed;
   std::optional<StructureKind> structure;
   std::optional<Integrator> integrator;
+  std::optional<EstimatorKind> estimator;
   float exposure_stops = 0.0f;
   bool show_progress = false;  // progress line on stderr
 };

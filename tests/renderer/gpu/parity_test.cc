@@ -933,10 +933,35 @@ TEST(GpuParity, BundledScenesRenderAlike) {
   }
 }
 
-// The path integrator on both backends, every bundled scene, same seed: the same paths until one
-// backend rounds a float differently from the other, where they part, so the images agree in
-// their mean per channel and nearly pixel for pixel (relative RMS differences of 0.013 and 0.055
-// on the Cornell boxes when this was written).
+// `scene` rendered for `passes` on both backends with the same seed by an integrator that draws
+// its samples per pixel: the same paths until one backend rounds a float differently from the
+// other, where they part, so the images agree in their mean per channel (within 2%) and nearly
+// pixel for pixel (a relative RMS difference under 0.15). Returns the GPU's image.
+std::vector<float> expect_backends_alike(const std::string& name, const Scene& scene,
+                                         uint32_t passes, const char* what) {
+  const std::vector<float> images[2] = {render_image(scene, DeviceKind::kCpu, passes),
+                                        render_image(scene, DeviceKind::kCuda, passes)};
+  EXPECT_FALSE(images[0].empty());
+  EXPECT_EQ(images[0].size(), images[1].size());
+  if (images[0].empty() || images[0].size() != images[1].size()) return {};
+  double mean[2][3] = {};
+  for (size_t i = 0; i < images[0].size(); ++i) {
+    if (i % 4 == 3) continue;  // alpha
+    for (int b = 0; b < 2; ++b) mean[b][i % 4] += images[b][i];
+  }
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_GT(mean[0][c], 0.0);
+    EXPECT_NEAR(mean[1][c] / mean[0][c], 1.0, 0.02) << "channel " << c;
+  }
+  const double rmse = relative_rmse(images[0], images[1]);
+  std::printf("%s: %s, GPU mean / CPU mean %.4f, relative RMSE %.4f\n", name.c_str(), what,
+              mean[1][1] / mean[0][1], rmse);
+  EXPECT_LT(rmse, 0.15);
+  return images[1];
+}
+
+// The path integrator on every bundled scene (relative RMS differences of 0.013 and 0.055 on the
+// Cornell boxes when this was written).
 TEST(GpuParity, BundledScenesPathTraceAlike) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   const auto scenes = bundled_scenes();
@@ -947,23 +972,25 @@ TEST(GpuParity, BundledScenesPathTraceAlike) {
     scene.camera.height = 72;
     scene.settings.integrator = Integrator::kPath;
     scene.settings.seed = 9;
-    const std::vector<float> images[2] = {render_image(scene, DeviceKind::kCpu, 64),
-                                          render_image(scene, DeviceKind::kCuda, 64)};
-    ASSERT_FALSE(images[0].empty());
-    ASSERT_EQ(images[0].size(), images[1].size());
-    double mean[2][3] = {};
-    for (size_t i = 0; i < images[0].size(); ++i) {
-      if (i % 4 == 3) continue;  // alpha
-      for (int b = 0; b < 2; ++b) mean[b][i % 4] += images[b][i];
-    }
-    for (int c = 0; c < 3; ++c) {
-      ASSERT_GT(mean[0][c], 0.0);
-      EXPECT_NEAR(mean[1][c] / mean[0][c], 1.0, 0.02) << "channel " << c;
-    }
-    const double rmse = relative_rmse(images[0], images[1]);
-    std::printf("%s: path traced, GPU mean / CPU mean %.4f, relative RMSE %.4f\n", name.c_str(),
-                mean[1][1] / mean[0][1], rmse);
-    EXPECT_LT(rmse, 0.15);
+    expect_backends_alike(name, scene, 64, "path traced");
+  }
+}
+
+// SPPM on every bundled scene: the photons and visible points agree until a float rounds
+// differently; on the GPU the same seed gives the same image to the bit.
+TEST(GpuParity, BundledScenesSppmAlike) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  const auto scenes = bundled_scenes();
+  EXPECT_GE(scenes.size(), 3u);
+  for (auto [name, scene] : scenes) {
+    SCOPED_TRACE(name);
+    scene.camera.width = 96;
+    scene.camera.height = 72;
+    scene.settings.photons_per_pass = 50000;
+    scene.settings.estimator = EstimatorKind::kSppm;
+    scene.settings.seed = 9;
+    const std::vector<float> gpu = expect_backends_alike(name, scene, 16, "sppm");
+    EXPECT_EQ(render_image(scene, DeviceKind::kCuda, 16), gpu) << "GPU run to run";
   }
 }
 

@@ -52,6 +52,18 @@ struct PlaneUnderPointLight {
                                         light.z, intensity, intensity, intensity));
   }
 
+  // The scene with `settings` rendered for `passes`, and worst_error over its image; `report`, when
+  // given, gets the render's report.
+  double rendered_worst_error(const std::string& settings, uint32_t passes, int step, int& checked,
+                              PassReport* report = nullptr) const {
+    const Scene s = scene(settings);
+    auto engine = engine_with(s);
+    const absl::StatusOr<PassReport> rendered = engine->render(passes);
+    EXPECT_TRUE(rendered.ok()) << rendered.status();
+    if (report != nullptr && rendered.ok()) *report = *rendered;
+    return worst_error(s, engine->image_linear(), step, checked);
+  }
+
   // The largest relative error over every `step`-th pixel whose centre's ray meets the square
   // away from its edges; `checked` counts them.
   double worst_error(const Scene& scene, std::span<const float> image, int step,

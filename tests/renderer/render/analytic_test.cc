@@ -20,12 +20,9 @@ namespace {
 // its area, which matches the value at its centre to second order; no other surface, so no
 // indirect light and no photons stored.
 TEST(Analytic, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
-  const PlaneUnderPointLight plane;
-  const Scene scene = plane.scene(R"({"photons": 10000, "passes": 1})");
-  auto engine = engine_with(scene);
-  ASSERT_TRUE(engine->render(32).ok());
   int checked = 0;
-  const double worst = plane.worst_error(scene, engine->image_linear(), 8, checked);
+  const double worst = PlaneUnderPointLight{}.rendered_worst_error(
+      R"({"photons": 10000, "passes": 1})", 32, 8, checked);
   EXPECT_GT(checked, 150);
   EXPECT_LT(worst, 0.01) << "largest relative error";
   RecordProperty("max_relative_error", absl::StrFormat("%.5f", worst));

@@ -1,0 +1,26 @@
+#include "renderer/estimator/knn_estimator.h"
+
+#include <utility>
+
+namespace caustica {
+
+void KnnEstimator::prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) {
+  maps_.reset();  // frees the old maps before the new ones are allocated
+  const uint32_t per_leaf =
+      photons_per_leaf_for(backend.kind(), options_.k_nearest, options_.photons_per_leaf);
+  maps_ = Maps{pass, build_photon_map(backend, photons.caustic, per_leaf),
+               build_photon_map(backend, photons.global, per_leaf)};
+}
+
+void KnnEstimator::render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
+                          const ShadingSettings& shading, Film& film) {
+  const std::optional<Maps> maps = std::move(maps_);
+  maps_.reset();
+  render_pass(backend, scene, maps->caustic, maps->global, camera, shading, film);
+}
+
+size_t KnnEstimator::map_bytes() const {
+  return maps_ ? maps_->caustic.bytes() + maps_->global.bytes() : 0;
+}
+
+}  // namespace caustica
