@@ -409,6 +409,13 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     Measurement traced_only =
         measure(o, *backend, [&] { (void)trace_photons(*backend, resident, trace); });
     report.line("photon_trace", label, traced_only.median, "ms", &traced_only, o.runs);
+    // The same trace tracking photon differentials, each stored photon with its footprint.
+    PhotonTraceSettings with_differentials = trace;
+    with_differentials.differentials = true;
+    Measurement differentials =
+        measure(o, *backend, [&] { (void)trace_photons(*backend, resident, with_differentials); });
+    report.line("photon_trace_differentials", label, differentials.median, "ms", &differentials,
+                o.runs);
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     Measurement maps = measure(o, *backend, [&] {
       (void)build_photon_map(*backend, traced.caustic, per_leaf);

@@ -11,4 +11,11 @@ struct Photon {
   Vec3f incoming;  // unit direction back towards where the photon came from
 };
 
+// The area a stored photon stands for where it landed, spanned by two vectors in its surface's
+// plane (its position differentials times their spacing, differentials.h): the parallelogram
+// |span1 x span2| is the inverse of the photons' density there.
+struct PhotonFootprint {
+  Vec3f span1, span2;
+};
+
 }  // namespace caustica

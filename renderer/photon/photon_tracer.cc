@@ -1,12 +1,14 @@
 #include "renderer/photon/photon_tracer.h"
 
 #include <algorithm>
+#include <type_traits>
 #include <utility>
 
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/rng.h"
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/photon/differentials.h"
 #include "renderer/photon/scattering.h"
 
 namespace caustica {
@@ -68,7 +70,11 @@ CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f sce
   return e;
 }
 
-// Where one photon path stands between its hits.
+// A path state's room for differentials when the trace does not track them.
+struct NoDifferentials {};
+
+// Where one photon path stands between its hits; with kDifferentials, also its differentials.
+template <bool kDifferentials>
 struct PhotonPathState {
   Ray ray;
   Vec3f power;
@@ -76,7 +82,50 @@ struct PhotonPathState {
   uint32_t path;
   uint32_t bounce;
   bool only_specular;  // no diffuse bounce yet on this path
+  std::conditional_t<kDifferentials, PhotonDifferentials, NoDifferentials> differentials;
 };
+
+// The differentials of photon `e` leaving `light`, chosen with probability `choice_pdf`.
+CAUSTICA_HDI PhotonDifferentials emission_differentials(const DeviceLight& light,
+                                                        const EmittedPhoton& e, float choice_pdf,
+                                                        float scene_radius) {
+  switch (light.type) {
+    case DeviceLightType::kPoint:
+      return emitted_from_point(e.ray.direction, Vec3f(0.0f, 0.0f, 1.0f), -1.0f);
+    case DeviceLightType::kSpot:
+      return emitted_from_point(e.ray.direction, light.direction, light.cos_outer);
+    case DeviceLightType::kDirectional: {
+      // Parallel photons from a disk of the scene's radius: each stands for its share of the disk,
+      // pi r^2 / (n share) = (4 pi / n) |dz1 x dz2|.
+      const Frame f = Frame::from_normal(light.direction);
+      const float half = 0.5f * scene_radius / sqrtf(choice_pdf);
+      return {f.s * half, f.t * half, Vec3f(0.0f), Vec3f(0.0f)};
+    }
+    case DeviceLightType::kArea:
+      break;
+  }
+  return reemitted_diffusely(e.ray.direction, light.direction,
+                             area_light_offset(light.area, choice_pdf));
+}
+
+// The derivatives of the shading normal at `hit` along `d`'s position differentials, zero where
+// the triangle has no vertex normals; `flipped` when surface_at turned the normal around.
+CAUSTICA_HDI void normal_differentials(const ResidentSceneView& scene, const Hit& hit,
+                                       const SurfaceHit& sh, const PhotonDifferentials& d,
+                                       Vec3f& dn1, Vec3f& dn2) {
+  dn1 = dn2 = Vec3f(0.0f);
+  if (scene.corner_normals == nullptr) return;
+  const Vec3f* n = scene.corner_normals + 3 * size_t(hit.triangle);
+  const Vec3f unnormalized = n[0] * (1.0f - hit.u - hit.v) + n[1] * hit.u + n[2] * hit.v;
+  if (!(length_squared(unnormalized) > 0.0f)) return;
+  const TriangleVertices& t = scene.triangles[hit.triangle];
+  shading_normal_differentials(n[0], n[1], n[2], unnormalized, t.p1 - t.p0, t.p2 - t.p0, d.dz1,
+                               d.dz2, dn1, dn2);
+  if (dot(unnormalized, sh.shading_normal) < 0.0f) {  // surface_at turned the normal around
+    dn1 = -dn1;
+    dn2 = -dn2;
+  }
+}
 
 // Where a path's stored photons go: its first kSlotsPerPath in slots of its own, in path order
 // with no atomics; the rare later ones (Russian roulette ends nearly every path sooner) appended
@@ -94,18 +143,23 @@ struct PhotonStores {
   uint8_t* overflow_kind;
   uint32_t* overflow_count;
   uint32_t overflow_room;
+  // With differentials: each stored photon's footprint, beside it.
+  PhotonFootprint* slot_footprint;
+  PhotonFootprint* overflow_footprint;
 
-  CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon,
-                          bool caustic) const {
+  CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon, bool caustic,
+                          const PhotonFootprint& footprint = {}) const {
     if (bounce <= slots_per_path) {
       const size_t k = size_t(path) * slots_per_path + (bounce - 1);
       slot[k] = photon;
+      if (slot_footprint != nullptr) slot_footprint[k] = footprint;
       (caustic ? caustic_flag : global_flag)[k] = 1;
       return;
     }
     const uint32_t at = atomic_fetch_add(overflow_count, 1u);
     if (at >= overflow_room) return;  // counted: the trace runs again with room for all
     overflow[at] = photon;
+    if (overflow_footprint != nullptr) overflow_footprint[at] = footprint;
     overflow_key[at] = uint64_t(path) << 32 | bounce;
     overflow_kind[at] = caustic ? kCausticPhoton : kGlobalPhoton;
   }
@@ -119,9 +173,11 @@ struct PhotonPathInputs {
   float inv_count;
   uint32_t seed, pass, max_bounces;
   PhotonStores stores;
+  float spacing;  // differential_spacing of the photon count
 
   // Path `path`'s emission: its light, chosen by power, and its first ray.
-  CAUSTICA_HDI void start(PhotonPathState& p, uint32_t path) const {
+  template <bool kDifferentials>
+  CAUSTICA_HDI void start(PhotonPathState<kDifferentials>& p, uint32_t path) const {
     p.path = path;
     p.s = Sampler(seed, path, pass);
     uint32_t li =
@@ -133,20 +189,31 @@ struct PhotonPathInputs {
     p.power = e.power * (inv_count / choice_pdf);
     p.only_specular = true;
     p.bounce = 0;
+    if constexpr (kDifferentials)
+      p.differentials = emission_differentials(light, e, choice_pdf, radius);
   }
 
   // The path's hit `hit` of its current ray: stores a photon at a diffuse surface and moves the
   // path on; false when the path ends there.
-  CAUSTICA_HDI bool bounce(PhotonPathState& p, const Hit& hit) const {
+  template <bool kDifferentials>
+  CAUSTICA_HDI bool bounce(PhotonPathState<kDifferentials>& p, const Hit& hit) const {
     if (!hit.valid()) return false;
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = p.ray.direction;
     Vec3f next_dir;
     if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
+    if constexpr (kDifferentials) transfer(p.differentials, d, hit.t, sh.geometric_normal);
     if (m.type == MaterialType::kDiffuse) {
-      if (p.bounce > 0)
-        stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d}, p.only_specular);
+      if (p.bounce > 0) {
+        const Photon photon{sh.position, p.power, -d};
+        if constexpr (kDifferentials) {
+          stores.store(p.path, p.bounce, photon, p.only_specular,
+                       {p.differentials.dz1 * spacing, p.differentials.dz2 * spacing});
+        } else {
+          stores.store(p.path, p.bounce, photon, p.only_specular);
+        }
+      }
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;
       p.power = p.power * m.color / survive;
@@ -154,16 +221,39 @@ struct PhotonPathInputs {
       next_dir = Frame::from_normal(n).to_world(
           sample_cosine_hemisphere(p.s.next_float(), p.s.next_float()));
       p.only_specular = false;
+      if constexpr (kDifferentials) {
+        survived_roulette(p.differentials, survive);
+        p.differentials = reemitted_diffusely(next_dir, n, reemission_offset(p.differentials));
+      }
     } else if (m.type == MaterialType::kMirror) {
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;
       p.power = p.power * m.color / survive;
       next_dir = reflect(d, sh.shading_normal);
+      if constexpr (kDifferentials) {
+        Vec3f dn1, dn2;
+        normal_differentials(scene, hit, sh, p.differentials, dn1, dn2);
+        survived_roulette(p.differentials, survive);
+        reflect_differentials(p.differentials, d, sh.shading_normal, dn1, dn2);
+      }
     } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
       DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
       float fr = fresnel_dielectric(side.cos_i, side.eta);
-      if (p.s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir))
-        next_dir = reflect(d, side.normal);
+      const bool reflects = p.s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir);
+      if (reflects) next_dir = reflect(d, side.normal);
+      if constexpr (kDifferentials) {
+        Vec3f dn1, dn2;
+        normal_differentials(scene, hit, sh, p.differentials, dn1, dn2);
+        if (dot(side.normal, sh.shading_normal) < 0.0f) {  // the normal of the side left from
+          dn1 = -dn1;
+          dn2 = -dn2;
+        }
+        if (reflects) {
+          reflect_differentials(p.differentials, d, side.normal, dn1, dn2);
+        } else {
+          refract_differentials(p.differentials, d, side.normal, side.eta, next_dir, dn1, dn2);
+        }
+      }
     }
     p.ray.origin = offset_origin(sh.position, sh.geometric_normal, next_dir);
     p.ray.direction = next_dir;
@@ -177,9 +267,10 @@ struct PhotonPathInputs {
 // asked): every live path's next ray in one batch of closest hits per wave, the paths that go on
 // compacted for the next. Each path's samples and slots follow from its index alone, as in the
 // per-thread trace, so the photons are the same.
-template <typename Structure>
+template <bool kDifferentials, typename Structure>
 void trace_photon_waves(Backend& backend, const Structure& structure,
                         const PhotonPathInputs& inputs, uint32_t count) {
+  using PhotonPathState = caustica::PhotonPathState<kDifferentials>;
   Buffer<PhotonPathState> wave(backend, count), next(backend, count);
   Buffer<Ray> rays(backend, count);
   Buffer<Hit> hits(backend, count);
@@ -188,7 +279,7 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
   PhotonPathState* first = wave.data();
   const PhotonPathInputs in = inputs;
   parallel_for(backend, "photon_wave_start", count, [=] CAUSTICA_HD(size_t i) {
-    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true};
+    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true, {}};
     in.start(p, uint32_t(i));
     first[i] = p;
   });
@@ -218,12 +309,13 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
 }
 
 // The paths one per thread (per worker on a GPU), each hit traced through the per-ray view.
-template <typename Structure>
+template <bool kDifferentials, typename Structure>
 void trace_photons_per_thread(Backend& backend, const Structure& structure,
                               const PhotonPathInputs& in, uint32_t count, bool regenerate,
                               uint32_t workers, uint32_t* next) {
   const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
-    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true};
+    PhotonPathState<kDifferentials> p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0,
+                                      true,  {}};
     in.start(p, uint32_t(worker));
     // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
     // end do not wait at the inner loop's exit for the others.
@@ -246,6 +338,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   TracedPhotons out;
   out.caustic.bind(backend);
   out.global.bind(backend);
+  out.caustic_footprints.bind(backend);
+  out.global_footprints.bind(backend);
   const ResidentSceneView scene = resident.view();
   // A photon is stored at its second hit at the earliest (first hits are direct light), so a
   // path of one hit stores nothing.
@@ -262,6 +356,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   Buffer<Photon> slot_photons(backend, slots);
   Buffer<uint8_t> caustic_flags(backend, slots);
   Buffer<uint8_t> global_flags(backend, slots);
+  const bool footprints = settings.differentials;
+  Buffer<PhotonFootprint> slot_footprints(backend, footprints ? slots : 0);
   // Room for the later stores: a path stores past its slots only when roulette spares it through
   // kSlotsPerPath diffuse bounces, a few in a hundred; a trace that finds too little room runs
   // again with exactly enough.
@@ -269,6 +365,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   Buffer<Photon> overflow(backend, 0);
   Buffer<uint64_t> overflow_keys(backend, 0);
   Buffer<uint8_t> overflow_kinds(backend, 0);
+  Buffer<PhotonFootprint> overflow_footprints(backend, 0);
   Buffer<uint32_t> overflow_counter(backend, 1);
 
   const Vec3f center = resident.bounds().center();
@@ -297,22 +394,42 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     overflow.resize_discard(overflow_room);
     overflow_keys.resize_discard(overflow_room);
     overflow_kinds.resize_discard(overflow_room);
+    if (footprints) overflow_footprints.resize_discard(overflow_room);
     parallel_for(backend, "photon_next_path", 1,
                  [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
-    const PhotonStores stores{slot_photons.data(),    caustic_flags.data(),
-                              global_flags.data(),    per_path,
-                              overflow.data(),        overflow_keys.data(),
-                              overflow_kinds.data(),  overflow_counter.data(),
-                              uint32_t(overflow_room)};
-    const PhotonPathInputs in{scene, center, radius, inv_count, seed, pass, max_bounces, stores};
-    if constexpr (StructureView<Structure>) {
-      if (settings.ray_queues) {
-        trace_photon_waves(backend, structure, in, count);
+    const PhotonStores stores{slot_photons.data(),
+                              caustic_flags.data(),
+                              global_flags.data(),
+                              per_path,
+                              overflow.data(),
+                              overflow_keys.data(),
+                              overflow_kinds.data(),
+                              overflow_counter.data(),
+                              uint32_t(overflow_room),
+                              footprints ? slot_footprints.data() : nullptr,
+                              footprints ? overflow_footprints.data() : nullptr};
+    const PhotonPathInputs in{scene,       center, radius,
+                              inv_count,   seed,   pass,
+                              max_bounces, stores, differential_spacing(float(count))};
+    // The differentials' two instantiations: a path state without them keeps the common trace's
+    // registers, which its occupancy depends on.
+    const auto trace = [&](auto with_differentials) {
+      constexpr bool kDifferentials = decltype(with_differentials)::value;
+      if constexpr (StructureView<Structure>) {
+        if (settings.ray_queues) {
+          trace_photon_waves<kDifferentials>(backend, structure, in, count);
+        } else {
+          trace_photons_per_thread<kDifferentials>(backend, structure, in, count, regenerate,
+                                                   workers, next);
+        }
       } else {
-        trace_photons_per_thread(backend, structure, in, count, regenerate, workers, next);
+        trace_photon_waves<kDifferentials>(backend, structure, in, count);
       }
+    };
+    if (footprints) {
+      trace(std::true_type{});
     } else {
-      trace_photon_waves(backend, structure, in, count);
+      trace(std::false_type{});
     }
     overflowed = overflow_counter.download()[0];
     if (overflowed <= overflow_room) break;
@@ -340,8 +457,10 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const Photon* slot = slot_photons.data();
   const Photon* later = overflow.data();
   const uint32_t* later_order = overflow_order.data();
-  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags,
-                     Buffer<Photon>& into) {
+  const PhotonFootprint* slot_footprint = slot_footprints.data();
+  const PhotonFootprint* later_footprint = overflow_footprints.data();
+  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags, Buffer<Photon>& into,
+                     Buffer<PhotonFootprint>& footprints_into) {
     Buffer<uint32_t> index(backend, slots), later_index(backend, overflowed);
     const size_t slotted = backend.select_flagged(nullptr, flags.data(), slots, index.data());
     const size_t extra =
@@ -353,9 +472,15 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     parallel_for(backend, "photon_compact", slotted + extra, [=] CAUSTICA_HD(size_t i) {
       dst[i] = i < slotted ? slot[idx[i]] : later[later_idx[i - slotted]];
     });
+    if (!footprints) return;
+    footprints_into.resize_discard(slotted + extra);
+    PhotonFootprint* fp = footprints_into.data();
+    parallel_for(backend, "photon_compact_footprints", slotted + extra, [=] CAUSTICA_HD(size_t i) {
+      fp[i] = i < slotted ? slot_footprint[idx[i]] : later_footprint[later_idx[i - slotted]];
+    });
   };
-  compact(caustic_flags, caustic_overflow, out.caustic);
-  compact(global_flags, global_overflow, out.global);
+  compact(caustic_flags, caustic_overflow, out.caustic, out.caustic_footprints);
+  compact(global_flags, global_overflow, out.global, out.global_footprints);
   return out;
 }
 

@@ -20,11 +20,16 @@ struct PhotonTraceSettings {
   // Trace the paths in waves of batched closest hits even where the structure answers single
   // rays; structures that answer batches only always do. The photons are the same either way.
   bool ray_queues = false;
+  // Track photon differentials (differentials.h) and give every stored photon its footprint.
+  bool differentials = false;
 };
 
 struct TracedPhotons {
   Buffer<Photon> caustic;
   Buffer<Photon> global;
+  // With PhotonTraceSettings::differentials, each stored photon's footprint, in the same order.
+  Buffer<PhotonFootprint> caustic_footprints;
+  Buffer<PhotonFootprint> global_footprints;
   uint32_t emitted = 0;
 };
 

@@ -1,0 +1,288 @@
+// Photon differentials (photon/differentials.h) against finite differences of the functions they
+// differentiate, and their footprints against the photon densities they stand for.
+#include "renderer/photon/differentials.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <random>
+
+#include "renderer/photon/photon_tracer.h"
+#include "renderer/photon/scattering.h"
+#include "renderer/resident/resident_scene.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+constexpr double kStep = 1e-3;
+
+void expect_near(Vec3f got, Vec3f expected, double tolerance, const char* what) {
+  EXPECT_NEAR(got.x, expected.x, tolerance) << what;
+  EXPECT_NEAR(got.y, expected.y, tolerance) << what;
+  EXPECT_NEAR(got.z, expected.z, tolerance) << what;
+}
+
+// The central difference of f at 0.
+Vec3f derivative(const std::function<Vec3f(float)>& f) {
+  return (f(float(kStep)) - f(float(-kStep))) / float(2 * kStep);
+}
+
+// A family of rays z(p) = z0 + p a, w(p) = normalize(w0 + p b): its differentials at p = 0.
+struct RayFamily {
+  Vec3f z0, a, w0, b;
+  Vec3f origin(float p) const { return z0 + a * p; }
+  Vec3f direction(float p) const { return normalize(w0 + b * p); }
+  PhotonDifferentials differentials() const {
+    const Vec3f w = normalize(w0);
+    const Vec3f dw = (b - w * dot(w, b)) / length(w0);
+    return {a, Vec3f(0.0f), dw, Vec3f(0.0f)};
+  }
+};
+
+// The hit of ray (z, w) with the plane through `q` of normal `n`.
+Vec3f plane_hit(Vec3f z, Vec3f w, Vec3f q, Vec3f n) { return z + w * (dot(q - z, n) / dot(w, n)); }
+
+// The hit of ray (z, w) with the sphere of `radius` at the origin, from outside.
+Vec3f sphere_hit(Vec3f z, Vec3f w, float radius) {
+  const float b = dot(z, w), c = dot(z, z) - radius * radius;
+  return z + w * (-b - std::sqrt(b * b - c));
+}
+
+TEST(PhotonDifferentials, TransferFollowsTheHitPointOnAPlane) {
+  const RayFamily ray{Vec3f(0.1f, 0.2f, 2.0f), Vec3f(0.3f, -0.2f, 0.1f), Vec3f(0.2f, -0.1f, -1.0f),
+                      Vec3f(0.4f, 0.3f, -0.2f)};
+  const Vec3f q(0.0f, 0.0f, -1.0f), n = normalize(Vec3f(0.1f, 0.2f, 1.0f));
+  PhotonDifferentials d = ray.differentials();
+  const Vec3f w = ray.direction(0);
+  const Vec3f hit = plane_hit(ray.origin(0), w, q, n);
+  transfer(d, w, length(hit - ray.origin(0)), n);
+  const Vec3f expected =
+      derivative([&](float p) { return plane_hit(ray.origin(p), ray.direction(p), q, n); });
+  expect_near(d.dz1, expected, 1e-3, "dz");
+}
+
+// A sphere's normal is z / R, so its derivative along the hit point's is dz / R.
+TEST(PhotonDifferentials, ReflectionOffACurvedMirrorFollowsTheReflectedDirection) {
+  const float radius = 1.5f;
+  const RayFamily ray{Vec3f(0.4f, 0.3f, 4.0f), Vec3f(0.2f, 0.1f, 0.0f), Vec3f(-0.05f, 0.02f, -1.0f),
+                      Vec3f(0.1f, -0.2f, 0.0f)};
+  auto reflected = [&](float p) {
+    const Vec3f hit = sphere_hit(ray.origin(p), ray.direction(p), radius);
+    return reflect(ray.direction(p), hit / radius);
+  };
+  PhotonDifferentials d = ray.differentials();
+  const Vec3f w = ray.direction(0);
+  const Vec3f hit = sphere_hit(ray.origin(0), w, radius);
+  const Vec3f n = hit / radius;
+  transfer(d, w, length(hit - ray.origin(0)), n);
+  reflect_differentials(d, w, n, d.dz1 / radius, d.dz2 / radius);
+  expect_near(d.dw1, derivative(reflected), 2e-3, "dw");
+}
+
+TEST(PhotonDifferentials, RefractionThroughACurvedSurfaceFollowsTheRefractedDirection) {
+  const float radius = 1.5f;
+  const RayFamily ray{Vec3f(0.4f, 0.3f, 4.0f), Vec3f(0.2f, 0.1f, 0.0f), Vec3f(-0.05f, 0.02f, -1.0f),
+                      Vec3f(0.1f, -0.2f, 0.0f)};
+  for (const float eta : {1.5f, 1.0f / 1.33f}) {
+    auto refracted = [&](float p) {
+      const Vec3f hit = sphere_hit(ray.origin(p), ray.direction(p), radius);
+      Vec3f t;
+      EXPECT_TRUE(refract(ray.direction(p), hit / radius, eta, t));
+      return t;
+    };
+    PhotonDifferentials d = ray.differentials();
+    const Vec3f w = ray.direction(0);
+    const Vec3f hit = sphere_hit(ray.origin(0), w, radius);
+    const Vec3f n = hit / radius;
+    transfer(d, w, length(hit - ray.origin(0)), n);
+    refract_differentials(d, w, n, eta, refracted(0), d.dz1 / radius, d.dz2 / radius);
+    expect_near(d.dw1, derivative(refracted), 2e-3, "dw");
+  }
+}
+
+TEST(PhotonDifferentials, ShadingNormalDerivativeFollowsTheInterpolatedNormal) {
+  const Vec3f v0(0, 0, 0), v1(2, 0.2f, 0), v2(0.3f, 1.8f, 0.1f);
+  const Vec3f n0 = normalize(Vec3f(0.1f, 0.2f, 1)), n1 = normalize(Vec3f(-0.3f, 0.1f, 1)),
+              n2 = normalize(Vec3f(0.2f, -0.4f, 1));
+  const Vec3f e1 = v1 - v0, e2 = v2 - v0;
+  // A direction in the triangle's plane, and the barycentrics along it.
+  const Vec3f dz = e1 * 0.3f + e2 * -0.5f;
+  const float u = 0.25f, v = 0.4f;
+  auto normal_at = [&](float p) {
+    // dz = e1 du + e2 dv with du = 0.3, dv = -0.5 per unit p.
+    const float up = u + 0.3f * p, vp = v - 0.5f * p;
+    return normalize(n0 + (n1 - n0) * up + (n2 - n0) * vp);
+  };
+  Vec3f dn1, dn2;
+  shading_normal_differentials(n0, n1, n2, n0 + (n1 - n0) * u + (n2 - n0) * v, e1, e2, dz,
+                               Vec3f(0.0f), dn1, dn2);
+  expect_near(dn1, derivative(normal_at), 1e-3, "dn");
+  expect_near(dn2, Vec3f(0.0f), 1e-7, "dn along nothing");
+}
+
+// Emission differentials against the derivative of the spherical parametrisation they scale: along
+// p1 (inclination) the direction turns by a unit vector times the scale, along p2 by sin p1 times
+// it, divided by sin p1 by the scaling.
+TEST(PhotonDifferentials, EmissionFromASpotIsTheScaledSphericalDerivative) {
+  const Vec3f axis = normalize(Vec3f(0.3f, -1.0f, 0.2f));
+  const Frame frame = Frame::from_normal(axis);
+  const float cos_max = std::cos(0.7f), p1 = 0.4f, p2 = 1.1f;
+  auto direction = [&](float a, float b) {
+    return frame.to_world(Vec3f(std::cos(b) * std::sin(a), std::sin(b) * std::sin(a), std::cos(a)));
+  };
+  const PhotonDifferentials d = emitted_from_point(direction(p1, p2), axis, cos_max);
+  const float scale = std::sqrt(0.5f * (1.0f - cos_max));
+  expect_near(d.dw1, derivative([&](float p) { return direction(p1 + p, p2); }) * scale, 1e-3,
+              "dw1");
+  expect_near(d.dw2,
+              derivative([&](float p) { return direction(p1, p2 + p); }) * (scale / std::sin(p1)),
+              1e-3, "dw2");
+  expect_near(d.dz1, Vec3f(0.0f), 0.0, "dz1");
+}
+
+// What the footprints are for: the area each photon stands for where it lands, the inverse of the
+// photons' density there. Photons from a point light hit a plane; the ones in a disk, counted,
+// times their mean footprint, cover the disk.
+TEST(PhotonDifferentials, PointLightFootprintsCoverThePlaneTheyLandOn) {
+  const int n = 400000;
+  const float h = 2.0f;
+  const Vec3f plane_normal(0, 0, 1), light(0, 0, h);
+  for (const float tilt : {0.0f, 0.8f}) {  // the disk straight below, and off to the side
+    const Vec3f centre(h * std::tan(tilt), 0.0f, 0.0f);
+    const float disk_radius = 0.5f;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+    int inside = 0;
+    double area_sum = 0;
+    for (int i = 0; i < n; ++i) {
+      const Vec3f w = sample_uniform_sphere(uniform(rng), uniform(rng));
+      if (w.z >= 0.0f) continue;
+      PhotonDifferentials d = emitted_from_point(w, Vec3f(0, 0, 1), -1.0f);
+      const float t = -h / w.z;
+      const Vec3f hit = light + w * t;
+      if (length(hit - centre) > disk_radius) continue;
+      transfer(d, w, t, plane_normal);
+      ++inside;
+      area_sum += footprint_area(d, float(n));
+    }
+    ASSERT_GT(inside, 1000);
+    const double covered = area_sum / (kPi * disk_radius * disk_radius);
+    EXPECT_NEAR(covered, 1.0, 0.05) << "tilt " << tilt;
+  }
+}
+
+// The same for an area light (a unit square) treated as a diffuse surface re-emitting with the
+// virtual offset: far from the light, where it looks like a point, its photons' footprints cover
+// the plane as they should; nearer, the offset's spread shows as (1 + t_v / h)^2.
+TEST(PhotonDifferentials, AreaLightFootprintsCoverThePlaneTheyLandOn) {
+  const int n = 400000;
+  const float side = 1.0f, area = side * side;
+  const float offset = area_light_offset(area, 1.0f);
+  const Vec3f down(0, 0, -1);
+  for (const float h : {4.0f, 12.0f}) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+    const float disk_radius = 0.1f * h;
+    int inside = 0;
+    double area_sum = 0;
+    for (int i = 0; i < n; ++i) {
+      const Vec3f origin((uniform(rng) - 0.5f) * side, (uniform(rng) - 0.5f) * side, h);
+      const Vec3f local = sample_cosine_hemisphere(uniform(rng), uniform(rng));
+      const Frame frame = Frame::from_normal(down);
+      const Vec3f w = frame.to_world(local);
+      PhotonDifferentials d = reemitted_diffusely(w, down, offset);
+      const float t = -h / w.z;
+      const Vec3f hit = origin + w * t;
+      if (length(Vec3f(hit.x, hit.y, 0.0f)) > disk_radius) continue;
+      transfer(d, w, t, Vec3f(0, 0, 1));
+      ++inside;
+      area_sum += footprint_area(d, float(n));
+    }
+    ASSERT_GT(inside, 1000);
+    const double covered = area_sum / (kPi * disk_radius * disk_radius);
+    const double spread = (1.0 + offset / h) * (1.0 + offset / h);
+    EXPECT_NEAR(covered / spread, 1.0, 0.05) << "height " << h;
+  }
+}
+
+// Re-emission keeps the footprint's area in expectation: A'(p1') = t_v^2 pi / (n cos p1'), whose
+// mean over cosine-distributed directions is t_v^2 2 pi / n = A.
+TEST(PhotonDifferentials, DiffuseReemissionKeepsTheFootprintInExpectation) {
+  const float n = 1e5f;
+  PhotonDifferentials arriving{Vec3f(0.02f, 0.0f, 0.0f), Vec3f(0.005f, 0.03f, 0.0f), Vec3f(0.0f),
+                               Vec3f(0.0f)};
+  const double before = footprint_area(arriving, n);
+  const float offset = reemission_offset(arriving);
+  const Vec3f normal(0, 0, 1);
+  // The mean over p1' by quadrature (the estimator's variance is infinite at grazing angles).
+  double mean = 0;
+  const int steps = 20000;
+  for (int i = 0; i < steps; ++i) {
+    const double p1 = (i + 0.5) * (kPi / 2) / steps;
+    const Vec3f w(float(std::sin(p1)) * 0.6f, float(std::sin(p1)) * 0.8f, float(std::cos(p1)));
+    const double a = footprint_area(reemitted_diffusely(w, normal, offset), n);
+    EXPECT_NEAR(a, offset * offset * kPi / (n * std::cos(p1)), 1e-3 * a);
+    mean += a * 2 * std::cos(p1) * std::sin(p1) * (kPi / 2) / steps;  // pdf 2 cos sin
+  }
+  EXPECT_NEAR(mean / before, 1.0, 1e-3);
+}
+
+TEST(PhotonDifferentials, RouletteSurvivorsSpreadByTheInverseSquareRoot) {
+  PhotonDifferentials d{Vec3f(1, 0, 0), Vec3f(0, 2, 0), Vec3f(0, 0, 3), Vec3f(4, 0, 0)};
+  const float before = footprint_area(d, 100.0f);
+  survived_roulette(d, 0.25f);
+  EXPECT_FLOAT_EQ(footprint_area(d, 100.0f), before * 4.0f);
+  EXPECT_FLOAT_EQ(d.dw1.z, 6.0f);
+}
+
+}  // namespace
+}  // namespace caustica
+
+namespace caustica {
+namespace {
+
+// Through the photon tracer: a point light above a flat mirror under a diffuse ceiling. A photon
+// that the mirror sends up lands on the ceiling as if from the light's mirror image, and its
+// footprint is that of a point light there, exactly: 4 pi r^2 / (n cos theta).
+TEST(PhotonDifferentials, TracedCausticFootprintsAreThoseOfTheMirroredLight) {
+  absl::StatusOr<Scene> scene = parse_scene(R"({
+    "camera": {"position": [0, 0, 1.5], "look_at": [0, 0, 0], "fov": 60, "width": 8, "height": 8},
+    "materials": {"mirror": {"type": "mirror", "reflectance": [1, 1, 1]},
+                  "white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "lights": [{"type": "point", "position": [0.3, -0.2, 1], "intensity": [1, 1, 1]}],
+    "shapes": [
+      {"type": "quad", "material": "mirror", "vertices": [[-6, -6, 0], [6, -6, 0], [6, 6, 0], [-6, 6, 0]]},
+      {"type": "quad", "material": "white", "vertices": [[-6, -6, 2], [-6, 6, 2], [6, 6, 2], [6, -6, 2]]}]
+  })",
+                                            ".", "mirror.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(1) << 30);
+  const ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  PhotonTraceSettings settings;
+  settings.photon_count = 20000;
+  settings.differentials = true;
+  const TracedPhotons traced = trace_photons(*backend, resident, settings);
+  const std::vector<Photon> photons = traced.caustic.download();
+  const std::vector<PhotonFootprint> footprints = traced.caustic_footprints.download();
+  ASSERT_EQ(photons.size(), footprints.size());
+  ASSERT_GT(photons.size(), 1000u);
+  EXPECT_EQ(traced.global_footprints.size(), traced.global.size());
+  const Vec3f image(0.3f, -0.2f, -1.0f);
+  int checked = 0;
+  for (size_t i = 0; i < photons.size(); ++i) {
+    const Vec3f to = photons[i].position - image;
+    const float r = length(to), cos_theta = to.z / r;
+    if (cos_theta < 0.3f) continue;  // grazing: first order is far from exact
+    const double expected = 4.0 * kPi * r * r / (settings.photon_count * cos_theta);
+    const double got = length(cross(footprints[i].span1, footprints[i].span2));
+    EXPECT_NEAR(got / expected, 1.0, 2e-3) << "photon " << i;
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+}  // namespace
+}  // namespace caustica
