@@ -40,7 +40,8 @@ void SppmEstimator::render(Backend& backend, const ResidentScene& scene,
     fresh_ = false;
   }
   trace_visible_points(backend, scene, camera,
-                       {shading.max_depth, shading.area_light_samples, shading.seed, shading.pass},
+                       {shading.max_depth, shading.area_light_samples, shading.seed, shading.pass,
+                        shading.ray_queues},
                        points_.data(), light_.data());
   SppmGather gather;
   gather.alpha = options_.sppm_alpha;

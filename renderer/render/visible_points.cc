@@ -15,63 +15,77 @@
 namespace caustica {
 namespace {
 
-// The chain of one camera ray through `structure` to its visible point; returns the emitted and
-// direct light it sees. Samples: the camera jitter's two, then the chain's.
-template <typename Structure>
-CAUSTICA_HDI Vec3f chain_to_visible_point(const ResidentSceneView& scene,
-                                          const Structure& structure, Ray ray, float scene_radius,
-                                          const VisiblePointSettings& cfg, Sampler& s,
-                                          VisiblePoint& point) {
-  Vec3f light(0.0f), throughput(1.0f);
-  point = {Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
-  for (uint32_t depth = 0;; ++depth) {
-    const Hit hit = closest_hit(structure, ray);
-    if (!hit.valid()) return light;  // black background
-    const SurfaceHit sh = surface_at(scene, hit);
-    const DeviceMaterial& m = scene.materials[sh.material];
-    const Vec3f d = ray.direction;
-    Vec3f next;
-    switch (m.type) {
-      case MaterialType::kEmissive:
-        if (dot(d, sh.geometric_normal) < 0.0f) light += throughput * m.radiance;
-        return light;
-      case MaterialType::kDiffuse: {
-        const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        light += throughput * direct_light(scene, structure, sh.position, n, sh.geometric_normal,
-                                           m.color, cfg.area_light_samples, scene_radius, s);
-        point = {sh.position, n, throughput * m.color};
-        return light;
-      }
-      case MaterialType::kMirror:
-        next = reflect(d, sh.shading_normal);
-        throughput *= m.color;
-        break;
-      case MaterialType::kDielectric: {
-        const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-        const float fr = fresnel_dielectric(side.cos_i, side.eta);
-        next = reflect(d, side.normal);
-        Vec3f refracted;
-        if (s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) next = refracted;
-        break;
-      }
-    }
-    if (depth >= cfg.max_depth) return light;
-    // From the depth where the photon integrator's trees start their roulette (whitted.h), with
-    // the path tracer's cap: one chain a pixel costs little, and a lower cap multiplies a lossless
-    // chain's weight into fireflies that SPPM's statistics keep for many passes.
-    if (depth >= kBranchRouletteFrom) {
-      const float survive = min_f(max_component(throughput), kPathSurvivalCap);
-      if (!(s.next_float() < survive)) return light;
-      throughput = throughput / survive;
-    }
-    ray = Ray{};
-    ray.origin = offset_origin(sh.position, sh.geometric_normal, next);
-    ray.direction = next;
-  }
+// Where one pixel's chain stands between its hits.
+struct Chain {
+  Ray ray;
+  Vec3f throughput;
+  Vec3f light;  // emitted and direct light seen so far
+  Sampler s;
+  uint32_t depth;
+};
+
+// The chain's first ray: the pixel's jittered camera ray (the sampler's first two dimensions).
+CAUSTICA_HDI Chain start_chain(const PinholeCamera& camera, const VisiblePointSettings& cfg,
+                               size_t pixel) {
+  Sampler s(cfg.seed, uint32_t(pixel), cfg.pass);
+  const float x = float(pixel % camera.width) + s.next_float();
+  const float y = float(pixel / camera.width) + s.next_float();
+  return {camera.ray_through(x, y), Vec3f(1.0f), Vec3f(0.0f), s, 0};
 }
 
-// The pass's chains through `structure`, a view that answers single rays. (A named function: nvcc
-// admits no extended lambda inside the generic one that visits the views.)
+// The chain's hit `hit` of its current ray: true when the chain goes on (its next ray set), false
+// when it ended, at a light, in the background or at a diffuse surface, which becomes `point`.
+// `direct(sh, n, m, s)` gives the direct light at a diffuse hit (whitted.h's direct_light_with).
+template <typename Direct>
+CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
+                             const VisiblePointSettings& cfg, Chain& c, VisiblePoint& point,
+                             Direct direct) {
+  if (!hit.valid()) return false;  // black background
+  const SurfaceHit sh = surface_at(scene, hit);
+  const DeviceMaterial& m = scene.materials[sh.material];
+  const Vec3f d = c.ray.direction;
+  Vec3f next;
+  switch (m.type) {
+    case MaterialType::kEmissive:
+      if (dot(d, sh.geometric_normal) < 0.0f) c.light += c.throughput * m.radiance;
+      return false;
+    case MaterialType::kDiffuse: {
+      const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+      c.light += c.throughput * direct(sh, n, m, c.s);
+      point = {sh.position, n, c.throughput * m.color};
+      return false;
+    }
+    case MaterialType::kMirror:
+      next = reflect(d, sh.shading_normal);
+      c.throughput *= m.color;
+      break;
+    case MaterialType::kDielectric: {
+      const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+      const float fr = fresnel_dielectric(side.cos_i, side.eta);
+      next = reflect(d, side.normal);
+      Vec3f refracted;
+      if (c.s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) next = refracted;
+      break;
+    }
+  }
+  if (c.depth >= cfg.max_depth) return false;
+  // From the depth where the photon integrator's trees start their roulette (whitted.h), with
+  // the path tracer's cap: one chain a pixel costs little, and a lower cap multiplies a lossless
+  // chain's weight into fireflies that SPPM's statistics keep for many passes.
+  if (c.depth >= kBranchRouletteFrom) {
+    const float survive = min_f(max_component(c.throughput), kPathSurvivalCap);
+    if (!(c.s.next_float() < survive)) return false;
+    c.throughput = c.throughput / survive;
+  }
+  c.ray = Ray{};
+  c.ray.origin = offset_origin(sh.position, sh.geometric_normal, next);
+  c.ray.direction = next;
+  ++c.depth;
+  return true;
+}
+
+// The pass's chains through `structure`, a view that answers single rays, one per thread. (A
+// named function: nvcc admits no extended lambda inside the generic one that visits the views.)
 template <typename Structure>
 void trace_chains_through(const Structure& structure, Backend& backend,
                           const ResidentSceneView& scene, float scene_radius,
@@ -81,12 +95,92 @@ void trace_chains_through(const Structure& structure, Backend& backend,
   parallel_for(backend, "visible_points", blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
     size_t pixel;
     if (!blocks.pixel_of(thread, pixel)) return;
-    Sampler s(cfg.seed, uint32_t(pixel), cfg.pass);
-    const float x = float(pixel % camera.width) + s.next_float();
-    const float y = float(pixel / camera.width) + s.next_float();
-    light[pixel] += chain_to_visible_point(scene, structure, camera.ray_through(x, y), scene_radius,
-                                           cfg, s, points[pixel]);
+    Chain c = start_chain(camera, cfg, pixel);
+    VisiblePoint point{Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
+    const auto direct = [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
+      return direct_light(scene, structure, sh.position, n, sh.geometric_normal, m.color,
+                          cfg.area_light_samples, scene_radius, s);
+    };
+    while (chain_step(scene, closest_hit(structure, c.ray), cfg, c, point, direct)) {
+    }
+    points[pixel] = point;
+    light[pixel] += c.light;
   });
+}
+
+// The same chains as ray queues, for structures that answer batches only: each wave one batch of
+// closest hits for every live chain, then one of the shadow rays their diffuse hits ask for. A
+// wave's step runs twice, first to collect the shadow rays on a copy of each chain, then for real
+// with their answers, so every chain draws the samples the per-thread walk draws and meets the
+// same points.
+template <typename Structure>
+void trace_chain_queues(const Structure& structure, Backend& backend,
+                        const ResidentSceneView& scene, float scene_radius,
+                        const PinholeCamera& camera, const VisiblePointSettings& cfg,
+                        VisiblePoint* points, Vec3f* light) {
+  const size_t pixels = size_t(camera.width) * camera.height;
+  Buffer<Chain> chains(backend, pixels);
+  Buffer<uint8_t> alive(backend, pixels);
+  Buffer<uint32_t> live(backend, pixels);
+  Buffer<Ray> rays(backend, pixels);
+  Buffer<Hit> hits(backend, pixels);
+  const uint32_t slots = direct_light_slots(scene, cfg.area_light_samples);
+  Buffer<Ray> shadow(backend, 0);
+  Buffer<uint8_t> blocked(backend, 0);
+  Chain* chain = chains.data();
+  uint8_t* on = alive.data();
+  parallel_for(backend, "visible_point_chains", pixels, [=] CAUSTICA_HD(size_t pixel) {
+    chain[pixel] = start_chain(camera, cfg, pixel);
+    points[pixel] = {Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
+    on[pixel] = 1;
+  });
+  size_t count = backend.select_flagged(nullptr, on, pixels, live.data());
+  while (count > 0) {
+    const uint32_t* index = live.data();
+    Ray* ray = rays.data();
+    parallel_for(backend, "visible_point_rays", count,
+                 [=] CAUSTICA_HD(size_t i) { ray[i] = chain[index[i]].ray; });
+    trace_closest(backend, structure, rays.data(), count, hits.data());
+    shadow.resize_discard(count * slots);
+    blocked.resize_discard(count * slots);
+    const Hit* hit = hits.data();
+    Ray* shadow_ray = shadow.data();
+    parallel_for(backend, "visible_point_shadow_rays", count, [=] CAUSTICA_HD(size_t i) {
+      Ray* mine = shadow_ray + i * slots;
+      for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{Vec3f(0.0f), Vec3f(0, 0, 1), 0.0f, 0.0f};
+      Chain copy = chain[index[i]];
+      VisiblePoint unused;
+      (void)chain_step(scene, hit[i], cfg, copy, unused,
+                       [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
+                         return direct_light_with(scene, sh.position, n, sh.geometric_normal,
+                                                  m.color, cfg.area_light_samples, scene_radius, s,
+                                                  [&](uint32_t slot, const Ray& r) {
+                                                    mine[slot] = r;
+                                                    return false;
+                                                  });
+                       });
+    });
+    trace_any(backend, structure, shadow.data(), count * slots, blocked.data());
+    const uint8_t* is_blocked = blocked.data();
+    parallel_for(backend, "visible_point_step", count, [=] CAUSTICA_HD(size_t i) {
+      const uint32_t pixel = index[i];
+      const uint8_t* mine = is_blocked + i * slots;
+      Chain c = chain[pixel];
+      on[pixel] =
+          chain_step(scene, hit[i], cfg, c, points[pixel],
+                     [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
+                       return direct_light_with(
+                           scene, sh.position, n, sh.geometric_normal, m.color,
+                           cfg.area_light_samples, scene_radius, s,
+                           [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+                     })
+              ? 1
+              : 0;
+      chain[pixel] = c;
+      if (!on[pixel]) light[pixel] += c.light;
+    });
+    count = backend.select_flagged(nullptr, on, pixels, live.data());
+  }
 }
 
 }  // namespace
@@ -104,11 +198,13 @@ void trace_visible_points(Backend& backend, const ResidentScene& resident,
   const float scene_radius = resident.radius();
   resident.structure().visit([&](const auto& structure) {
     if constexpr (StructureView<std::decay_t<decltype(structure)>>) {
-      trace_chains_through(structure, backend, scene, scene_radius, camera, settings, points,
-                           light);
-    } else {
-      throw batch_only_refusal("SPPM's camera pass", resident.structure().kind());
+      if (!settings.ray_queues) {
+        trace_chains_through(structure, backend, scene, scene_radius, camera, settings, points,
+                             light);
+        return;
+      }
     }
+    trace_chain_queues(structure, backend, scene, scene_radius, camera, settings, points, light);
   });
 }
 

@@ -20,17 +20,20 @@ struct VisiblePointSettings {
   uint32_t area_light_samples = 4;
   uint32_t seed = 1;
   uint32_t pass = 0;
+  // Trace the chains as ray queues (batches of closest and any hits) even where the structure
+  // answers single rays; structures that answer batches only always do. The points are the same.
+  bool ray_queues = false;
 };
 
 // Each pixel's visible point (photon/sppm.h) of pass `settings.pass` into `points`, and the emitted
-// and direct light its chain sees added to `light` (both camera.width x camera.height, row-major).
-// The scene's structure must answer single rays (StructureView): throws std::invalid_argument
-// naming it when it answers batches only (dacrt).
+// and direct light its chain sees added to `light` (both camera.width x camera.height, row-major):
+// one chain per thread where the structure answers single rays, else (and when asked) as ray
+// queues.
 void trace_visible_points(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
                           const VisiblePointSettings& settings, VisiblePoint* points, Vec3f* light);
 
 // Refuses `structure` for `who`, which traces one ray at a time: the error to throw when a
-// structure answers batches only.
+// structure answers batches only (the path integrator's).
 std::invalid_argument batch_only_refusal(const char* who, StructureKind structure);
 
 }  // namespace caustica

@@ -64,7 +64,7 @@ class Converges : public testing::TestWithParam<const char*> {};
 
 // SPPM's error falls as passes accumulate, region by region, towards the path tracer's image. At
 // this size and 100k photons a pass its worst region is still the walls' corners (a radius that
-// reaches past a corner sees too few photons) and noise: 3.6% and 3.2% after 256 passes when this
+// reaches past a corner sees too few photons) and noise: 3.5% and 3.6% after 256 passes when this
 // was written; the 2% of the benchmark's 512x512 with 1M photons (docs/convergence.md) takes more
 // than a test's time on two cores.
 TEST_P(Converges, SppmTowardsThePathTracersImage) {

@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "absl/strings/str_format.h"
+#include "renderer/render/visible_points.h"
+#include "renderer/resident/resident_scene.h"
 #include "tests/renderer/render/analytic_scenes.h"
 
 namespace caustica {
@@ -117,17 +119,49 @@ TEST(Sppm, SameSeedGivesBitIdenticalImage) {
   EXPECT_EQ(image_of(*a), image_of(*b));
 }
 
-TEST(Sppm, RefusesAStructureThatAnswersBatchesOnly) {
-  Scene scene = small_caustics("sppm");
-  scene.settings.structure = StructureKind::kDacrt;
-  auto engine = engine_with(scene);
-  const absl::StatusOr<PassReport> report = engine->render(1);
-  ASSERT_FALSE(report.ok());
-  EXPECT_EQ(report.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(report.status().message()), testing::HasSubstr("dacrt"));
-  scene.settings.structure = kDefaultStructure;
-  ASSERT_TRUE(engine->set_settings(scene.settings).ok());
-  EXPECT_TRUE(engine->render(1).ok()) << "the engine goes on after the refusal";
+// The chains as ray queues meet the same points with the same light as one chain a thread, to the
+// bit; a structure that answers batches only (dacrt) takes the queues and renders lbvh4's image.
+TEST(Sppm, VisiblePointsThroughRayQueuesAreTheSame) {
+  const Scene scene = small_caustics("sppm");
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  const ResidentScene resident = ResidentScene::upload(*backend, scene);
+  const PinholeCamera camera = PinholeCamera::from(scene.camera);
+  const size_t pixels = size_t(scene.camera.width) * scene.camera.height;
+  std::vector<VisiblePoint> points[2];
+  std::vector<Vec3f> light[2];
+  for (int queues = 0; queues < 2; ++queues) {
+    Buffer<VisiblePoint> p(*backend, pixels);
+    Buffer<Vec3f> l(*backend, pixels);
+    l.fill_zero();
+    VisiblePointSettings settings;
+    settings.pass = 3;
+    settings.ray_queues = queues == 1;
+    trace_visible_points(*backend, resident, camera, settings, p.data(), l.data());
+    points[queues] = p.download();
+    light[queues] = l.download();
+  }
+  size_t seen = 0;
+  for (size_t i = 0; i < pixels; ++i) {
+    EXPECT_EQ(points[0][i].position, points[1][i].position) << "pixel " << i;
+    EXPECT_EQ(points[0][i].weight, points[1][i].weight) << "pixel " << i;
+    EXPECT_EQ(light[0][i], light[1][i]) << "pixel " << i;
+    seen += max_component(points[0][i].weight) > 0.0f;
+  }
+  EXPECT_GT(seen, pixels / 2);
+
+  Scene dacrt = scene;
+  dacrt.settings.structure = StructureKind::kDacrt;
+  auto by_queues = engine_with(dacrt);
+  auto by_thread = engine_with(scene);
+  ASSERT_TRUE(by_queues->render(2).ok());
+  ASSERT_TRUE(by_thread->render(2).ok());
+  const std::vector<float> a = image_of(*by_queues), b = image_of(*by_thread);
+  double difference = 0, norm = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    difference += (a[i] - b[i]) * (a[i] - b[i]);
+    norm += b[i] * b[i];
+  }
+  EXPECT_LT(std::sqrt(difference / norm), 0.002) << "dacrt against lbvh4";
 }
 
 TEST(Sppm, GlobalShrinkFollowsKnausZwicker) {
