@@ -115,12 +115,6 @@ struct Engine::State {
                        report.caustic_photons, report.global_photons);
     report.rebuilt.push_back("photon_maps");
   }
-
-  // The film and what the estimator keeps across passes start again.
-  void restart_accumulation() {
-    film->clear();
-    estimator->reset();
-  }
 };
 
 Engine::Engine(std::unique_ptr<State> state) : state_(std::move(state)) {}
@@ -222,7 +216,7 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
     st.estimator->drop_maps();
     st.resident->set_lights(lights);
     st.scene.lights = lights;
-    st.restart_accumulation();
+    st.film->clear();
     ++st.epochs.lights;
     report.rebuilt = {"lights", "film"};
     st.prepare_photons(report);
@@ -242,8 +236,9 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
       st.film.reset();
       st.film.emplace(*st.backend, camera.width, camera.height);
+    } else {
+      st.film->clear();
     }
-    st.restart_accumulation();
     st.scene.camera = camera;
     ++st.epochs.camera;
     report.rebuilt = {"film"};
@@ -281,7 +276,7 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
     if (estimator_change)
       st.estimator = make_estimator(*st.backend, estimator_options(settings, st.photons_per_leaf));
     st.scene.settings = settings;
-    st.restart_accumulation();
+    st.film->clear();
     ++st.epochs.settings;
     report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
                                       : std::vector<std::string>{"film"};

@@ -2,8 +2,8 @@
 // CreateAccelerator: a small interface, one implementation per EstimatorKind, chosen at run time
 // by make_estimator. Each estimator owns what differs between them:
 // - its photon maps: which photons go in which map, and the maps' leaf policy;
-// - the state that lives across passes, forgotten at reset() (the engine resets on every change
-//   its epochs count);
+// - the state that lives across passes, started again whenever it renders a film's first pass
+//   (every change the epochs count clears the film);
 // - its gather stage and how a pass reaches the film.
 // Photon tracing is common to all of them; the engine traces each pass's photons and hands them
 // to prepare(). Dispatch is once per pass on the host: inside a pass every launch is one
@@ -35,7 +35,6 @@ struct EstimatorOptions {
 class Estimator {
  public:
   virtual ~Estimator() = default;
-  virtual EstimatorKind kind() const = 0;
 
   // Builds the photon maps for pass `pass` from its traced photons, replacing any built before.
   virtual void prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) = 0;
@@ -47,9 +46,6 @@ class Estimator {
   // which it then frees.
   virtual void render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
                       const ShadingSettings& shading, Film& film) = 0;
-  // Forgets what lives across passes: the film restarts.
-  virtual void reset() = 0;
-
   virtual size_t map_bytes() const = 0;    // the maps prepared
   virtual size_t state_bytes() const = 0;  // what lives across passes
 };

@@ -13,13 +13,11 @@ namespace caustica {
 class KnnEstimator final : public Estimator {
  public:
   explicit KnnEstimator(const EstimatorOptions& options) : options_(options) {}
-  EstimatorKind kind() const override { return EstimatorKind::kKnn; }
   void prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) override;
   bool prepared_for(uint32_t pass) const override { return maps_ && maps_->pass == pass; }
   void drop_maps() override { maps_.reset(); }
   void render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
               const ShadingSettings& shading, Film& film) override;
-  void reset() override {}
   size_t map_bytes() const override;
   size_t state_bytes() const override { return 0; }
 

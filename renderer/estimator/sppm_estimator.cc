@@ -28,16 +28,14 @@ void SppmEstimator::render(Backend& backend, const ResidentScene& scene,
                            const PinholeCamera& camera, const ShadingSettings& shading,
                            Film& film) {
   const size_t pixels = size_t(camera.width) * camera.height;
-  if (pixels_.size() != pixels) {
+  if (pixels_.size() != pixels) {  // a new resolution, so a new film at its first pass
     points_.resize_discard(pixels);
     light_.resize_discard(pixels);
     pixels_.resize_discard(pixels);
-    fresh_ = true;
   }
-  if (fresh_ || film.passes() == 0) {
+  if (film.passes() == 0) {  // the statistics start again with the film
     light_.fill_zero();
     pixels_.fill_zero();
-    fresh_ = false;
   }
   trace_visible_points(backend, scene, camera,
                        {shading.max_depth, shading.area_light_samples, shading.seed, shading.pass,

@@ -109,7 +109,7 @@ CAUSTICA_HDI PhotonDifferentials emission_differentials(const DeviceLight& light
 }
 
 // The derivatives of the shading normal at `hit` along `d`'s position differentials, zero where
-// the triangle has no vertex normals; `flipped` when surface_at turned the normal around.
+// the triangle has no vertex normals, turned around with the normal where surface_at turned it.
 CAUSTICA_HDI void normal_differentials(const ResidentSceneView& scene, const Hit& hit,
                                        const SurfaceHit& sh, const PhotonDifferentials& d,
                                        Vec3f& dn1, Vec3f& dn2) {
@@ -148,7 +148,7 @@ struct PhotonStores {
   PhotonFootprint* overflow_footprint;
 
   CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon, bool caustic,
-                          const PhotonFootprint& footprint = {}) const {
+                          const PhotonFootprint& footprint) const {
     if (bounce <= slots_per_path) {
       const size_t k = size_t(path) * slots_per_path + (bounce - 1);
       slot[k] = photon;
@@ -206,13 +206,11 @@ struct PhotonPathInputs {
     if constexpr (kDifferentials) transfer(p.differentials, d, hit.t, sh.geometric_normal);
     if (m.type == MaterialType::kDiffuse) {
       if (p.bounce > 0) {
-        const Photon photon{sh.position, p.power, -d};
-        if constexpr (kDifferentials) {
-          stores.store(p.path, p.bounce, photon, p.only_specular,
-                       {p.differentials.dz1 * spacing, p.differentials.dz2 * spacing});
-        } else {
-          stores.store(p.path, p.bounce, photon, p.only_specular);
-        }
+        PhotonFootprint footprint{};
+        if constexpr (kDifferentials)
+          footprint = {p.differentials.dz1 * spacing, p.differentials.dz2 * spacing};
+        stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d}, p.only_specular,
+                     footprint);
       }
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;

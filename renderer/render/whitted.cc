@@ -52,8 +52,7 @@ CAUSTICA_HDI uint64_t child_branch(uint64_t branch, uint32_t depth, uint64_t cho
 class BranchRoulette {
  public:
   CAUSTICA_HD BranchRoulette(const ShadingSettings& cfg, uint32_t pixel)
-      : key_(pcg_hash(cfg.seed ^ 0x2545f491u ^ pcg_hash(pixel ^ pcg_hash(cfg.pass + 0x9e3779b9u)))),
-        survival_(cfg.branch_survival) {}
+      : key_(stream_key(cfg.seed ^ 0x2545f491u, pixel, cfg.pass)), survival_(cfg.branch_survival) {}
 
   // Whether the child `branch` spawned at `depth` with `throughput` is followed, its throughput
   // rescaled when roulette spares it.
@@ -67,7 +66,7 @@ class BranchRoulette {
     // one number for the whole chain, a lucky draw kept every branch of it.
     const uint32_t h = pcg_hash(
         key_ ^ pcg_hash(uint32_t(branch) ^ pcg_hash(uint32_t(branch >> 32) ^ pcg_hash(depth))));
-    if (float(h >> 8) * (1.0f / 16777216.0f) >= survive) return false;
+    if (unit_float(h) >= survive) return false;
     throughput = throughput / survive;
     return true;
   }
