@@ -22,10 +22,13 @@
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
 #include "renderer/engine.h"
+#include "renderer/estimator/knn_gather.h"
+#include "renderer/estimator/vkde_estimator.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/knn_estimate.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
+#include "renderer/photon/vkde_photons.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
@@ -368,7 +371,8 @@ absl::Status photon_gather_benchmarks(const BenchOptions& o, const Scene& scene,
                 "B/photon");
     uint32_t pass = 0;
     Measurement pass_m = measure(o, *backend, [&] {
-      render_pass(*backend, resident, caustic, global, camera, (*engine)->shading(pass++), film);
+      render_pass(*backend, resident, camera, (*engine)->shading(pass++),
+                  KnnGather(caustic, global), film);
     });
     report.line("photon_gather_render_pass",
                 label + absl::StrFormat(" %dx%d", scene.camera.width, scene.camera.height),
@@ -416,6 +420,41 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
         measure(o, *backend, [&] { (void)trace_photons(*backend, resident, with_differentials); });
     report.line("photon_trace_differentials", label, differentials.median, "ms", &differentials,
                 o.runs);
+    // VKDE's whole preparation of a pass (estimator/vkde_estimator.h): the trace with
+    // differentials, the kernels and the hierarchy over their supports; then its two steps after
+    // the trace on their own.
+    EstimatorOptions vkde_options;
+    vkde_options.kind = EstimatorKind::kVkde;
+    vkde_options.k_nearest = o.k;
+    VkdeEstimator vkde(vkde_options);
+    Measurement vkde_pass = measure(o, *backend, [&] {
+      PhotonTraceSettings this_pass = with_differentials;
+      this_pass.pass = pass++;
+      vkde.prepare(*backend, resident, trace_photons(*backend, resident, this_pass),
+                   this_pass.pass);
+      vkde.drop_maps();
+    });
+    report.line("vkde_photon_pass", label, vkde_pass.median, "ms", &vkde_pass, o.runs);
+    const TracedPhotons with_footprints = trace_photons(*backend, resident, with_differentials);
+    const VkdeSettings kernel_settings = vkde_settings(vkde_options, resident.radius());
+    Measurement kernels = measure(
+        o, *backend, [&] { (void)make_vkde_kernels(*backend, with_footprints, kernel_settings); });
+    const VkdeKernels made = make_vkde_kernels(*backend, with_footprints, kernel_settings);
+    report.line(
+        "vkde_kernels",
+        label + absl::StrFormat(" %zu kept, %u discarded", made.kernels.size(), made.discarded),
+        kernels.median, "ms", &kernels, o.runs);
+    const double covering = made.support_area / resident.surface_area();
+    const uint32_t leaf_size =
+        kernel_leaf_size(made.support_area, resident.surface_area(), kVkdeLeafScale);
+    Measurement kernel_map =
+        measure(o, *backend, [&] { (void)build_kernel_map(*backend, made.kernels, leaf_size); });
+    report.line(
+        "kernel_map_build",
+        label + absl::StrFormat(" %zu kernels, leaves of %u", made.kernels.size(), leaf_size),
+        kernel_map.median, "ms", &kernel_map, o.runs);
+    // Fabianowski's k_VK: the kernels expected to cover a point of the scene's surfaces.
+    report.line("vkde_kernels_per_point", name, covering, "kernels");
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     Measurement maps = measure(o, *backend, [&] {
       (void)build_photon_map(*backend, traced.caustic, per_leaf);
@@ -432,6 +471,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     scene->settings.k_nearest = o.k;
     scene->settings.photons_per_pass = o.photons;
     scene->settings.estimator = o.estimator;
+    scene->settings.final_gather = o.final_gather;
     auto engine = Engine::create({.backend = *made, .photons_per_leaf = o.photons_per_leaf});
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
@@ -464,7 +504,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
       ShadingSettings shading = (*engine)->shading(pass++);
       shading.ray_queues = o.ray_queues;
       if (o.branch_survival >= 0.0f) shading.branch_survival = o.branch_survival;
-      render_pass(*backend, resident, caustic, global, camera, shading, film, &requests);
+      render_pass(*backend, resident, camera, shading, KnnGather(caustic, global), film, &requests);
     });
     const std::string label = name + absl::StrFormat(" %dx%d k=%d", o.width, o.height, o.k);
     report.line("frame_render", label, gather.median, "ms", &gather, o.runs);

@@ -26,6 +26,7 @@ struct BenchOptions {
   uint32_t k = 64;
   // The frame benchmarks' estimator (--estimator); the convergence benchmark runs every one.
   EstimatorKind estimator = EstimatorKind::kKnn;
+  bool final_gather = false;
   uint32_t photons_per_leaf = 0;  // 0: what the engine takes for the device and k
   std::string device = "cpu";     // serving benchmarks: the server's --device
   // The triangle structures to measure, each in turn (--structure NAME|all).

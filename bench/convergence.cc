@@ -26,12 +26,15 @@ absl::StatusOr<std::unique_ptr<Engine>> loaded_engine(const Scene& scene, Device
 struct ConvergenceRun {
   Integrator integrator;
   EstimatorKind estimator;
+  bool final_gather;
   const char* name;
 };
 constexpr ConvergenceRun kConvergenceRuns[] = {
-    {Integrator::kPhoton, EstimatorKind::kKnn, "photon knn"},
-    {Integrator::kPhoton, EstimatorKind::kSppm, "photon sppm"},
-    {Integrator::kPath, EstimatorKind::kKnn, "path"},
+    {Integrator::kPhoton, EstimatorKind::kKnn, false, "photon knn"},
+    {Integrator::kPhoton, EstimatorKind::kKnn, true, "photon knn final gather"},
+    {Integrator::kPhoton, EstimatorKind::kSppm, false, "photon sppm"},
+    {Integrator::kPhoton, EstimatorKind::kVkde, false, "photon vkde"},
+    {Integrator::kPath, EstimatorKind::kKnn, false, "path"},
 };
 
 }  // namespace
@@ -73,6 +76,7 @@ absl::Status convergence_benchmark(const BenchOptions& o, Reporter& report) {
     Scene measured = scene;
     measured.settings.integrator = run.integrator;
     measured.settings.estimator = run.estimator;
+    measured.settings.final_gather = run.final_gather;
     absl::StatusOr<std::unique_ptr<Engine>> engine = loaded_engine(measured, *device);
     if (!engine.ok()) return engine.status();
     // A pass first, so that the measured ones find the code loaded; a camera update empties the

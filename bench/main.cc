@@ -28,13 +28,16 @@ int main(int argc, char** argv) {
   app.add_option("--photons", options.photons, "photons per photon pass");
   app.add_option("--k", options.k, "photons per radiance estimate in the frame benchmark");
   app.add_option("--estimator", options.estimator,
-                 "the frame benchmarks' estimator: knn or sppm (the convergence benchmark runs "
-                 "both)")
+                 "the frame benchmarks' estimator: knn, sppm or vkde (the convergence benchmark "
+                 "runs each)")
       ->type_name("NAME")
       ->transform(caustica::estimator_names());
+  app.add_flag("--final-gather", options.final_gather,
+               "the frame benchmarks' knn estimator gathers its indirect light by final gathering");
   app.add_option("--photons-per-leaf", options.photons_per_leaf,
-                 "photons per leaf of the photon maps' hierarchy; 0 (the default) takes what the "
-                 "engine takes for the device and --k")
+                 "photons per leaf of the photon maps' hierarchy (with vkde, kernels per leaf); 0 "
+                 "(the default) takes what the engine takes for the device and --k (vkde: "
+                 "Fabianowski's n_auto)")
       ->check(CLI::Range(0, 256));
   app.add_option("--device", options.device,
                  "backend to measure; the serving benchmarks pass it to the server they start")

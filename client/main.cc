@@ -47,9 +47,15 @@ void add_frame_job(CLI::App* command, FrameJobOptions& job) {
       ->transform(caustica::integrator_names());
   command
       ->add_option("--estimator", o.estimator,
-                   "knn or sppm, the photon integrator's density estimator (changes the scene)")
+                   "knn, sppm or vkde, the photon integrator's density estimator (changes the "
+                   "scene)")
       ->type_name("NAME")
       ->transform(caustica::estimator_names());
+  command
+      ->add_option("--final-gather", o.final_gather,
+                   "true or false: the knn estimator's indirect light by final gathering (changes "
+                   "the scene)")
+      ->type_name("BOOL");
 }
 
 // -o DIR and --format of the commands that write numbered frames.

@@ -84,9 +84,13 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
       "bounces %d, area light samples %d, seed %d\n",
       rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::DensityKernel_Name(rs.kernel()),
       rs.max_depth(), rs.max_photon_bounces(), rs.area_light_samples(), rs.seed());
-  out << absl::StrFormat("integrator   %s, estimator %s (sppm alpha %g, radius %s)\n",
-                         v1::Integrator_Name(rs.integrator()), v1::Estimator_Name(rs.estimator()),
-                         rs.sppm_alpha(), v1::SppmRadius_Name(rs.sppm_radius()));
+  out << absl::StrFormat(
+      "integrator   %s, estimator %s (sppm alpha %g, radius %s; vkde spread %s; final gather "
+      "%s)\n",
+      v1::Integrator_Name(rs.integrator()), v1::Estimator_Name(rs.estimator()), rs.sppm_alpha(),
+      v1::SppmRadius_Name(rs.sppm_radius()),
+      rs.vkde_spread() > 0 ? absl::StrFormat("%g", rs.vkde_spread()) : "auto",
+      rs.final_gather() ? absl::StrFormat("on, %d rays a seed", rs.final_gather_rays()) : "off");
   out << absl::StrFormat("structure    %s\n", structure_text(s));
   out << absl::StrFormat("memory       structure %s; photon maps %s; device %s\n",
                          mib_text(s.structure_bytes()), mib_text(s.photon_map_bytes()),

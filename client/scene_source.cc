@@ -25,6 +25,7 @@ void SceneOverrides::apply(Scene& scene) const {
   if (structure) scene.settings.structure = *structure;
   if (integrator) scene.settings.integrator = *integrator;
   if (estimator) scene.settings.estimator = *estimator;
+  if (final_gather) scene.settings.final_gather = *final_gather;
 }
 
 v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) const {
@@ -37,6 +38,7 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
   if (structure) request.mutable_settings()->set_structure(wire::encode_structure(*structure));
   if (integrator) request.mutable_settings()->set_integrator(wire::encode_integrator(*integrator));
   if (estimator) request.mutable_settings()->set_estimator(wire::encode_estimator(*estimator));
+  if (final_gather) request.mutable_settings()->set_final_gather(*final_gather);
   return request;
 }
 

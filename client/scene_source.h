@@ -23,9 +23,11 @@ struct SceneOverrides {
   std::optional<StructureKind> structure;
   std::optional<Integrator> integrator;
   std::optional<EstimatorKind> estimator;
+  std::optional<bool> final_gather;
 
   bool empty() const {
-    return !width && !height && !photons && !k && !structure && !integrator && !estimator;
+    return !width && !height && !photons && !k && !structure && !integrator && !estimator &&
+           !final_gather;
   }
   void apply(Scene& scene) const;
   v1::UpdateSettingsRequest request(const std::string& scene_id) const;

@@ -64,12 +64,16 @@ absl::Status no_cuda_backend() {
 
 // The estimator the settings name, with the engine's leaf-size knob.
 EstimatorOptions estimator_options(const RenderSettings& rs, uint32_t photons_per_leaf) {
-  return {rs.estimator, rs.k_nearest, photons_per_leaf, rs.sppm_alpha, rs.sppm_radius};
+  return {rs.estimator,    rs.k_nearest,         photons_per_leaf,
+          rs.sppm_alpha,   rs.sppm_radius,       rs.vkde_spread,
+          rs.final_gather, rs.final_gather_rays, rs.final_gather_seeds};
 }
 
 bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
   return a.estimator == b.estimator && a.sppm_alpha == b.sppm_alpha &&
-         a.sppm_radius == b.sppm_radius;
+         a.sppm_radius == b.sppm_radius && a.vkde_spread == b.vkde_spread &&
+         a.final_gather == b.final_gather && a.final_gather_rays == b.final_gather_rays &&
+         a.final_gather_seeds == b.final_gather_seeds;
 }
 
 struct Engine::State {
@@ -91,8 +95,9 @@ struct Engine::State {
                           uint64_t& caustic_count, uint64_t& global_count) {
     const RenderSettings& rs = scene.settings;
     auto t0 = std::chrono::steady_clock::now();
-    TracedPhotons traced = trace_photons(
-        *backend, *resident, {rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass});
+    PhotonTraceSettings trace{rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass};
+    trace.differentials = estimator->needs_differentials();
+    TracedPhotons traced = trace_photons(*backend, *resident, trace);
     backend->synchronize();
     timings.photon_trace_ms += elapsed_ms(t0);
     emitted += traced.emitted;
@@ -100,7 +105,7 @@ struct Engine::State {
     global_count = traced.global.size();
 
     auto t1 = std::chrono::steady_clock::now();
-    estimator->prepare(*backend, traced, pass);
+    estimator->prepare(*backend, *resident, traced, pass);
     backend->synchronize();
     timings.photon_map_build_ms += elapsed_ms(t1);
     last_photon_map_bytes = estimator->map_bytes();

@@ -38,7 +38,7 @@ struct EngineOptions {
   // field has an initializer, so designated initializers may leave any out without a warning.)
   std::shared_ptr<Backend> backend = nullptr;
   // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h), a tuning knob; 0 takes
-  // the estimator's own choice (for knn, photons_per_leaf_for in render/whitted.h).
+  // the estimator's own choice (for knn, photons_per_leaf_for in estimator/knn_gather.h).
   uint32_t photons_per_leaf = 0;
 };
 

@@ -178,6 +178,10 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_integrator(encode_integrator(s.integrator));
   out.set_estimator(encode_estimator(s.estimator));
   out.set_sppm_alpha(s.sppm_alpha);
+  out.set_vkde_spread(s.vkde_spread);
+  out.set_final_gather(s.final_gather);
+  out.set_final_gather_rays(s.final_gather_rays);
+  out.set_final_gather_seeds(s.final_gather_seeds);
   out.set_sppm_radius(s.sppm_radius == SppmRadius::kGlobal ? v1::SPPM_RADIUS_GLOBAL
                                                            : v1::SPPM_RADIUS_PIXEL);
   return out;
@@ -188,7 +192,15 @@ v1::Integrator encode_integrator(Integrator integrator) {
 }
 
 v1::Estimator encode_estimator(EstimatorKind estimator) {
-  return estimator == EstimatorKind::kSppm ? v1::SPPM : v1::KNN;
+  switch (estimator) {
+    case EstimatorKind::kSppm:
+      return v1::SPPM;
+    case EstimatorKind::kVkde:
+      return v1::VKDE;
+    case EstimatorKind::kKnn:
+      break;
+  }
+  return v1::KNN;
 }
 
 v1::Structure encode_structure(StructureKind kind) {
@@ -405,11 +417,18 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
     case v1::SPPM:
       s.estimator = EstimatorKind::kSppm;
       break;
+    case v1::VKDE:
+      s.estimator = EstimatorKind::kVkde;
+      break;
     default:
       return invalid(join_field(field, "estimator"),
                      absl::StrCat(in.estimator(), " is not an estimator"));
   }
   if (in.has_sppm_alpha()) s.sppm_alpha = in.sppm_alpha();
+  if (in.has_vkde_spread()) s.vkde_spread = in.vkde_spread();
+  if (in.has_final_gather()) s.final_gather = in.final_gather();
+  if (in.has_final_gather_rays()) s.final_gather_rays = in.final_gather_rays();
+  if (in.has_final_gather_seeds()) s.final_gather_seeds = in.final_gather_seeds();
   switch (in.sppm_radius()) {
     case v1::SPPM_RADIUS_UNSPECIFIED:
       break;

@@ -40,6 +40,24 @@ static_assert(BatchStructureView<DacrtView> && !StructureView<DacrtView>);
 static_assert(StructureView<KdTreeStackView>);
 static_assert(StructureView<KdTreeStacklessView>);
 
+// Every per-ray view, for what must be written once per view: X(View) for each.
+#define CAUSTICA_FOR_EACH_STRUCTURE_VIEW(X) \
+  X(TriangleBvhView)                        \
+  X(SiblingPairView)                        \
+  X(Bvh8View)                               \
+  X(KdTreeStackView)                        \
+  X(KdTreeStacklessView)
+
+// The batch queries of every per-ray view are instantiated once, in ray_queries.cc. nvcc gives an
+// extended lambda's host side a function pointer that the translation unit creating the lambda
+// sets; with the same instantiation in several units, the linker kept one unit's code while
+// another's set its pointer, and a batch traced from the first called through null.
+#define CAUSTICA_EXTERN_BATCH_QUERIES(View)                                                  \
+  extern template void trace_closest<View>(Backend&, const View&, const Ray*, size_t, Hit*); \
+  extern template void trace_any<View>(Backend&, const View&, const Ray*, size_t, uint8_t*);
+CAUSTICA_FOR_EACH_STRUCTURE_VIEW(CAUSTICA_EXTERN_BATCH_QUERIES)
+#undef CAUSTICA_EXTERN_BATCH_QUERIES
+
 // What a builder reports about the structure it built.
 struct StructureStats {
   StructureKind kind = kDefaultStructure;

@@ -21,6 +21,8 @@ CAUSTICA_HDI float min_f(float a, float b) {
   return a < b ? a : b;
 #endif
 }
+// The smaller of two counts, for device code, where std::min is host-only.
+CAUSTICA_HDI uint32_t min_u32(uint32_t a, uint32_t b) { return a < b ? a : b; }
 CAUSTICA_HDI float max_f(float a, float b) {
 #if defined(__CUDA_ARCH__)
   return fmaxf(a, b);

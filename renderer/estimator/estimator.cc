@@ -2,6 +2,7 @@
 
 #include "renderer/estimator/knn_estimator.h"
 #include "renderer/estimator/sppm_estimator.h"
+#include "renderer/estimator/vkde_estimator.h"
 
 namespace caustica {
 
@@ -9,6 +10,8 @@ std::unique_ptr<Estimator> make_estimator(Backend& backend, const EstimatorOptio
   switch (options.kind) {
     case EstimatorKind::kSppm:
       return std::make_unique<SppmEstimator>(backend, options);
+    case EstimatorKind::kVkde:
+      return std::make_unique<VkdeEstimator>(options);
     case EstimatorKind::kKnn:
       break;
   }

@@ -30,14 +30,25 @@ struct EstimatorOptions {
   uint32_t photons_per_leaf = 0;
   float sppm_alpha = 0.7f;
   SppmRadius sppm_radius = SppmRadius::kPixel;
+  // VKDE's spread factor s; 0 takes sqrt(k_nearest / (2 pi)), whose kernels each cover about
+  // k_nearest / 2 of their photons' footprints.
+  float vkde_spread = 0.0f;
+  // knn: the indirect light by final gathering (final_gather.h), with this many rays per seed.
+  bool final_gather = false;
+  uint32_t final_gather_rays = 256;
+  uint32_t final_gather_seeds = 0;  // 0: the default (final_gather.h)
 };
 
 class Estimator {
  public:
   virtual ~Estimator() = default;
 
-  // Builds the photon maps for pass `pass` from its traced photons, replacing any built before.
-  virtual void prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) = 0;
+  // Whether its photons must be traced with differentials (PhotonTraceSettings::differentials).
+  virtual bool needs_differentials() const { return false; }
+  // Builds the photon maps for pass `pass` from its photons, traced in `scene`, replacing any
+  // built before.
+  virtual void prepare(Backend& backend, const ResidentScene& scene, const TracedPhotons& photons,
+                       uint32_t pass) = 0;
   // Whether maps are ready for pass `pass`.
   virtual bool prepared_for(uint32_t pass) const = 0;
   // Frees the maps prepared.

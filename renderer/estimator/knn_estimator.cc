@@ -2,9 +2,13 @@
 
 #include <utility>
 
+#include "renderer/estimator/final_gather.h"
+#include "renderer/estimator/knn_gather.h"
+
 namespace caustica {
 
-void KnnEstimator::prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) {
+void KnnEstimator::prepare(Backend& backend, const ResidentScene&, const TracedPhotons& photons,
+                           uint32_t pass) {
   maps_.reset();  // frees the old maps before the new ones are allocated
   const uint32_t per_leaf =
       photons_per_leaf_for(backend.kind(), options_.k_nearest, options_.photons_per_leaf);
@@ -16,7 +20,15 @@ void KnnEstimator::render(Backend& backend, const ResidentScene& scene, const Pi
                           const ShadingSettings& shading, Film& film) {
   const std::optional<Maps> maps = std::move(maps_);
   maps_.reset();
-  render_pass(backend, scene, maps->caustic, maps->global, camera, shading, film);
+  if (options_.final_gather) {
+    FinalGatherSettings gather;
+    gather.rays = options_.final_gather_rays;
+    gather.seeds = options_.final_gather_seeds;
+    render_pass(backend, scene, camera, shading,
+                FinalGather(scene, camera, maps->caustic, maps->global, gather), film);
+  } else {
+    render_pass(backend, scene, camera, shading, KnnGather(maps->caustic, maps->global), film);
+  }
 }
 
 size_t KnnEstimator::map_bytes() const {

@@ -9,7 +9,8 @@ namespace caustica {
 SppmEstimator::SppmEstimator(Backend& backend, const EstimatorOptions& options)
     : options_(options), points_(backend, 0), light_(backend, 0), pixels_(backend, 0) {}
 
-void SppmEstimator::prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) {
+void SppmEstimator::prepare(Backend& backend, const ResidentScene&, const TracedPhotons& photons,
+                            uint32_t pass) {
   map_.reset();
   // Every stored photon in one map: the visible points gather caustic and global light alike.
   Buffer<Photon> all(backend, photons.caustic.size() + photons.global.size());

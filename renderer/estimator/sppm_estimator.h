@@ -14,7 +14,8 @@ namespace caustica {
 class SppmEstimator final : public Estimator {
  public:
   SppmEstimator(Backend& backend, const EstimatorOptions& options);
-  void prepare(Backend& backend, const TracedPhotons& photons, uint32_t pass) override;
+  void prepare(Backend& backend, const ResidentScene& scene, const TracedPhotons& photons,
+               uint32_t pass) override;
   bool prepared_for(uint32_t pass) const override { return map_ && map_pass_ == pass; }
   void drop_maps() override { map_.reset(); }
   void render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,

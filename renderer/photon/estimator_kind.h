@@ -12,11 +12,22 @@ namespace caustica {
 // kKnn: the k nearest photons of fresh maps every pass, the passes averaged (knn_estimate.h).
 // kSppm: stochastic progressive photon mapping (Hachisuka and Jensen 2009), one visible point per
 // pixel and pass whose radius shrinks as photons arrive, so the image converges.
-enum class EstimatorKind : uint32_t { kKnn = 0, kSppm = 1 };
-inline constexpr EstimatorKind kEstimatorKinds[] = {EstimatorKind::kKnn, EstimatorKind::kSppm};
+// kVkde: variable kernel density estimation (Fabianowski 2011), every photon's own anisotropic
+// kernel from its photon differentials, gathered by point from a hierarchy over their supports.
+enum class EstimatorKind : uint32_t { kKnn = 0, kSppm = 1, kVkde = 2 };
+inline constexpr EstimatorKind kEstimatorKinds[] = {EstimatorKind::kKnn, EstimatorKind::kSppm,
+                                                    EstimatorKind::kVkde};
 
 constexpr const char* estimator_kind_name(EstimatorKind kind) {
-  return kind == EstimatorKind::kSppm ? "sppm" : "knn";
+  switch (kind) {
+    case EstimatorKind::kSppm:
+      return "sppm";
+    case EstimatorKind::kVkde:
+      return "vkde";
+    case EstimatorKind::kKnn:
+      break;
+  }
+  return "knn";
 }
 
 inline std::optional<EstimatorKind> parse_estimator_kind(std::string_view name) {

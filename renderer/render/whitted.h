@@ -6,7 +6,7 @@
 
 #include "renderer/base/rng.h"
 #include "renderer/parallel/backend.h"
-#include "renderer/photon/photon_map.h"
+#include "renderer/photon/density_kernel.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/film.h"
 #include "renderer/resident/resident_scene.h"
@@ -47,20 +47,41 @@ struct ShadingSettings {
   float branch_survival = kBranchSurvival;
 };
 
-// Photons per leaf of the photon maps for a pass's gathers at `k` on `device`: `requested` when not
-// 0, else what suits the search: 16 where a GPU's estimates count (from k = 64 on), 8 where
-// searches keep heaps (the CPU at every k, a GPU below 64). The estimates are the same at any leaf
-// size; only their speed differs.
-uint32_t photons_per_leaf_for(DeviceKind device, uint32_t k, uint32_t requested = 0);
+// A diffuse hit of a camera path, waiting for the photon maps' estimate of its indirect light.
+struct GatherRequest {
+  Vec3f position;
+  Vec3f normal;  // towards the viewer
+  Vec3f weight;  // path throughput times albedo
+  uint32_t pixel;
+  uint32_t order;  // among its pixel's requests, in the order the specular tree met them
+};
+
+// A pass's gather requests as its gather stage reads them.
+struct GatherRequests {
+  const GatherRequest* requests;  // in the order the walks appended them
+  const uint32_t* by_code;        // indices into `requests`, in Hilbert order of their positions
+  const uint32_t* pixel_offsets;  // where each pixel's estimates start in the output
+  uint32_t count;
+};
+
+// Stage 4 of the render pass, where estimators differ (estimator/): the light the photon maps
+// give every request, caustic and diffuse, times its weight, written for request q to
+// gathered[pixel_offsets[q.pixel] + q.order]. Called once per pass on the host.
+class RadianceGather {
+ public:
+  virtual ~RadianceGather() = default;
+  virtual void gather(Backend& backend, const GatherRequests& requests,
+                      const ShadingSettings& settings, Vec3f* gathered) const = 0;
+};
 
 // Renders one pass (one jittered sample per pixel) and adds it to the film, as a wavefront:
 // camera rays (accel/camera_tiles.h); per pixel the specular tree with emitted and direct light,
-// which leaves one gather request per diffuse hit; the requests' photon-map estimates in Hilbert
-// order; and per pixel the sum of its requests' estimates.
+// which leaves one gather request per diffuse hit; the requests in Hilbert order and `gather`'s
+// estimates of them; and per pixel the sum of its requests' estimates.
 // `requests`, when given, gets the pass's gather requests (diffuse hits of the specular trees).
-void render_pass(Backend& backend, const ResidentScene& scene, const PhotonMap& caustic_map,
-                 const PhotonMap& global_map, const PinholeCamera& camera,
-                 const ShadingSettings& settings, Film& film, uint32_t* requests = nullptr);
+void render_pass(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
+                 const ShadingSettings& settings, const RadianceGather& gather, Film& film,
+                 uint32_t* requests = nullptr);
 
 // Shadow rays direct_light_with may ask for at one point: one per point, spot or directional
 // light (slot = the light's index) and one per area sample (slot = light_count + sample).

@@ -98,6 +98,7 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       }
       triangle_area_light.push_back(area_light);
       triangles.push_back(tri);
+      r.surface_area_ += 0.5 * double(length(cross(tri.p1 - tri.p0, tri.p2 - tri.p0)));
       material_ids.push_back(mat);
       if (any_normals) {
         for (int c = 0; c < 3; ++c)

@@ -144,6 +144,7 @@ class ResidentScene {
   size_t bytes() const;
   Aabb bounds() const { return structure_.bounds(); }
   float radius() const { return 0.5f * length(bounds().extent()); }
+  double surface_area() const { return surface_area_; }  // of every triangle
 
  private:
   void rebuild_light_tables();
@@ -161,6 +162,7 @@ class ResidentScene {
   Buffer<float> area_light_cdf_;
   float total_power_ = 0;
   float area_light_power_ = 0;
+  double surface_area_ = 0;
   TriangleStructure structure_;
 };
 

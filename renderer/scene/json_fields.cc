@@ -133,6 +133,17 @@ absl::Status JsonObject::read(absl::string_view key, Presence presence, std::str
   return absl::OkStatus();
 }
 
+absl::Status JsonObject::read(absl::string_view key, Presence presence, bool* out) {
+  SCENE_ASSIGN_OR_RETURN(const Json* value, find(key, presence));
+  if (value == nullptr) return absl::OkStatus();
+  if (!value->is_boolean()) {
+    return invalid_field(field_path(key),
+                         absl::StrCat("expected true or false, got ", describe(*value)));
+  }
+  *out = value->get<bool>();
+  return absl::OkStatus();
+}
+
 absl::Status JsonObject::finish() const {
   for (const auto& [key, unused] : value_->items()) {
     if (std::find(known_keys_.begin(), known_keys_.end(), key) == known_keys_.end()) {

@@ -50,6 +50,7 @@ class JsonObject {
   absl::Status read(absl::string_view key, Presence presence, float* out);
   absl::Status read(absl::string_view key, Presence presence, Vec3f* out);
   absl::Status read(absl::string_view key, Presence presence, std::string* out);
+  absl::Status read(absl::string_view key, Presence presence, bool* out);
   template <typename Int>
   absl::Status read_integer(absl::string_view key, Presence presence, Int* out,
                             int64_t lo = std::numeric_limits<Int>::min(),

@@ -72,6 +72,11 @@ struct RenderSettings {
   EstimatorKind estimator = EstimatorKind::kKnn;
   float sppm_alpha = 0.7f;  // the fraction of new photons SPPM keeps as its radii shrink
   SppmRadius sppm_radius = SppmRadius::kPixel;
+  float vkde_spread = 0;  // VKDE's spread factor s; 0 = sqrt(k_nearest / (2 pi))
+  // Final gathering for knn's indirect light (estimator/final_gather.h), its rays per seed.
+  bool final_gather = false;
+  uint32_t final_gather_rays = 256;
+  uint32_t final_gather_seeds = 0;  // per pass; 0 = 4096, at most one a pixel
   // Caps on path length, safety nets only: Russian roulette ends camera branches by their
   // throughput and photon paths by their surfaces' albedo long before (docs/convergence.md).
   uint32_t max_depth = 64;           // specular bounces of camera rays

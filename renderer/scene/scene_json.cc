@@ -180,11 +180,17 @@ class SceneReader {
       if (!kind) {
         return invalid_field(
             object.field_path("estimator"),
-            absl::StrCat("unknown estimator '", estimator, "' (expected knn or sppm)"));
+            absl::StrCat("unknown estimator '", estimator, "' (expected knn, sppm or vkde)"));
       }
       s.estimator = *kind;
     }
     SCENE_RETURN_IF_ERROR(object.read("sppm_alpha", kOptional, &s.sppm_alpha));
+    SCENE_RETURN_IF_ERROR(object.read("vkde_spread", kOptional, &s.vkde_spread));
+    SCENE_RETURN_IF_ERROR(object.read("final_gather", kOptional, &s.final_gather));
+    SCENE_RETURN_IF_ERROR(
+        object.read_integer("final_gather_rays", kOptional, &s.final_gather_rays));
+    SCENE_RETURN_IF_ERROR(
+        object.read_integer("final_gather_seeds", kOptional, &s.final_gather_seeds));
     if (object.has("sppm_radius")) {
       std::string radius;
       SCENE_RETURN_IF_ERROR(object.read("sppm_radius", kRequired, &radius));

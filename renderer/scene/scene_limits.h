@@ -14,6 +14,10 @@ inline constexpr uint32_t kMaxDepth = 64;
 inline constexpr uint32_t kMaxPhotonBounces = 64;
 inline constexpr uint32_t kMaxAreaLightSamples = 1024;
 inline constexpr uint32_t kMaxPasses = 100'000;
+// A kernel s times a footprint wide covers s^2 of them; beyond 100 every kernel is the scene.
+inline constexpr float kMaxVkdeSpread = 100.0f;
+inline constexpr uint32_t kMaxFinalGatherRays = 4096;
+inline constexpr uint32_t kMaxFinalGatherSeeds = 1 << 20;
 inline constexpr size_t kMaxTrianglesPerMesh = 100'000'000;
 inline constexpr size_t kMaxVerticesPerMesh = 100'000'000;
 // All meshes together: the triangle structure's leaves address the sorted triangles with 28 bits

@@ -76,7 +76,7 @@ absl::Status validate_settings(const RenderSettings& s) {
   if (static_cast<uint32_t>(s.integrator) > static_cast<uint32_t>(Integrator::kPath)) {
     return invalid_field("settings.integrator", "is not a known integrator");
   }
-  if (static_cast<uint32_t>(s.estimator) > static_cast<uint32_t>(EstimatorKind::kSppm)) {
+  if (static_cast<uint32_t>(s.estimator) > static_cast<uint32_t>(EstimatorKind::kVkde)) {
     return invalid_field("settings.estimator", "is not a known estimator");
   }
   if (!(s.sppm_alpha > 0 && s.sppm_alpha < 1)) {
@@ -84,6 +84,21 @@ absl::Status validate_settings(const RenderSettings& s) {
         "settings.sppm_alpha",
         absl::StrCat(s.sppm_alpha, " is not a number between 0 and 1 (exclusive)"));
   }
+  if (!(s.vkde_spread >= 0 && s.vkde_spread <= kMaxVkdeSpread)) {
+    return invalid_field("settings.vkde_spread",
+                         absl::StrCat(s.vkde_spread, " is not a spread factor in [0, ",
+                                      kMaxVkdeSpread, "] (0: automatic)"));
+  }
+  if (s.final_gather && s.integrator == Integrator::kPhoton && s.estimator != EstimatorKind::kKnn) {
+    return invalid_field(
+        "settings.final_gather",
+        absl::StrCat("is for the knn estimator; ", estimator_kind_name(s.estimator),
+                     " gathers its indirect light itself"));
+  }
+  SCENE_RETURN_IF_ERROR(
+      check_in_range("settings.final_gather_rays", s.final_gather_rays, 1, kMaxFinalGatherRays));
+  SCENE_RETURN_IF_ERROR(
+      check_in_range("settings.final_gather_seeds", s.final_gather_seeds, 0, kMaxFinalGatherSeeds));
   if (static_cast<uint32_t>(s.sppm_radius) > static_cast<uint32_t>(SppmRadius::kGlobal)) {
     return invalid_field("settings.sppm_radius", "is not a known radius rule");
   }

@@ -59,7 +59,7 @@ TEST(ClientOptions, UnknownIntegratorIsRefusedNamingBoth) {
 TEST(ClientOptions, UnknownEstimatorIsRefusedNamingEvery) {
   const ClientRun run = run_client("render s-1 -o out.png --estimator ppm");
   EXPECT_NE(run.exit_code, 0);
-  EXPECT_THAT(run.output, HasSubstr("unknown estimator 'ppm' (expected knn or sppm)"));
+  EXPECT_THAT(run.output, HasSubstr("unknown estimator 'ppm' (expected knn, sppm or vkde)"));
   EXPECT_THAT(run_client("stream --help").output, HasSubstr("--estimator"));
 }
 

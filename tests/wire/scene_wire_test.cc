@@ -119,6 +119,40 @@ TEST(SceneWire, StructureRoundTripsThroughEncodeAndApply) {
   EXPECT_EQ(decode_structure(v1::STRUCTURE_UNSPECIFIED), std::nullopt);
 }
 
+TEST(SceneWire, VkdeAndItsSpreadRoundTrip) {
+  RenderSettings settings;
+  settings.estimator = EstimatorKind::kVkde;
+  settings.vkde_spread = 3.5f;
+  const v1::RenderSettings encoded = encode_settings(settings);
+  EXPECT_EQ(encoded.estimator(), v1::VKDE);
+  absl::StatusOr<RenderSettings> applied = apply_settings(encoded, RenderSettings{}, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->estimator, EstimatorKind::kVkde);
+  EXPECT_EQ(applied->vkde_spread, 3.5f);
+  applied = apply_settings(v1::RenderSettings{}, settings, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->vkde_spread, 3.5f);
+}
+
+TEST(SceneWire, FinalGatheringRoundTrips) {
+  RenderSettings settings;
+  settings.final_gather = true;
+  settings.final_gather_rays = 64;
+  settings.final_gather_seeds = 1024;
+  const v1::RenderSettings encoded = encode_settings(settings);
+  absl::StatusOr<RenderSettings> applied = apply_settings(encoded, RenderSettings{}, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_TRUE(applied->final_gather);
+  EXPECT_EQ(applied->final_gather_rays, 64u);
+  EXPECT_EQ(applied->final_gather_seeds, 1024u);
+  v1::RenderSettings off;
+  off.set_final_gather(false);
+  applied = apply_settings(off, settings, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_FALSE(applied->final_gather);
+  EXPECT_EQ(applied->final_gather_rays, 64u);
+}
+
 TEST(SceneWire, EstimatorSettingsRoundTripAndUnspecifiedKeepsTheCurrentOnes) {
   RenderSettings settings;
   settings.estimator = EstimatorKind::kSppm;

@@ -43,8 +43,9 @@ inline CLI::Validator integrator_names() {
 }
 
 inline CLI::Validator estimator_names() {
-  return setting_names<EstimatorKind>(
-      "estimator", {{"knn", EstimatorKind::kKnn}, {"sppm", EstimatorKind::kSppm}});
+  return setting_names<EstimatorKind>("estimator", {{"knn", EstimatorKind::kKnn},
+                                                    {"sppm", EstimatorKind::kSppm},
+                                                    {"vkde", EstimatorKind::kVkde}});
 }
 
 }  // namespace caustica

@@ -38,10 +38,14 @@ int main(int argc, char** argv) {
       ->type_name("NAME")
       ->transform(caustica::integrator_names());
   app.add_option("--estimator", job.estimator,
-                 "knn (the k nearest photons) or sppm (progressive, converging) (default: the "
-                 "scene's, else knn)")
+                 "knn (the k nearest photons), sppm (progressive, converging) or vkde "
+                 "(variable kernels from photon differentials) (default: the scene's, else knn)")
       ->type_name("NAME")
       ->transform(caustica::estimator_names());
+  app.add_option("--final-gather", job.final_gather,
+                 "true or false: the knn estimator's indirect light by final gathering from "
+                 "adaptively seeded points (default: the scene's, else false)")
+      ->type_name("BOOL");
   app.add_option("--exposure", job.exposure_stops, "exposure in stops for 8-bit outputs");
   CLI11_PARSE(app, argc, argv);
   job.show_progress = isatty(STDERR_FILENO);

@@ -29,6 +29,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   if (job.structure) rs.structure = *job.structure;
   if (job.integrator) rs.integrator = *job.integrator;
   if (job.estimator) rs.estimator = *job.estimator;
+  if (job.final_gather) rs.final_gather = *job.final_gather;
 
   absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({});
   if (!engine.ok()) return engine.status();
@@ -62,7 +63,11 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
     log << absl::StrFormat("passes       %d at %dx%d\n", report->passes_rendered, cam.width,
                            cam.height);
   } else {
-    log << absl::StrFormat("estimator    %s\n", estimator_kind_name(rs.estimator));
+    log << absl::StrFormat(
+        "estimator    %s%s\n", estimator_kind_name(rs.estimator),
+        rs.final_gather
+            ? absl::StrFormat(", final gathering with %d rays a seed", rs.final_gather_rays)
+            : "");
     log << absl::StrFormat(
         "photons      %d emitted per pass; last pass stored %d caustic, %d global\n",
         rs.photons_per_pass, report->caustic_photons, report->global_photons);

@@ -21,6 +21,7 @@ struct RenderJob {
   std::optional<StructureKind> structure;
   std::optional<Integrator> integrator;
   std::optional<EstimatorKind> estimator;
+  std::optional<bool> final_gather;
   float exposure_stops = 0.0f;
   bool show_progress = false;  // progress line on stderr
 };

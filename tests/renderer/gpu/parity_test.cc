@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -25,11 +26,14 @@
 #include "renderer/accel/structure.h"
 #include "renderer/accel/triangle_bvh.h"
 #include "renderer/base/morton.h"
+#include "renderer/base/sampling.h"
 #include "renderer/engine.h"
+#include "renderer/estimator/knn_gather.h"
 #include "renderer/parallel/buffer.h"
 #include "renderer/parallel/cuda/cuda_backend.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/binned_estimate.h"
+#include "renderer/photon/kernel_map.h"
 #include "renderer/photon/knn_estimate.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/whitted.h"
@@ -977,10 +981,11 @@ TEST(GpuParity, BundledScenesPathTraceAlike) {
   }
 }
 
-// SPPM on every bundled scene: the photons and visible points agree until a float rounds
-// differently; on the GPU the same seed gives the same image to the bit.
-TEST(GpuParity, BundledScenesSppmAlike) {
-  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+// Every bundled scene at 96x72 with 50k photons a pass, `settings` applied, on both backends:
+// the photons and paths agree until a float rounds differently (expect_backends_alike), and on
+// the GPU the same seed gives the same image to the bit.
+void expect_bundled_scenes_alike(const std::function<void(RenderSettings&)>& settings,
+                                 uint32_t passes, const char* what) {
   const auto scenes = bundled_scenes();
   EXPECT_GE(scenes.size(), 3u);
   for (auto [name, scene] : scenes) {
@@ -988,11 +993,97 @@ TEST(GpuParity, BundledScenesSppmAlike) {
     scene.camera.width = 96;
     scene.camera.height = 72;
     scene.settings.photons_per_pass = 50000;
-    scene.settings.estimator = EstimatorKind::kSppm;
     scene.settings.seed = 9;
-    const std::vector<float> gpu = expect_backends_alike(name, scene, 16, "sppm");
-    EXPECT_EQ(render_image(scene, DeviceKind::kCuda, 16), gpu) << "GPU run to run";
+    settings(scene.settings);
+    const std::vector<float> gpu = expect_backends_alike(name, scene, passes, what);
+    EXPECT_EQ(render_image(scene, DeviceKind::kCuda, passes), gpu) << "GPU run to run";
   }
+}
+
+TEST(GpuParity, BundledScenesSppmAlike) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  expect_bundled_scenes_alike([](RenderSettings& s) { s.estimator = EstimatorKind::kSppm; }, 16,
+                              "sppm");
+}
+
+TEST(GpuParity, BundledScenesVkdeAlike) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  expect_bundled_scenes_alike([](RenderSettings& s) { s.estimator = EstimatorKind::kVkde; }, 16,
+                              "vkde");
+}
+
+TEST(GpuParity, BundledScenesFinalGatherAlike) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  expect_bundled_scenes_alike(
+      [](RenderSettings& s) {
+        s.final_gather = true;
+        s.final_gather_rays = 64;
+      },
+      8, "final gathering");
+}
+
+// The hierarchy over kernel supports built on both backends from the same kernels: the same
+// order and the same tree, bit for bit; the boxes alike to the last bits of the square roots that
+// size each kernel's box.
+TEST(GpuParity, KernelMapsAreTheSame) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<VkdeKernel> kernels;
+  while (kernels.size() < 20000) {
+    const Vec3f normal = normalize(Vec3f(u(rng) - 0.5f, u(rng) - 0.5f, u(rng) - 0.5f));
+    const Frame frame = Frame::from_normal(normal);
+    const PhotonFootprint fp{frame.to_world(Vec3f(0.01f + 0.02f * u(rng), 0.0f, 0.0f)),
+                             frame.to_world(Vec3f(0.01f * u(rng), 0.01f + 0.01f * u(rng), 0.0f))};
+    // A tenth share a centre with the one before, so that runs of equal codes are merged.
+    const Vec3f centre =
+        kernels.empty() || u(rng) > 0.1f ? Vec3f(u(rng), u(rng), u(rng)) : kernels.back().center;
+    VkdeKernel k;
+    VkdeSettings settings;
+    settings.spread = 2.0f;
+    settings.pivot = 0.1f;
+    if (vkde_kernel({centre, Vec3f(1.0f), normal}, fp, normal, 1.0f, settings, k))
+      kernels.push_back(k);
+  }
+  std::vector<VkdeKernel> sorted[2];
+  std::vector<KernelMapNode> nodes[2];
+  KernelMapChild root[2];
+  Backend* backends[2] = {both.cpu.get(), both.gpu.get()};
+  for (int b = 0; b < 2; ++b) {
+    Buffer<VkdeKernel> in(*backends[b], 0);
+    in.upload(kernels);
+    const KernelMap map = build_kernel_map(*backends[b], in, 12);
+    sorted[b] = map.kernels.download();
+    nodes[b] = map.nodes.download();
+    root[b] = map.root;
+  }
+  ASSERT_EQ(sorted[0].size(), kernels.size());
+  EXPECT_EQ(std::memcmp(sorted[0].data(), sorted[1].data(), kernels.size() * sizeof(VkdeKernel)),
+            0);
+  auto expect_alike = [](const KernelMapChild& a, const KernelMapChild& b) {
+    EXPECT_EQ(a.index, b.index);
+    EXPECT_EQ(a.count, b.count);
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_NEAR(a.lower[axis], b.lower[axis], 1e-6f);
+      EXPECT_NEAR(a.upper[axis], b.upper[axis], 1e-6f);
+    }
+  };
+  expect_alike(root[0], root[1]);
+  // Only the slots where merges made nodes are written; compare those, found from the root.
+  std::vector<uint32_t> pending = {root[0].index};
+  size_t compared = 0;
+  while (!pending.empty() && !testing::Test::HasFailure()) {
+    const uint32_t index = pending.back();
+    pending.pop_back();
+    if (is_leaf(index)) continue;
+    for (int c = 0; c < 2; ++c) {
+      expect_alike(nodes[0][index].child[c], nodes[1][index].child[c]);
+      pending.push_back(nodes[0][index].child[c].index);
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, kernels.size() / 24);
 }
 
 // Photon differentials on both backends, every bundled scene: the same photons until a float

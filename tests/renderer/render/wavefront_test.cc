@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "renderer/estimator/knn_gather.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/whitted.h"
@@ -41,8 +42,8 @@ std::vector<float> render_with_room(uint32_t requests_per_pixel,
   settings.ray_queues = ray_queues;
   for (uint32_t pass = 0; pass < 2; ++pass) {
     settings.pass = pass;
-    render_pass(*backend, resident, caustic, global, PinholeCamera::from(scene->camera), settings,
-                film);
+    render_pass(*backend, resident, PinholeCamera::from(scene->camera), settings,
+                KnnGather(caustic, global), film);
   }
   const std::span<const float> image = film.resolve_linear();
   return {image.begin(), image.end()};
