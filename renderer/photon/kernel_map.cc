@@ -27,7 +27,6 @@ KernelMap build_kernel_map(Backend& backend, const Buffer<VkdeKernel>& kernels,
   KernelMap map;
   map.nodes.bind(backend);
   map.kernels.bind(backend);
-  map.leaf_size = leaf_size;
   const uint32_t n = uint32_t(kernels.size());
   if (n == 0) return map;
 

@@ -48,7 +48,6 @@ struct KernelMap {
   Buffer<KernelMapNode> nodes;  // n - 1, written where merges made nodes
   Buffer<VkdeKernel> kernels;
   KernelMapChild root{};
-  uint32_t leaf_size = 0;  // n_auto
 
   KernelMapView view() const {
     return {nodes.data(), kernels.data(), root, uint32_t(kernels.size())};
