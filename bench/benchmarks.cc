@@ -472,6 +472,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     scene->settings.photons_per_pass = o.photons;
     scene->settings.estimator = o.estimator;
     scene->settings.final_gather = o.final_gather;
+    apply_final_gather_options(o, scene->settings);
     auto engine = Engine::create({.backend = *made, .photons_per_leaf = o.photons_per_leaf});
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
@@ -558,6 +559,11 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
                          c.position.y, c.position.z, c.look_at.x, c.look_at.y, c.look_at.z, c.up.x,
                          c.up.y, c.up.z, c.vertical_fov_deg);
   return absl::OkStatus();
+}
+
+void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings) {
+  if (o.final_gather_rays != 0) settings.final_gather_rays = o.final_gather_rays;
+  if (o.final_gather_seeds != 0) settings.final_gather_seeds = o.final_gather_seeds;
 }
 
 std::vector<std::string> benchmark_names() {

@@ -27,6 +27,9 @@ struct BenchOptions {
   // The frame benchmarks' estimator (--estimator); the convergence benchmark runs every one.
   EstimatorKind estimator = EstimatorKind::kKnn;
   bool final_gather = false;
+  // Final gathering's rays a seed and seeds a pass; 0 keeps the scene's.
+  uint32_t final_gather_rays = 0;
+  uint32_t final_gather_seeds = 0;
   uint32_t photons_per_leaf = 0;  // 0: what the engine takes for the device and k
   std::string device = "cpu";     // serving benchmarks: the server's --device
   // The triangle structures to measure, each in turn (--structure NAME|all).
@@ -41,7 +44,15 @@ struct BenchOptions {
   // convergence: the path-traced reference's passes, and the most passes each integrator runs.
   uint32_t reference_passes = 4096;
   uint32_t convergence_passes = 256;
+  // convergence: the runs measured, by name (convergence_run_names()); empty = every one.
+  std::vector<std::string> convergence_runs;
 };
+
+// --final-gather-rays and --final-gather-seeds, where given, over the scene's settings.
+void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings);
+
+// The convergence benchmark's runs (--convergence-run), in the order it measures them.
+std::vector<std::string> convergence_run_names();
 
 // The names run_benchmarks knows, in the order it runs them.
 std::vector<std::string> benchmark_names();

@@ -37,7 +37,19 @@ constexpr ConvergenceRun kConvergenceRuns[] = {
     {Integrator::kPath, EstimatorKind::kKnn, false, "path"},
 };
 
+bool wanted_run(const BenchOptions& o, const ConvergenceRun& run) {
+  return o.convergence_runs.empty() ||
+         std::find(o.convergence_runs.begin(), o.convergence_runs.end(), run.name) !=
+             o.convergence_runs.end();
+}
+
 }  // namespace
+
+std::vector<std::string> convergence_run_names() {
+  std::vector<std::string> names;
+  for (const ConvergenceRun& run : kConvergenceRuns) names.push_back(run.name);
+  return names;
+}
 
 absl::Status convergence_benchmark(const BenchOptions& o, Reporter& report) {
   absl::StatusOr<Scene> loaded = load_scene(o.photon_scene);
@@ -47,6 +59,7 @@ absl::Status convergence_benchmark(const BenchOptions& o, Reporter& report) {
   scene.camera.height = o.height;
   scene.settings.photons_per_pass = o.photons;
   scene.settings.k_nearest = o.k;
+  apply_final_gather_options(o, scene.settings);
   absl::StatusOr<DeviceKind> device = parse_device_kind(o.device);
   if (!device.ok()) return device.status();
   const std::string name = o.photon_scene.parent_path().filename().string() +
@@ -73,6 +86,7 @@ absl::Status convergence_benchmark(const BenchOptions& o, Reporter& report) {
           std::min(dimmest_emitter, (double(m.radiance.x) + m.radiance.y + m.radiance.z) / 3.0);
 
   for (const ConvergenceRun& run : kConvergenceRuns) {
+    if (!wanted_run(o, run)) continue;
     Scene measured = scene;
     measured.settings.integrator = run.integrator;
     measured.settings.estimator = run.estimator;

@@ -34,6 +34,12 @@ int main(int argc, char** argv) {
       ->transform(caustica::estimator_names());
   app.add_flag("--final-gather", options.final_gather,
                "the frame benchmarks' knn estimator gathers its indirect light by final gathering");
+  app.add_option("--final-gather-rays", options.final_gather_rays,
+                 "final gathering's rays a seed (default: the scene's)")
+      ->check(CLI::Range(1, 65536));
+  app.add_option("--final-gather-seeds", options.final_gather_seeds,
+                 "final gathering's seeds a pass (default: the scene's)")
+      ->check(CLI::Range(1, 1 << 24));
   app.add_option("--photons-per-leaf", options.photons_per_leaf,
                  "photons per leaf of the photon maps' hierarchy (with vkde, kernels per leaf); 0 "
                  "(the default) takes what the engine takes for the device and --k (vkde: "
@@ -57,6 +63,11 @@ int main(int argc, char** argv) {
   app.add_option("--convergence-passes", options.convergence_passes,
                  "convergence: the most passes each integrator runs (doubling from 1)")
       ->check(CLI::Range(1, 1 << 20));
+  app.add_option("--convergence-run", options.convergence_runs,
+                 "convergence: measure only these runs (repeatable): " +
+                     absl::StrJoin(caustica::convergence_run_names(), ", "))
+      ->type_name("NAME")
+      ->check(CLI::IsMember(caustica::convergence_run_names()));
   app.add_option("--branch-survival", options.branch_survival,
                  "frame_render: the most a deep camera branch survives Russian roulette with (0 "
                  "ends every branch at depth 6; default: the renderer's)")

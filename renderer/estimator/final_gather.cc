@@ -10,6 +10,7 @@
 #include "renderer/base/octahedral.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
+#include "renderer/estimator/irradiance_gradients.h"
 #include "renderer/estimator/knn_gather.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/knn_estimate.h"
@@ -53,6 +54,24 @@ CAUSTICA_HDI Sampler gather_sampler(uint32_t seed, uint32_t ray, uint32_t pass) 
   return Sampler(seed ^ kFinalGatherDomain, ray, pass);
 }
 
+// Gather ray r of a seed's `per_seed`, in the seed's frame (+z its normal): cosine-distributed,
+// stratified over a grid of `side` x `side` cells when per_seed is a square (256: 16 x 16), cell
+// (j, k) = (r % side, r / side) spanning sin^2(theta) in [j, j + 1] / side and phi in
+// 2 pi [k, k + 1] / side, the layout irradiance gradients read (irradiance_gradients.h).
+CAUSTICA_HDI Vec3f gather_direction(Sampler& s, uint32_t r, uint32_t side) {
+  float u1 = s.next_float(), u2 = s.next_float();
+  if (side != 0) {
+    u1 = (float(r % side) + u1) / float(side);
+    u2 = (float(r / side) + u2) / float(side);
+  }
+  return sample_cosine_hemisphere(u1, u2);
+}
+
+CAUSTICA_HDI uint32_t stratified_side(uint32_t per_seed) {
+  const uint32_t side = uint32_t(sqrtf(float(per_seed)) + 0.5f);
+  return side * side == per_seed ? side : 0u;
+}
+
 // The gather rays of every seed, traced through mirrors and glass to their diffuse hits.
 template <typename Structure>
 Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend,
@@ -69,19 +88,12 @@ Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend
   uint32_t* alive = alive_flags.data();
   const GatherSeed* seed = seeds.data();
   const uint32_t rng_seed = cfg.seed, pass = cfg.pass;
-  // Stratified over a square grid when the count is a square (256: 16 x 16).
-  const uint32_t side = uint32_t(std::sqrt(double(per_seed)));
-  const bool stratified = side * side == per_seed;
+  const uint32_t side = stratified_side(per_seed);
   parallel_for(backend, "gather_rays", m, [=] CAUSTICA_HD(size_t i) {
     const GatherSeed& g = seed[i / per_seed];
     const uint32_t r = uint32_t(i % per_seed);
     Sampler s = gather_sampler(rng_seed, uint32_t(i), pass);
-    float u1 = s.next_float(), u2 = s.next_float();
-    if (stratified) {
-      u1 = (float(r % side) + u1) / float(side);
-      u2 = (float(r / side) + u2) / float(side);
-    }
-    const Vec3f d = Frame::from_normal(g.normal).to_world(sample_cosine_hemisphere(u1, u2));
+    const Vec3f d = Frame::from_normal(g.normal).to_world(gather_direction(s, r, side));
     path[i] = {Ray{offset_origin(g.position, g.normal, d), d, 0.0f, FLT_MAX}, Vec3f(1.0f)};
     hit_out[i].diffuse = 0;
     hit_out[i].distance = INFINITY;
@@ -240,36 +252,37 @@ void FinalGather::gather(Backend& backend, const GatherRequests& requests,
   const uint32_t per_seed = std::max(settings_.rays, 1u);
   const size_t count = seeds.size();
 
-  // Each seed's irradiance, pi times the mean radiance of its gather rays, and the harmonic mean
-  // of their distances (Ward's R), which says how far its irradiance may be carried.
+  // Each seed's record from its gather rays (irradiance_gradients.h): a thread a column of its
+  // rays, then a thread a seed to sum them.
   Buffer<GatherHit> hits(backend, 0);
   const Buffer<Vec3f> radiance = scene_.structure().visit([&](const auto& structure) {
     hits = trace_gather_rays(structure, backend, scene_.view(), seeds, per_seed, cfg);
     return gather_ray_radiance(structure, backend, scene_, hits, per_seed, cfg,
                                KnnGather(caustic_, global_));
   });
-  Buffer<Vec3f> irradiance(backend, count);
-  Buffer<float> harmonic_radii(backend, count);
+  const uint32_t side = stratified_side(per_seed);
+  const uint32_t columns = side == 0 ? 1u : side;
+  Buffer<SeedColumn> seed_columns(backend, count * columns);
+  Buffer<SeedRecord> records(backend, count);
   Buffer<Photon> seed_points(backend, count);
-  Vec3f* seed_irradiance = irradiance.data();
-  float* radius = harmonic_radii.data();
+  SeedColumn* column = seed_columns.data();
+  SeedRecord* record = records.data();
   Photon* point = seed_points.data();
   const GatherSeed* seed = seeds.data();
   const Vec3f* ray_radiance = radiance.data();
   const GatherHit* hit = hits.data();
+  parallel_for(backend, "gather_seed_columns", count * columns, [=] CAUSTICA_HD(size_t i) {
+    const size_t s = i / columns;
+    const Vec3f* mine = ray_radiance + s * per_seed;
+    const GatherHit* hits_of = hit + s * per_seed;
+    column[i] = seed_column(
+        uint32_t(i % columns), per_seed, side, seed[s].normal, [&](uint32_t r) { return mine[r]; },
+        [&](uint32_t r) { return hits_of[r].distance; });
+  });
   const float nearest = kMinHarmonicRadius * scene_.radius();
   const float farthest = kMaxHarmonicRadius * scene_.radius();
-  parallel_for(backend, "gather_seed_irradiance", count, [=] CAUSTICA_HD(size_t s) {
-    Vec3f sum(0.0f);
-    float inverse_distances = 0.0f;
-    for (uint32_t r = 0; r < per_seed; ++r) {
-      sum += ray_radiance[s * per_seed + r];
-      inverse_distances += 1.0f / hit[s * per_seed + r].distance;
-    }
-    seed_irradiance[s] = sum * (kPi / float(per_seed));
-    const float harmonic =
-        inverse_distances > 0.0f ? float(per_seed) / inverse_distances : farthest;
-    radius[s] = fminf(fmaxf(harmonic, nearest), farthest);
+  parallel_for(backend, "gather_seed_records", count, [=] CAUSTICA_HD(size_t s) {
+    record[s] = seed_record_of(column + s * columns, columns, per_seed, nearest, farthest);
     // The map indexes the seeds by position; its record carries the seed's index.
     point[s] = {seed[s].position, Vec3f(float(s), 0.0f, 0.0f), seed[s].normal};
   });
@@ -277,9 +290,9 @@ void FinalGather::gather(Backend& backend, const GatherRequests& requests,
   const PhotonMapView map = seed_map.view();
   const uint32_t k = std::min(std::max(settings_.interpolated, 1u), kMaxInterpolated);
 
-  // Each request's irradiance from its nearest seeds by Ward's weights,
-  // 1 / (d / R + sqrt(1 - n . n_seed)): those above 1 / kWardAccuracy when any are, else all
-  // that face its way.
+  // Each request's irradiance from its nearest seeds, each carried to it by its gradients and
+  // weighed by Ward's 1 / (d / R + sqrt(1 - n . n_seed)): those above 1 / kWardAccuracy when any
+  // are, else all that face its way.
   const GatherRequests r = requests;
   parallel_for(backend, "final_gather_interpolate", r.count, [=] CAUSTICA_HD(size_t t) {
     const GatherRequest q = r.requests[r.by_code[t]];
@@ -294,9 +307,11 @@ void FinalGather::gather(Backend& backend, const GatherRequests& requests,
       const float facing = dot(decode_octahedral(f.incoming), q.normal);
       if (facing <= 0.0f) continue;
       const uint32_t index = uint32_t(f.power.x);
-      const float w = 1.0f / (sqrtf(n.distance_squared) / radius[index] +
+      const SeedRecord& from = record[index];
+      const float w = 1.0f / (sqrtf(n.distance_squared) / from.radius +
                               sqrtf(fmaxf(0.0f, 1.0f - facing)) + 1e-6f);
-      const Vec3f e = seed_irradiance[index];
+      const Vec3f e =
+          extrapolated(from, seed[index].position, seed[index].normal, q.position, q.normal);
       all_sum += e * w;
       all_weights += w;
       if (w > 1.0f / kWardAccuracy) {

@@ -5,8 +5,10 @@
 //   (render/adaptive_seeds.h);
 // - sends `rays` cosine-distributed gather rays from each seed, through mirrors and glass to a
 //   diffuse hit, whose outgoing radiance is its direct light (a shadow ray) plus both photon maps'
-//   estimate there; their mean times pi is the seed's irradiance;
-// - interpolates each hit's irradiance from its nearest seeds that face its way.
+//   estimate there; their mean times pi is the seed's irradiance, with its gradients
+//   (estimator/irradiance_gradients.h);
+// - interpolates each hit's irradiance from its nearest seeds that face its way, each carried
+//   there by its gradients.
 // Caustics are still estimated directly from the caustic map. Light the gather rays find on
 // emitters is left out: it is the shadow rays' (direct) or the caustic map's (through mirrors).
 #pragma once
