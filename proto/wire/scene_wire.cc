@@ -121,6 +121,19 @@ v1::Material encode_material(const Material& m) {
   return out;
 }
 
+v1::Medium encode_medium(const Medium& m) {
+  v1::Medium out;
+  out.set_name(m.name);
+  out.set_type(v1::Medium::HOMOGENEOUS);
+  *out.mutable_absorption() = encode_vec3(m.absorption);
+  *out.mutable_scattering() = encode_vec3(m.scattering);
+  out.set_g(m.asymmetry);
+  return out;
+}
+
+// Media by 1 + index, 0 for none, as the proto's defaults want.
+uint32_t encode_medium_ref(uint32_t medium) { return medium == kNoMedium ? 0u : medium + 1; }
+
 v1::Light encode_light(const Light& light) {
   v1::Light out;
   out.set_name(light.name);
@@ -215,6 +228,8 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
   out.set_name(name);
   for (const Material& m : scene.materials) *out.add_materials() = encode_material(m);
   for (const Light& l : scene.lights) *out.add_lights() = encode_light(l);
+  for (const Medium& m : scene.media) *out.add_media() = encode_medium(m);
+  out.set_medium(encode_medium_ref(scene.medium));
   *out.mutable_camera() = encode_camera(scene.camera);
   *out.mutable_settings() = encode_settings(scene.settings);
   for (const Mesh& mesh : scene.meshes) {
@@ -225,6 +240,7 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
     h->set_has_normals(!mesh.normals.empty());
     h->set_material(mesh.material_ids.empty() ? 0 : mesh.material_ids.front());
     h->set_per_triangle_materials(!has_one_material(mesh));
+    h->set_interior_medium(encode_medium_ref(mesh.interior_medium));
   }
   return out;
 }
@@ -464,6 +480,16 @@ absl::Status SceneAssembler::add(const v1::SceneChunk& chunk) {
   return absl::Status(status.code(), absl::StrCat("chunk ", index, ": ", status.message()));
 }
 
+absl::StatusOr<uint32_t> SceneAssembler::decode_medium_ref(uint32_t value,
+                                                           const std::string& field) const {
+  if (value == 0) return kNoMedium;
+  if (value > scene_.media.size()) {
+    return invalid(field, absl::StrCat(value, " names no medium (the scene has ",
+                                       scene_.media.size(), " media; 1 is the first, 0 none)"));
+  }
+  return value - 1;
+}
+
 absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
   if (has_header_) return invalid("header", "a second header (the header comes once, first)");
   name_ = header.name();
@@ -498,6 +524,28 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.ior = in.ior();
     scene_.materials.push_back(std::move(m));
   }
+  for (int i = 0; i < header.media_size(); ++i) {
+    const v1::Medium& in = header.media(i);
+    const std::string field = absl::StrCat("media[", i, "]");
+    Medium m;
+    m.name = in.name().empty() ? absl::StrCat("medium", i) : in.name();
+    if (in.type() != v1::Medium::HOMOGENEOUS) {
+      return invalid(join_field(field, "type"), absl::StrCat(in.type(), " is not a medium type"));
+    }
+    absl::StatusOr<Vec3f> absorption =
+        decode_vec3(in.absorption(), join_field(field, "absorption"));
+    if (!absorption.ok()) return absorption.status();
+    absl::StatusOr<Vec3f> scattering =
+        decode_vec3(in.scattering(), join_field(field, "scattering"));
+    if (!scattering.ok()) return scattering.status();
+    m.absorption = *absorption;
+    m.scattering = *scattering;
+    m.asymmetry = in.g();
+    scene_.media.push_back(std::move(m));
+  }
+  absl::StatusOr<uint32_t> medium = decode_medium_ref(header.medium(), "medium");
+  if (!medium.ok()) return medium.status();
+  scene_.medium = *medium;
   absl::StatusOr<std::vector<Light>> lights = decode_lights(header.lights(), "lights");
   if (!lights.ok()) return lights.status();
   scene_.lights = *std::move(lights);
@@ -546,6 +594,10 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     // bytes against its memory budget; a one-material mesh's ids are filled in by finish().
     Mesh mesh;
     mesh.name = h.name().empty() ? absl::StrCat("mesh", i) : h.name();
+    absl::StatusOr<uint32_t> interior =
+        decode_medium_ref(h.interior_medium(), join_field(field, "interior_medium"));
+    if (!interior.ok()) return interior.status();
+    mesh.interior_medium = *interior;
     scene_.meshes.push_back(std::move(mesh));
   }
   has_header_ = true;

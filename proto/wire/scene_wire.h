@@ -86,6 +86,8 @@ class SceneAssembler {
 
  private:
   absl::Status add_header(const v1::SceneHeader& header);
+  // A medium reference of the header (1 + index, 0 for none) as an index or kNoMedium.
+  absl::StatusOr<uint32_t> decode_medium_ref(uint32_t value, const std::string& field) const;
   absl::Status add_mesh_chunk(const v1::MeshChunk& chunk);
 
   struct MeshProgress {

@@ -23,6 +23,22 @@ struct Material {
   Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
 };
 
+enum class MediumType : uint32_t { kHomogeneous = 0 };
+
+// No medium: vacuum, where light travels unchanged.
+inline constexpr uint32_t kNoMedium = 0xffffffffu;
+
+// A participating medium (docs/scene-format.md, "Media"): per channel, the absorption and the
+// scattering coefficients (per unit of the scene's length), scattered by the Henyey-Greenstein
+// phase function of asymmetry g.
+struct Medium {
+  std::string name;
+  MediumType type = MediumType::kHomogeneous;
+  Vec3f absorption{0, 0, 0};
+  Vec3f scattering{0, 0, 0};
+  float asymmetry = 0;  // g in (-1, 1): mean cosine of the scattering angle
+};
+
 // One triangle mesh; every triangle refers to a material by index into Scene::materials.
 struct Mesh {
   std::string name;  // file name or shape name, for error messages
@@ -31,6 +47,9 @@ struct Mesh {
   std::vector<Vec2f> uvs;              // optional: per-vertex texture coordinates
   std::vector<uint32_t> indices;       // 3 per triangle
   std::vector<uint32_t> material_ids;  // 1 per triangle
+  // The medium this mesh encloses (an index into Scene::media), or kNoMedium. A mesh that
+  // encloses one must be closed.
+  uint32_t interior_medium = kNoMedium;
   size_t triangle_count() const { return indices.size() / 3; }
 };
 
@@ -90,6 +109,10 @@ struct RenderSettings {
 
 struct Scene {
   std::vector<Material> materials;
+  std::vector<Medium> media;
+  // The medium everywhere outside the meshes that enclose one (an index into media), or
+  // kNoMedium.
+  uint32_t medium = kNoMedium;
   std::vector<Mesh> meshes;
   std::vector<Light> lights;
   Camera camera;

@@ -109,6 +109,12 @@ class SceneReader {
     if (settings != nullptr) SCENE_RETURN_IF_ERROR(read_settings(*settings));
     SCENE_ASSIGN_OR_RETURN(const Json* materials, top.find("materials", kOptional));
     if (materials != nullptr) SCENE_RETURN_IF_ERROR(read_materials(*materials));
+    SCENE_ASSIGN_OR_RETURN(const Json* media, top.find("media", kOptional));
+    if (media != nullptr) SCENE_RETURN_IF_ERROR(read_media(*media));
+    SCENE_ASSIGN_OR_RETURN(const Json* medium, top.find("medium", kOptional));
+    if (medium != nullptr) {
+      SCENE_ASSIGN_OR_RETURN(scene_.medium, medium_named(*medium, "medium"));
+    }
     // Lights before shapes: lights[i] of the file stays scene.lights[i], and lights that come
     // with mesh files follow.
     SCENE_ASSIGN_OR_RETURN(const Json* lights, top.find("lights", kOptional));
@@ -254,6 +260,51 @@ class SceneReader {
     return absl::OkStatus();
   }
 
+  absl::Status read_media(const Json& value) {
+    SCENE_ASSIGN_OR_RETURN(const JsonObject object, JsonObject::open(value, "media"));
+    for (const auto& [name, medium] : value.items()) {
+      SCENE_RETURN_IF_ERROR(read_medium(name, medium, object.field_path(name)));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status read_medium(const std::string& name, const Json& value, std::string path) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+    Medium medium;
+    medium.name = name;
+    std::string type;
+    SCENE_RETURN_IF_ERROR(object.read("type", kRequired, &type));
+    if (type != "homogeneous") {
+      return invalid_field(object.field_path("type"),
+                           absl::StrCat("unknown medium type '", type, "' (expected homogeneous)"));
+    }
+    medium.type = MediumType::kHomogeneous;
+    SCENE_RETURN_IF_ERROR(object.read("absorption", kRequired, &medium.absorption));
+    SCENE_RETURN_IF_ERROR(object.read("scattering", kRequired, &medium.scattering));
+    SCENE_RETURN_IF_ERROR(object.read("g", kOptional, &medium.asymmetry));
+    SCENE_RETURN_IF_ERROR(object.finish());
+    medium_ids_[name] = static_cast<uint32_t>(scene_.media.size());
+    scene_.media.push_back(std::move(medium));
+    return absl::OkStatus();
+  }
+
+  // The index of the medium `value` names, at `path`.
+  absl::StatusOr<uint32_t> medium_named(const Json& value, const std::string& path) {
+    SCENE_ASSIGN_OR_RETURN(const std::string name, json_to_string(value, path));
+    const auto it = medium_ids_.find(name);
+    if (it == medium_ids_.end()) {
+      return invalid_field(path, absl::StrCat("unknown medium '", name, "' (not in media)"));
+    }
+    return it->second;
+  }
+
+  // The medium a shape encloses ("medium"), or kNoMedium.
+  absl::StatusOr<uint32_t> read_interior_medium(JsonObject& shape) {
+    SCENE_ASSIGN_OR_RETURN(const Json* value, shape.find("medium", kOptional));
+    if (value == nullptr) return kNoMedium;
+    return medium_named(*value, shape.field_path("medium"));
+  }
+
   absl::Status read_lights(const Json& value) {
     SCENE_RETURN_IF_ERROR(json_expect_array(value, "lights"));
     for (size_t i = 0; i < value.size(); ++i) {
@@ -326,6 +377,7 @@ class SceneReader {
 
     SCENE_ASSIGN_OR_RETURN(const std::optional<uint32_t> material,
                            read_material_ref(shape, kRequired));
+    SCENE_ASSIGN_OR_RETURN(const uint32_t interior, read_interior_medium(shape));
     Mesh mesh;
     if (type == "quad") {
       SCENE_ASSIGN_OR_RETURN(mesh, read_quad(shape));
@@ -343,6 +395,7 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(shape.finish());
     mesh.name = shape_label(shape.path(), name, "");
     mesh.material_ids.assign(mesh.triangle_count(), *material);
+    mesh.interior_medium = interior;
     scene_.meshes.push_back(std::move(mesh));
     return absl::OkStatus();
   }
@@ -418,6 +471,7 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(shape.read("file", kRequired, &file));
     SCENE_ASSIGN_OR_RETURN(const std::optional<uint32_t> material_override,
                            read_material_ref(shape, kOptional));
+    SCENE_ASSIGN_OR_RETURN(const uint32_t interior, read_interior_medium(shape));
     // Absent means untouched: even an identity matrix would smear one NaN over x, y and z.
     std::optional<Affine> transform;
     SCENE_ASSIGN_OR_RETURN(const Json* transform_value, shape.find("transform", kOptional));
@@ -454,6 +508,7 @@ class SceneReader {
       }
       if (transform) transform_mesh(*transform, &mesh);
       mesh.name = shape_label(shape.path(), name, mesh.name);
+      mesh.interior_medium = interior;
       scene_.meshes.push_back(std::move(mesh));
     }
     for (Light& light : mesh_file.lights) {
@@ -466,6 +521,7 @@ class SceneReader {
   std::filesystem::path base_dir_;
   Scene scene_;
   std::map<std::string, uint32_t, std::less<>> material_ids_;
+  std::map<std::string, uint32_t, std::less<>> medium_ids_;
 };
 
 }  // namespace

@@ -1,9 +1,12 @@
 #include "renderer/scene/validate.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <string>
+#include <utility>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -136,6 +139,61 @@ absl::Status validate_material(const Material& m) {
   return invalid_field(field, "has an unknown type");
 }
 
+absl::Status validate_medium(const Medium& m) {
+  const std::string field = absl::StrCat("media.", m.name);
+  if (m.type != MediumType::kHomogeneous) return invalid_field(field, "has an unknown type");
+  SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".absorption"), m.absorption));
+  SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".scattering"), m.scattering));
+  if (!(std::isfinite(m.asymmetry) && std::fabs(m.asymmetry) < 1)) {
+    return invalid_field(absl::StrCat(field, ".g"),
+                         absl::StrCat(m.asymmetry, " is outside (-1, 1)"));
+  }
+  return absl::OkStatus();
+}
+
+// A mesh that encloses a medium must be closed, so that every ray that enters it leaves it: each
+// edge, with its ends compared by position (shapes and files repeat corners), borders exactly two
+// triangles, which run along it in opposite directions.
+absl::Status check_closed(const Mesh& mesh, const std::string& field, const std::string& medium) {
+  using Corner = std::array<float, 3>;
+  auto corner = [&](uint32_t v) {
+    const Vec3f p = mesh.positions[v];
+    return Corner{p.x, p.y, p.z};
+  };
+  // Each undirected edge: how many triangles run along it from its smaller end, and how many back.
+  std::map<std::pair<Corner, Corner>, std::pair<int, int>> edges;
+  for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const Corner a = corner(mesh.indices[3 * t + k]);
+      const Corner b = corner(mesh.indices[3 * t + (k + 1) % 3]);
+      if (a == b) continue;  // a degenerate triangle's collapsed edge
+      if (a < b) {
+        ++edges[{a, b}].first;
+      } else {
+        ++edges[{b, a}].second;
+      }
+    }
+  }
+  for (const auto& [edge, runs] : edges) {
+    if (runs.first == 1 && runs.second == 1) continue;
+    const auto& [a, b] = edge;
+    const std::string where = absl::StrFormat("the edge from (%g, %g, %g) to (%g, %g, %g)", a[0],
+                                              a[1], a[2], b[0], b[1], b[2]);
+    if (runs.first + runs.second == 1) {
+      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but is not closed: ",
+                                               where, " borders one triangle"));
+    }
+    if (runs.first + runs.second == 2) {
+      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but ", where,
+                                               " joins two triangles facing opposite ways"));
+    }
+    return invalid_field(field,
+                         absl::StrCat("encloses medium '", medium, "' but ", where, " borders ",
+                                      runs.first + runs.second, " triangles, not two"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status validate_light(const Light& light, size_t index) {
   std::string field = absl::StrCat("lights[", index, "]");
   if (!light.name.empty()) absl::StrAppend(&field, " ('", light.name, "')");
@@ -180,7 +238,8 @@ bool has_zero_area(Vec3f a, Vec3f b, Vec3f c) {
 
 // Returns the number of triangles that emit light.
 absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
-                                     const std::vector<Material>& materials) {
+                                     const std::vector<Material>& materials,
+                                     const std::vector<Medium>& media) {
   const std::string field =
       mesh.name.empty() ? absl::StrCat("meshes[", index, "]") : absl::StrCat("mesh ", mesh.name);
   if (mesh.indices.size() % 3 != 0) {
@@ -242,6 +301,13 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
       ++emitters;
     }
   }
+  if (mesh.interior_medium != kNoMedium) {
+    if (mesh.interior_medium >= media.size()) {
+      return invalid_field(field, absl::StrCat("encloses medium ", mesh.interior_medium,
+                                               ", but the scene has ", media.size(), " media"));
+    }
+    SCENE_RETURN_IF_ERROR(check_closed(mesh, field, media[mesh.interior_medium].name));
+  }
   return emitters;
 }
 
@@ -271,6 +337,11 @@ absl::Status validate_scene(const Scene& scene) {
   for (const Material& material : scene.materials) {
     SCENE_RETURN_IF_ERROR(validate_material(material));
   }
+  for (const Medium& medium : scene.media) SCENE_RETURN_IF_ERROR(validate_medium(medium));
+  if (scene.medium != kNoMedium && scene.medium >= scene.media.size()) {
+    return invalid_field("medium", absl::StrCat("is medium ", scene.medium, ", but the scene has ",
+                                                scene.media.size(), " media"));
+  }
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     SCENE_RETURN_IF_ERROR(validate_light(scene.lights[i], i));
   }
@@ -279,7 +350,7 @@ absl::Status validate_scene(const Scene& scene) {
   size_t emitting_triangles = 0;
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
     SCENE_ASSIGN_OR_RETURN(const size_t emitters,
-                           validate_mesh(scene.meshes[i], i, scene.materials));
+                           validate_mesh(scene.meshes[i], i, scene.materials, scene.media));
     emitting_triangles += emitters;
   }
   if (scene.triangle_count() == 0) {

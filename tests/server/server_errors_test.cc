@@ -61,6 +61,13 @@ TEST_F(ServerTest, MalformedUploadsAreRefusedNamingTheProblem) {
   const std::vector<v1::SceneChunk> good = scene_chunks(cornell_box(16, 16, 2000, 16, 1), "box");
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const uint32_t far_vertex = 9999;
+  // A homogeneous medium named fog, added to the header.
+  auto add_fog = [](std::vector<v1::SceneChunk>& c) {
+    v1::Medium* fog = c[0].mutable_header()->add_media();
+    fog->set_name("fog");
+    fog->set_type(v1::Medium::HOMOGENEOUS);
+    return fog;
+  };
   const std::vector<BadUpload> cases = {
       {"bad crc", [](auto& c) { c[1].mutable_mesh()->set_crc32(c[1].mesh().crc32() ^ 1); },
        grpc::StatusCode::INVALID_ARGUMENT, "mesh.crc32"},
@@ -103,6 +110,24 @@ TEST_F(ServerTest, MalformedUploadsAreRefusedNamingTheProblem) {
        },
        grpc::StatusCode::RESOURCE_EXHAUSTED, "vertex_count"},
       {"empty stream", [](auto& c) { c.clear(); }, grpc::StatusCode::INVALID_ARGUMENT, "header"},
+      {"medium with g = 1",
+       [&](auto& c) {
+         add_fog(c)->set_g(1.0f);
+         c[0].mutable_header()->set_medium(1);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "media.fog.g: 1 is outside (-1, 1)"},
+      {"open mesh enclosing a medium",
+       [&](auto& c) {
+         add_fog(c);
+         c[0].mutable_header()->mutable_meshes(0)->set_interior_medium(1);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "encloses medium 'fog' but is not closed"},
+      {"a medium, not rendered yet",
+       [&](auto& c) {
+         add_fog(c);
+         c[0].mutable_header()->set_medium(1);
+       },
+       grpc::StatusCode::UNIMPLEMENTED, "participating media"},
   };
   for (const BadUpload& bad : cases) {
     SCOPED_TRACE(bad.what);

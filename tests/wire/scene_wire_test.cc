@@ -153,6 +153,34 @@ TEST(SceneWire, FinalGatheringRoundTrips) {
   EXPECT_EQ(applied->final_gather_rays, 64u);
 }
 
+// The media, the scene's own medium and a mesh's interior survive the round trip.
+TEST(SceneWire, MediaRoundTrip) {
+  Scene scene = bundled("cornell-caustics");
+  scene.media.push_back(
+      {"fog", MediumType::kHomogeneous, Vec3f(0.1f, 0.2f, 0.3f), Vec3f(0.4f, 0.5f, 0.6f), -0.25f});
+  scene.media.push_back({"mist", MediumType::kHomogeneous, Vec3f(0.0f), Vec3f(0.01f), 0.5f});
+  scene.medium = 1;
+  scene.meshes.back().interior_medium = 0;
+  absl::StatusOr<Scene> back = assemble(encode(scene, 1 << 20));
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->media.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back->media[i].name, scene.media[i].name);
+    EXPECT_EQ(back->media[i].type, scene.media[i].type);
+    EXPECT_EQ(back->media[i].absorption, scene.media[i].absorption);
+    EXPECT_EQ(back->media[i].scattering, scene.media[i].scattering);
+    EXPECT_EQ(back->media[i].asymmetry, scene.media[i].asymmetry);
+  }
+  EXPECT_EQ(back->medium, 1u);
+  EXPECT_EQ(back->meshes.back().interior_medium, 0u);
+  EXPECT_EQ(back->meshes.front().interior_medium, kNoMedium);
+  // No media at all stays none.
+  back = assemble(encode(bundled("cornell-box"), 1 << 20));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(back->media.empty());
+  EXPECT_EQ(back->medium, kNoMedium);
+}
+
 TEST(SceneWire, EstimatorSettingsRoundTripAndUnspecifiedKeepsTheCurrentOnes) {
   RenderSettings settings;
   settings.estimator = EstimatorKind::kSppm;
@@ -317,6 +345,19 @@ INSTANTIATE_TEST_SUITE_P(
                   },
                   absl::StatusCode::kInvalidArgument,
                   "indices has 24 bytes but the header declares 36"},
+        BadUpload{"medium type unspecified",
+                  [](auto& c) {
+                    v1::Medium* m = c[0].mutable_header()->add_media();
+                    m->set_name("fog");
+                  },
+                  absl::StatusCode::kInvalidArgument, "media[0].type: 0 is not a medium type"},
+        BadUpload{"scene medium out of range",
+                  [](auto& c) { c[0].mutable_header()->set_medium(1); },
+                  absl::StatusCode::kInvalidArgument,
+                  "medium: 1 names no medium (the scene has 0 media; 1 is the first, 0 none)"},
+        BadUpload{"mesh medium out of range",
+                  [](auto& c) { c[0].mutable_header()->mutable_meshes(0)->set_interior_medium(3); },
+                  absl::StatusCode::kInvalidArgument, "interior_medium: 3 names no medium"},
         BadUpload{"index out of range",
                   [](auto& c) {
                     uint32_t bad = 99;

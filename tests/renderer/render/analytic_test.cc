@@ -241,16 +241,19 @@ TEST(Engine, LightChangeTracesPhotonsAheadWithoutChangingTheImage) {
   EXPECT_EQ(std::vector<float>(a.begin(), a.end()), std::vector<float>(b.begin(), b.end()));
 }
 
-// Updates are checked without the meshes: each refusal names its field and changes nothing.
-TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
-  Scene scene = parse_or_die(R"({
+// A grey quad under a point light, 8 x 8 pixels.
+constexpr char kGreyQuad[] = R"({
     "camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "fov": 30, "width": 8, "height": 8},
     "settings": {"photons": 1000},
     "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
     "lights": [{"type": "point", "position": [0, 0, 1], "intensity": [1, 1, 1]}],
     "shapes": [{"type": "quad", "material": "grey",
                 "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]]}]
-  })");
+  })";
+
+// Updates are checked without the meshes: each refusal names its field and changes nothing.
+TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
+  Scene scene = parse_or_die(kGreyQuad);
   auto engine = engine_with(scene);
   const Epochs before = engine->epochs();
   // No point light and no emissive triangle would leave the scene dark.
@@ -269,6 +272,25 @@ TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
   EXPECT_EQ(engine->epochs().camera, before.camera);
   EXPECT_EQ(engine->epochs().settings, before.settings);
   EXPECT_EQ(engine->scene().lights.size(), 1u);
+}
+
+// Media are read and checked, but a scene with one is refused rather than rendered without it,
+// and the engine keeps the scene it had.
+TEST(Engine, RefusesMediaItDoesNotRenderYet) {
+  auto engine = engine_with(parse_or_die(kGreyQuad));
+  Scene foggy = parse_or_die(kGreyQuad);
+  foggy.media.push_back({"fog", MediumType::kHomogeneous, Vec3f(0.1f), Vec3f(0.2f), 0.0f});
+  foggy.medium = 0;
+  auto refused = engine->load(foggy);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnimplemented);
+  EXPECT_THAT(std::string(refused.status().message()),
+              testing::HasSubstr("media: the scene has 1 participating media"));
+  EXPECT_TRUE(engine->scene().media.empty());
+  EXPECT_TRUE(engine->render(1).ok());
+  // A bad medium is named before that.
+  foggy.media[0].asymmetry = 1.0f;
+  EXPECT_THAT(std::string(engine->load(foggy).status().message()),
+              testing::HasSubstr("media.fog.g: 1 is outside (-1, 1)"));
 }
 
 TEST(Engine, EnginesSharingABackendShareOneBudget) {

@@ -122,6 +122,19 @@ std::vector<Edit> edits() {
         absl::StrCat(R"("settings": )", settings)};
   };
   const std::string mesh_dir = "../meshes/";
+  // Media go before the lights; `fog` is a valid one.
+  const std::string fog =
+      R"("fog": {"type": "homogeneous", "absorption": [0.1, 0.1, 0.1], "scattering": [0.2, 0.2, 0.2], "g": 0.3})";
+  auto add_media = [](const std::string& media) {
+    return std::pair<std::string, std::string>{
+        R"("lights": [)", absl::StrCat(R"("media": {)", media, "},\n  ", R"("lights": [)")};
+  };
+  // A closed tetrahedron (faces wound outwards) around the given fourth face.
+  auto tetrahedron = [](const std::string& last_face) {
+    return absl::StrCat(
+        R"({"type": "triangles", "material": "white", "medium": "fog", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], "indices": [0, 2, 1, 0, 1, 3, 0, 3, 2, )",
+        last_face, "]}");
+  };
   return {
       // Syntax and types.
       {"MissingComma", {{R"("fov": 45,)", R"("fov": 45)"}}, {"inline.json:2:", "syntax error"}},
@@ -312,6 +325,54 @@ std::vector<Edit> edits() {
       {"BouncesHuge",
        {set_settings(R"({"max_photon_bounces": 1000})")},
        {"settings.max_photon_bounces"}},
+      // Media.
+      {"NegativeAbsorption",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0.1, -0.1, 0.1], "scattering": [0.2, 0.2, 0.2]})")},
+       {"media.fog.absorption: (0.1, -0.1, 0.1) has a negative channel"}},
+      {"NegativeScattering",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [0.2, 0.2, -1]})")},
+       {"media.fog.scattering: (0.2, 0.2, -1) has a negative channel"}},
+      {"NanScattering",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [0.2, 3e39, 0]})")},
+       {"media.fog.scattering[1]: 3e+39 does not fit a 32-bit float"}},
+      {"AsymmetryOfOne",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [1, 1, 1], "g": 1})")},
+       {"media.fog.g: 1 is outside (-1, 1)"}},
+      {"AsymmetryBelowMinusOne",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [1, 1, 1], "g": -1.5})")},
+       {"media.fog.g: -1.5 is outside (-1, 1)"}},
+      {"MissingScattering",
+       {add_media(R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0]})")},
+       {"media.fog.scattering: is required"}},
+      {"UnknownMediumType",
+       {add_media(R"("fog": {"type": "smoke", "absorption": [0, 0, 0], "scattering": [1, 1, 1]})")},
+       {"media.fog.type: unknown medium type 'smoke' (expected homogeneous)"}},
+      {"UnknownMediumKey",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [1, 1, 1], "density": 2})")},
+       {"media.fog.density: unknown key"}},
+      {"UnknownSceneMedium",
+       {add_media(fog), {R"("lights": [)", R"("medium": "smoke", "lights": [)"}},
+       {"medium: unknown medium 'smoke' (not in media)"}},
+      {"UnknownShapeMedium",
+       {add_media(fog), {R"("material": "white")", R"("material": "white", "medium": "smoke")"}},
+       {"shapes[0].medium: unknown medium 'smoke' (not in media)"}},
+      {"OpenMediumMesh",
+       {add_media(fog), {R"("material": "white")", R"("material": "white", "medium": "fog")"}},
+       {"mesh shapes[0]: encloses medium 'fog' but is not closed: the edge from",
+        "borders one triangle"}},
+      {"MediumMeshWoundBothWays",
+       {add_media(fog), add_shape(tetrahedron("1, 3, 2"))},
+       {"mesh shapes[2]: encloses medium 'fog' but the edge from",
+        "joins two triangles facing opposite ways"}},
+      {"MediumMeshWithAFin",
+       {add_media(fog), add_shape(tetrahedron("1, 2, 3, 1, 2, 3"))},
+       {"mesh shapes[2]: encloses medium 'fog' but the edge from", "borders 3 triangles, not two"}},
       // Whole scene.
       {"NoTriangles", {{absl::StrCat(floor, ",\n    ", lamp), ""}}, {"scene has no triangles"}},
       {"NoLight", {{point, ""}, {absl::StrCat(",\n    ", lamp), ""}}, {"scene has no light"}},
@@ -340,6 +401,35 @@ INSTANTIATE_TEST_SUITE_P(ErrorClasses, BadSceneEditTest, ::testing::ValuesIn(edi
                          [](const ::testing::TestParamInfo<Edit>& info) {
                            return info.param.name;
                          });
+
+// A closed mesh may enclose a medium, and the scene may be filled with one: both are read.
+TEST(SceneMedia, AreReadIntoTheScene) {
+  std::string text = base_scene();
+  text.replace(
+      text.find(R"("lights": [)"), 11,
+      R"("media": {"fog": {"type": "homogeneous", "absorption": [0.1, 0.2, 0.3], "scattering": [0.4, 0.5, 0.6], "g": -0.25},
+             "mist": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [0.01, 0.01, 0.01]}},
+  "medium": "mist",
+  "lights": [)");
+  text.replace(
+      text.find(kLamp), std::string(kLamp).size(),
+      absl::StrCat(
+          kLamp,
+          R"(, {"type": "sphere", "material": "white", "medium": "fog", "center": [0, 1, 0], "radius": 0.5})"));
+  const absl::StatusOr<Scene> scene = parse_scene(text, scene_data("good"), "inline.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  ASSERT_EQ(scene->media.size(), 2u);
+  EXPECT_EQ(scene->media[0].name, "fog");
+  EXPECT_EQ(scene->media[0].type, MediumType::kHomogeneous);
+  EXPECT_EQ(scene->media[0].absorption, Vec3f(0.1f, 0.2f, 0.3f));
+  EXPECT_EQ(scene->media[0].scattering, Vec3f(0.4f, 0.5f, 0.6f));
+  EXPECT_EQ(scene->media[0].asymmetry, -0.25f);
+  EXPECT_EQ(scene->media[1].asymmetry, 0.0f);
+  EXPECT_EQ(scene->medium, 1u);
+  ASSERT_EQ(scene->meshes.size(), 3u);
+  EXPECT_EQ(scene->meshes[0].interior_medium, kNoMedium);
+  EXPECT_EQ(scene->meshes[2].interior_medium, 0u);
+}
 
 TEST(BadSceneEdit, BaseSceneIsValid) {
   const absl::StatusOr<Scene> scene = parse_scene(base_scene(), scene_data("good"), "inline.json");
