@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "renderer/base/sampling.h"
 #include "renderer/base/vec.h"
@@ -61,11 +62,15 @@ CAUSTICA_HDI SeedColumn seed_column(uint32_t k, uint32_t count, uint32_t side, V
   const Vec3f across = frame.to_world(Vec3f(-sinf(phi), cosf(phi), 0.0f));
   const Vec3f across_edge = frame.to_world(Vec3f(-sinf(phi_edge), cosf(phi_edge), 0.0f));
   const uint32_t k_before = (k + side - 1) % side;
-  // theta - sin(theta) cos(theta) and sin(theta) at the cell's lower edge, carried up the column.
+  // theta - sin(theta) cos(theta) and sin(theta) at the cell's lower edge, and the radiance and
+  // distance of the cell below, carried up the column.
   float tan_integral_edge = 0.0f, sin_edge = 0.0f;
+  Vec3f l_below(0.0f);
+  float d_below = INFINITY;
   for (uint32_t j = 0; j < side; ++j) {
     const uint32_t r = j + k * side;
     const Vec3f l = radiance(r);
+    const float d_here = distance(r);
     const float sin2_edge = float(j) / cells, sin2_next = float(j + 1) / cells;
     const float sin_next = sqrtf(sin2_next), theta_next = asinf(fminf(sin_next, 1.0f));
     const float tan_integral_next = theta_next - sin_next * sqrtf(fmaxf(0.0f, 1.0f - sin2_next));
@@ -78,17 +83,17 @@ CAUSTICA_HDI SeedColumn seed_column(uint32_t k, uint32_t count, uint32_t side, V
     // Translation: the light that crosses the cell's edge towards the zenith as the point moves
     // along the azimuth...
     if (j > 0) {
-      const uint32_t o = r - 1;
-      const float d = fminf(distance(r), distance(o));
-      const float w = (2.0f * kPi / cells) * sin_edge * (1.0f - sin2_edge) / d;
-      add_gradient(out.translation, along, (l - radiance(o)) * w);
+      const float w = (2.0f * kPi / cells) * sin_edge * (1.0f - sin2_edge) / fminf(d_here, d_below);
+      add_gradient(out.translation, along, (l - l_below) * w);
     }
     // ...and that which crosses its edge at the smaller azimuth as it moves across.
     const uint32_t o = j + k_before * side;
-    const float d = fminf(distance(r), distance(o));
+    const float d = fminf(d_here, distance(o));
     add_gradient(out.translation, across_edge, (l - radiance(o)) * ((sin_next - sin_edge) / d));
     tan_integral_edge = tan_integral_next;
     sin_edge = sin_next;
+    l_below = l;
+    d_below = d_here;
   }
   return out;
 }
@@ -129,12 +134,10 @@ CAUSTICA_HDI SeedRecord seed_record_of(const SeedColumn* column, uint32_t column
 template <typename Radiance, typename Distance>
 SeedRecord seed_record(uint32_t count, uint32_t side, Vec3f normal, float nearest, float farthest,
                        Radiance radiance, Distance distance) {
-  constexpr uint32_t kMaxColumns = 256;
-  SeedColumn columns[kMaxColumns];
-  const uint32_t n = side == 0 ? 1u : side;
-  for (uint32_t k = 0; k < n && k < kMaxColumns; ++k)
+  std::vector<SeedColumn> columns(side == 0 ? 1u : side);
+  for (uint32_t k = 0; k < columns.size(); ++k)
     columns[k] = seed_column(k, count, side, normal, radiance, distance);
-  return seed_record_of(columns, n, count, nearest, farthest);
+  return seed_record_of(columns.data(), uint32_t(columns.size()), count, nearest, farthest);
 }
 
 // The record's irradiance carried from its seed (position, normal) to `position` with `normal`:

@@ -108,9 +108,20 @@ class SceneReader {
     SCENE_ASSIGN_OR_RETURN(const Json* settings, top.find("settings", kOptional));
     if (settings != nullptr) SCENE_RETURN_IF_ERROR(read_settings(*settings));
     SCENE_ASSIGN_OR_RETURN(const Json* materials, top.find("materials", kOptional));
-    if (materials != nullptr) SCENE_RETURN_IF_ERROR(read_materials(*materials));
+    if (materials != nullptr) {
+      SCENE_RETURN_IF_ERROR(
+          read_named_entries(*materials, "materials",
+                             [this](const std::string& name, const Json& v, std::string path) {
+                               return read_material(name, v, std::move(path));
+                             }));
+    }
     SCENE_ASSIGN_OR_RETURN(const Json* media, top.find("media", kOptional));
-    if (media != nullptr) SCENE_RETURN_IF_ERROR(read_media(*media));
+    if (media != nullptr) {
+      SCENE_RETURN_IF_ERROR(read_named_entries(
+          *media, "media", [this](const std::string& name, const Json& v, std::string path) {
+            return read_medium(name, v, std::move(path));
+          }));
+    }
     SCENE_ASSIGN_OR_RETURN(const Json* medium, top.find("medium", kOptional));
     if (medium != nullptr) {
       SCENE_ASSIGN_OR_RETURN(scene_.medium, medium_named(*medium, "medium"));
@@ -222,12 +233,29 @@ class SceneReader {
     return object.finish();
   }
 
-  absl::Status read_materials(const Json& value) {
-    SCENE_ASSIGN_OR_RETURN(const JsonObject object, JsonObject::open(value, "materials"));
-    for (const auto& [name, material] : value.items()) {
-      SCENE_RETURN_IF_ERROR(read_material(name, material, object.field_path(name)));
+  // An object of named entries ("materials", "media"), each read by read_entry(name, value,
+  // path).
+  template <typename ReadEntry>
+  absl::Status read_named_entries(const Json& value, const char* key, ReadEntry read_entry) {
+    SCENE_ASSIGN_OR_RETURN(const JsonObject object, JsonObject::open(value, key));
+    for (const auto& [name, entry] : value.items()) {
+      SCENE_RETURN_IF_ERROR(read_entry(name, entry, object.field_path(name)));
     }
     return absl::OkStatus();
+  }
+
+  // The index `ids` gives the name that `value` holds at `path`; `what` and `where` name the kind
+  // of entry and the list it should be in.
+  static absl::StatusOr<uint32_t> index_named(
+      const std::map<std::string, uint32_t, std::less<>>& ids, const Json& value,
+      const std::string& path, absl::string_view what, absl::string_view where) {
+    SCENE_ASSIGN_OR_RETURN(const std::string name, json_to_string(value, path));
+    const auto it = ids.find(name);
+    if (it == ids.end()) {
+      return invalid_field(path,
+                           absl::StrCat("unknown ", what, " '", name, "' (not in ", where, ")"));
+    }
+    return it->second;
   }
 
   absl::Status read_material(const std::string& name, const Json& value, std::string path) {
@@ -260,14 +288,6 @@ class SceneReader {
     return absl::OkStatus();
   }
 
-  absl::Status read_media(const Json& value) {
-    SCENE_ASSIGN_OR_RETURN(const JsonObject object, JsonObject::open(value, "media"));
-    for (const auto& [name, medium] : value.items()) {
-      SCENE_RETURN_IF_ERROR(read_medium(name, medium, object.field_path(name)));
-    }
-    return absl::OkStatus();
-  }
-
   absl::Status read_medium(const std::string& name, const Json& value, std::string path) {
     SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
     Medium medium;
@@ -290,12 +310,7 @@ class SceneReader {
 
   // The index of the medium `value` names, at `path`.
   absl::StatusOr<uint32_t> medium_named(const Json& value, const std::string& path) {
-    SCENE_ASSIGN_OR_RETURN(const std::string name, json_to_string(value, path));
-    const auto it = medium_ids_.find(name);
-    if (it == medium_ids_.end()) {
-      return invalid_field(path, absl::StrCat("unknown medium '", name, "' (not in media)"));
-    }
-    return it->second;
+    return index_named(medium_ids_, value, path, "medium", "media");
   }
 
   // The medium a shape encloses ("medium"), or kNoMedium.
@@ -358,14 +373,8 @@ class SceneReader {
   absl::StatusOr<std::optional<uint32_t>> read_material_ref(JsonObject& shape, Presence presence) {
     SCENE_ASSIGN_OR_RETURN(const Json* value, shape.find("material", presence));
     if (value == nullptr) return std::nullopt;
-    SCENE_ASSIGN_OR_RETURN(const std::string name,
-                           json_to_string(*value, shape.field_path("material")));
-    const auto it = material_ids_.find(name);
-    if (it == material_ids_.end()) {
-      return invalid_field(shape.field_path("material"),
-                           absl::StrCat("unknown material '", name, "' (not in materials)"));
-    }
-    return it->second;
+    return index_named(material_ids_, *value, shape.field_path("material"), "material",
+                       "materials");
   }
 
   absl::Status read_shape(const Json& value, std::string path) {
