@@ -29,6 +29,7 @@
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/photon/vkde_photons.h"
+#include "renderer/photon/volume_map.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
@@ -498,12 +499,25 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
     PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
+    // In a scene with media, the volume map the beam estimate reads, bandwidths capped as the
+    // knn estimator caps them.
+    const float max_bandwidth = 0.05f * length(resident.bounds().extent());
+    VolumeMap volume =
+        build_volume_map(*backend, traced.volume, per_leaf, kVolumeNearest, max_bandwidth);
+    if (!traced.volume.empty()) {
+      Measurement volume_build = measure(o, *backend, [&] {
+        (void)build_volume_map(*backend, traced.volume, per_leaf, kVolumeNearest, max_bandwidth);
+      });
+      report.line("volume_map_build", name + absl::StrFormat(" %zu collisions", volume.size()),
+                  volume_build.median, "ms", &volume_build, o.runs);
+    }
     Film film(*backend, o.width, o.height);
     const PinholeCamera camera = PinholeCamera::from(scene->camera);
     uint32_t pass = 0, requests = 0;
     Measurement gather = measure(o, *backend, [&] {
       ShadingSettings shading = (*engine)->shading(pass++);
       shading.ray_queues = o.ray_queues;
+      shading.volume = volume.view();
       if (o.branch_survival >= 0.0f) shading.branch_survival = o.branch_survival;
       render_pass(*backend, resident, camera, shading, KnnGather(caustic, global), film, &requests);
     });

@@ -91,6 +91,8 @@ absl::Status convergence_benchmark(const BenchOptions& o, Reporter& report) {
     measured.settings.integrator = run.integrator;
     measured.settings.estimator = run.estimator;
     measured.settings.final_gather = run.final_gather;
+    // Runs that do not render the scene's media are left out (media_support says which).
+    if (!media_support(measured, measured.settings).ok()) continue;
     absl::StatusOr<std::unique_ptr<Engine>> engine = loaded_engine(measured, *device);
     if (!engine.ok()) return engine.status();
     // A pass first, so that the measured ones find the code loaded; a camera update empties the

@@ -62,6 +62,30 @@ absl::Status no_cuda_backend() {
 
 }  // namespace
 
+// Participating media render with the path integrator and the knn estimator's beam radiance
+// estimate; the other estimators would render a scene with media as if they were not there.
+absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
+  if (scene.media.empty()) return absl::OkStatus();
+  if (rs.structure == StructureKind::kDacrt) {
+    return absl::UnimplementedError(
+        "media: the dacrt structure answers ray batches only, and the ray queues do not trace "
+        "through participating media yet; choose another structure");
+  }
+  if (rs.integrator == Integrator::kPath) return absl::OkStatus();
+  if (rs.estimator != EstimatorKind::kKnn) {
+    return absl::UnimplementedError(absl::StrCat(
+        "media: the ", estimator_kind_name(rs.estimator),
+        " estimator does not render participating media yet; the knn estimator and the path "
+        "integrator do"));
+  }
+  if (rs.final_gather) {
+    return absl::UnimplementedError(
+        "media: final gathering does not trace through participating media yet; turn "
+        "final_gather off, or render with the path integrator");
+  }
+  return absl::OkStatus();
+}
+
 // The estimator the settings name, with the engine's leaf-size knob.
 EstimatorOptions estimator_options(const RenderSettings& rs, uint32_t photons_per_leaf) {
   return {rs.estimator,    rs.k_nearest,         photons_per_leaf,
@@ -178,14 +202,7 @@ absl::StatusOr<std::unique_ptr<Engine>> Engine::create(const EngineOptions& opti
 
 absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   if (absl::Status s = validate_scene(scene); !s.ok()) return s;
-  // Media are read and checked on every path, but the passes do not trace through them yet: a
-  // scene that has them would render as if they were not there.
-  if (!scene.media.empty()) {
-    return absl::UnimplementedError(
-        absl::StrCat("media: the scene has ", scene.media.size(),
-                     " participating media, which this version reads and checks but does not "
-                     "render yet"));
-  }
+  if (absl::Status s = media_support(scene, scene.settings); !s.ok()) return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     State& st = *state_;
@@ -266,6 +283,7 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   if (absl::Status s = validate_settings(settings); !s.ok()) return s;
+  if (absl::Status s = media_support(st.scene, settings); !s.ok()) return s;
   const RenderSettings& old = st.scene.settings;
   const bool estimator_change = !same_estimator(settings, old);
   // A new estimator has no maps: the photons are traced again for it.

@@ -31,6 +31,11 @@ const char* device_kind_name(DeviceKind kind);
 absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
                                                       size_t memory_budget_bytes);
 
+// OK when the engine renders `scene`'s participating media with `settings` (every scene without
+// media), else UNIMPLEMENTED naming what does not trace through them (docs/media.md). Engine::load
+// and set_settings refuse what this refuses.
+absl::Status media_support(const Scene& scene, const RenderSettings& settings);
+
 struct EngineOptions {
   DeviceKind device = DeviceKind::kCpu;
   size_t memory_budget_bytes = size_t(8) << 30;

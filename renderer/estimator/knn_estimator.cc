@@ -7,32 +7,37 @@
 
 namespace caustica {
 
-void KnnEstimator::prepare(Backend& backend, const ResidentScene&, const TracedPhotons& photons,
-                           uint32_t pass) {
+void KnnEstimator::prepare(Backend& backend, const ResidentScene& scene,
+                           const TracedPhotons& photons, uint32_t pass) {
   maps_.reset();  // frees the old maps before the new ones are allocated
   const uint32_t per_leaf =
       photons_per_leaf_for(backend.kind(), options_.k_nearest, options_.photons_per_leaf);
   maps_ = Maps{pass, build_photon_map(backend, photons.caustic, per_leaf),
-               build_photon_map(backend, photons.global, per_leaf)};
+               build_photon_map(backend, photons.global, per_leaf), VolumeMap{}};
+  // Bandwidths are capped where the gathers' radius is by default: 5% of the scene's diagonal.
+  maps_->volume = build_volume_map(backend, photons.volume, per_leaf, kVolumeNearest,
+                                   0.05f * length(scene.bounds().extent()));
 }
 
 void KnnEstimator::render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,
                           const ShadingSettings& shading, Film& film) {
   const std::optional<Maps> maps = std::move(maps_);
   maps_.reset();
+  ShadingSettings with_volume = shading;
+  with_volume.volume = maps->volume.view();
   if (options_.final_gather) {
     FinalGatherSettings gather;
     gather.rays = options_.final_gather_rays;
     gather.seeds = options_.final_gather_seeds;
-    render_pass(backend, scene, camera, shading,
+    render_pass(backend, scene, camera, with_volume,
                 FinalGather(scene, camera, maps->caustic, maps->global, gather), film);
   } else {
-    render_pass(backend, scene, camera, shading, KnnGather(maps->caustic, maps->global), film);
+    render_pass(backend, scene, camera, with_volume, KnnGather(maps->caustic, maps->global), film);
   }
 }
 
 size_t KnnEstimator::map_bytes() const {
-  return maps_ ? maps_->caustic.bytes() + maps_->global.bytes() : 0;
+  return maps_ ? maps_->caustic.bytes() + maps_->global.bytes() + maps_->volume.bytes() : 0;
 }
 
 }  // namespace caustica

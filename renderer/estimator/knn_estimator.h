@@ -1,13 +1,15 @@
 // The k-nearest-neighbour estimator (settings.estimator "knn", the default): fresh caustic and
 // global maps every pass, each diffuse hit of the camera's specular trees estimated from its k
 // nearest photons in both (render/whitted.h), or with final gathering for the indirect light
-// (final_gather.h), the passes averaged by the film. Nothing lives across passes.
+// (final_gather.h), the passes averaged by the film; camera rays through participating media
+// gather from a volume map (volume_map.h). Nothing lives across passes.
 #pragma once
 
 #include <optional>
 
 #include "renderer/estimator/estimator.h"
 #include "renderer/photon/photon_map.h"
+#include "renderer/photon/volume_map.h"
 
 namespace caustica {
 
@@ -27,6 +29,7 @@ class KnnEstimator final : public Estimator {
   struct Maps {
     uint32_t pass;
     PhotonMap caustic, global;
+    VolumeMap volume;  // empty without media
   };
   EstimatorOptions options_;
   std::optional<Maps> maps_;

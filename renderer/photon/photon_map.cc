@@ -1,5 +1,7 @@
 #include "renderer/photon/photon_map.h"
 
+#include <utility>
+
 #include "renderer/accel/bvh_build.h"
 #include "renderer/accel/curve_order.h"
 #include "renderer/parallel/parallel_for.h"
@@ -31,7 +33,8 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
 }
 
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
-                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes) {
+                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes,
+                           Buffer<uint32_t>* leaf_codes_out) {
   PhotonMap map;
   map.node_layout = nodes;
   map.pair_nodes.bind(backend);
@@ -82,6 +85,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
     map.pair_nodes = encode_sibling_pairs(backend, map.bvh, map.bvh.bounds);
     map.bvh.nodes = Buffer<BvhNode>(backend, 0);
   }
+  if (leaf_codes_out != nullptr) *leaf_codes_out = std::move(leaf_codes);
   return map;
 }
 

@@ -104,8 +104,11 @@ struct PhotonMap {
 // Sorts `photons` along `curve` (by default the backend's, backend_curve) and builds the hierarchy
 // over runs of `photons_per_leaf` (>= 1) of them, its nodes stored as `nodes` says (by default
 // kDefaultPhotonMapNodes).
+// `leaf_codes`, when given, gets each leaf's curve code, ascending: what a tree over the same
+// leaves with other boxes is built from (volume_map.h).
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
-                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes);
+                           uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes,
+                           Buffer<uint32_t>* leaf_codes = nullptr);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, PhotonMapNodes nodes);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,

@@ -7,6 +7,7 @@
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/rng.h"
+#include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/differentials.h"
 #include "renderer/photon/scattering.h"
@@ -23,7 +24,7 @@ constexpr unsigned kWorkersPerMultiprocessor = 1024;
 // Decorrelates photon streams from camera streams drawn with the same seed and pass.
 constexpr uint32_t kPhotonDomain = 0x5f3759dfu;
 
-enum : uint8_t { kNotStored = 0, kCausticPhoton = 1, kGlobalPhoton = 2 };
+enum : uint8_t { kNotStored = 0, kCausticPhoton = 1, kGlobalPhoton = 2, kVolumePhoton = 3 };
 
 struct EmittedPhoton {
   Ray ray;
@@ -81,7 +82,8 @@ struct PhotonPathState {
   Sampler s;
   uint32_t path;
   uint32_t bounce;
-  bool only_specular;  // no diffuse bounce yet on this path
+  uint32_t medium;     // the one the path's ray travels in (medium.h), or kVacuum
+  bool only_specular;  // no diffuse bounce or scattering in a medium yet on this path
   std::conditional_t<kDifferentials, PhotonDifferentials, NoDifferentials> differentials;
 };
 
@@ -127,17 +129,20 @@ CAUSTICA_HDI void normal_differentials(const ResidentSceneView& scene, const Hit
   }
 }
 
-// Where a path's stored photons go: its first kSlotsPerPath in slots of its own, in path order
-// with no atomics; the rare later ones (Russian roulette ends nearly every path sooner) appended
-// to an overflow list with their path and bounce as a sort key, so that their order too follows
-// from the paths alone.
+// Where a path's stored photons go: its first kSlotsPerPath in slots of its own (one per
+// interaction from `first_slot_bounce`: a path stores nothing at its first surface hit, which
+// shadow rays light, but may at its first collision in a medium), in path order with no atomics;
+// the rare later ones (Russian roulette ends nearly every path sooner) appended to an overflow list
+// with their path and bounce as a sort key, so that their order too follows from the paths alone.
 constexpr uint32_t kSlotsPerPath = 7;
 
 struct PhotonStores {
   Photon* slot;
   uint8_t* caustic_flag;
   uint8_t* global_flag;
+  uint8_t* volume_flag;  // null when the scene has no media
   uint32_t slots_per_path;
+  uint32_t first_slot_bounce;
   Photon* overflow;
   uint64_t* overflow_key;
   uint8_t* overflow_kind;
@@ -147,13 +152,15 @@ struct PhotonStores {
   PhotonFootprint* slot_footprint;
   PhotonFootprint* overflow_footprint;
 
-  CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon, bool caustic,
+  CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon, uint8_t kind,
                           const PhotonFootprint& footprint) const {
-    if (bounce <= slots_per_path) {
-      const size_t k = size_t(path) * slots_per_path + (bounce - 1);
+    if (bounce - first_slot_bounce < slots_per_path) {
+      const size_t k = size_t(path) * slots_per_path + (bounce - first_slot_bounce);
       slot[k] = photon;
       if (slot_footprint != nullptr) slot_footprint[k] = footprint;
-      (caustic ? caustic_flag : global_flag)[k] = 1;
+      (kind == kCausticPhoton  ? caustic_flag
+       : kind == kGlobalPhoton ? global_flag
+                               : volume_flag)[k] = 1;
       return;
     }
     const uint32_t at = atomic_fetch_add(overflow_count, 1u);
@@ -161,7 +168,7 @@ struct PhotonStores {
     overflow[at] = photon;
     if (overflow_footprint != nullptr) overflow_footprint[at] = footprint;
     overflow_key[at] = uint64_t(path) << 32 | bounce;
-    overflow_kind[at] = caustic ? kCausticPhoton : kGlobalPhoton;
+    overflow_kind[at] = kind;
   }
 };
 
@@ -189,6 +196,7 @@ struct PhotonPathInputs {
     p.power = e.power * (inv_count / choice_pdf);
     p.only_specular = true;
     p.bounce = 0;
+    p.medium = scene.media.scene_medium;  // lights stand outside every shape
     if constexpr (kDifferentials)
       p.differentials = emission_differentials(light, e, choice_pdf, radius);
   }
@@ -197,6 +205,31 @@ struct PhotonPathInputs {
   // path on; false when the path ends there.
   template <bool kDifferentials>
   CAUSTICA_HDI bool bounce(PhotonPathState<kDifferentials>& p, const Hit& hit) const {
+    if (p.medium != kVacuum) {
+      // A collision in the medium before the surface: a volume photon there with the flux the
+      // medium scatters (the extinguished flux times the albedo, Fabianowski 2011 eq. 7.1), then
+      // Russian roulette on the albedo and a new direction from the phase function.
+      const DeviceMedium& md = scene.media.media[p.medium];
+      const MediumSpan span =
+          medium_span(scene.media, p.medium, p.ray.origin, p.ray.direction, hit.t);
+      const FreeFlight flight = sample_free_flight(md, span, p.s.next_float());
+      p.power *= flight.weight;
+      if (flight.collided) {
+        const Vec3f x = p.ray.origin + p.ray.direction * flight.t;
+        stores.store(p.path, p.bounce, Photon{x, p.power * md.albedo, -p.ray.direction},
+                     kVolumePhoton, PhotonFootprint{});
+        const float survive = average(md.albedo);
+        if (!(p.s.next_float() < survive)) return false;
+        p.power = p.power * md.albedo / survive;
+        p.ray.origin = x;
+        p.ray.direction =
+            sample_henyey_greenstein(p.ray.direction, md.g, p.s.next_float(), p.s.next_float());
+        p.ray.t_min = 0.0f;
+        p.ray.t_max = FLT_MAX;
+        p.only_specular = false;
+        return ++p.bounce < max_bounces;
+      }
+    }
     if (!hit.valid()) return false;
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
@@ -209,8 +242,8 @@ struct PhotonPathInputs {
         PhotonFootprint footprint{};
         if constexpr (kDifferentials)
           footprint = {p.differentials.dz1 * spacing, p.differentials.dz2 * spacing};
-        stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d}, p.only_specular,
-                     footprint);
+        stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d},
+                     p.only_specular ? kCausticPhoton : kGlobalPhoton, footprint);
       }
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;
@@ -238,7 +271,11 @@ struct PhotonPathInputs {
       DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
       float fr = fresnel_dielectric(side.cos_i, side.eta);
       const bool reflects = p.s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir);
-      if (reflects) next_dir = reflect(d, side.normal);
+      if (reflects) {
+        next_dir = reflect(d, side.normal);
+      } else {
+        p.medium = medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal);
+      }
       if constexpr (kDifferentials) {
         Vec3f dn1, dn2;
         normal_differentials(scene, hit, sh, p.differentials, dn1, dn2);
@@ -277,7 +314,7 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
   PhotonPathState* first = wave.data();
   const PhotonPathInputs in = inputs;
   parallel_for(backend, "photon_wave_start", count, [=] CAUSTICA_HD(size_t i) {
-    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, true, {}};
+    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, kVacuum, true, {}};
     in.start(p, uint32_t(i));
     first[i] = p;
   });
@@ -312,8 +349,8 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
                               const PhotonPathInputs& in, uint32_t count, bool regenerate,
                               uint32_t workers, uint32_t* next) {
   const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
-    PhotonPathState<kDifferentials> p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0,
-                                      true,  {}};
+    PhotonPathState<kDifferentials> p{
+        Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, kVacuum, true, {}};
     in.start(p, uint32_t(worker));
     // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
     // end do not wait at the inner loop's exit for the others.
@@ -338,22 +375,27 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   out.global.bind(backend);
   out.caustic_footprints.bind(backend);
   out.global_footprints.bind(backend);
+  out.volume.bind(backend);
   const ResidentSceneView scene = resident.view();
-  // A photon is stored at its second hit at the earliest (first hits are direct light), so a
-  // path of one hit stores nothing.
-  if (settings.photon_count == 0 || settings.max_bounces < 2 || scene.light_count == 0 ||
-      scene.total_power <= 0)
+  // A photon is stored at a surface at its second hit at the earliest (first hits are direct
+  // light), so without media a path of one hit stores nothing; in a medium its first collision is
+  // stored.
+  const bool media = scene.media.any();
+  const uint32_t first_slot_bounce = media ? 0 : 1;
+  if (settings.photon_count == 0 || settings.max_bounces < first_slot_bounce + 1 ||
+      scene.light_count == 0 || scene.total_power <= 0)
     return out;
   out.emitted = settings.photon_count;
 
   const uint32_t max_bounces = settings.max_bounces;
   const uint32_t count = settings.photon_count;
-  // Slots for each path's first stores (a photon at every hit after the first).
-  const uint32_t per_path = std::min(max_bounces - 1, kSlotsPerPath);
+  // Slots for each path's first stores (a photon at every interaction from the first stored).
+  const uint32_t per_path = std::min(max_bounces - first_slot_bounce, kSlotsPerPath);
   const size_t slots = size_t(count) * per_path;
   Buffer<Photon> slot_photons(backend, slots);
   Buffer<uint8_t> caustic_flags(backend, slots);
   Buffer<uint8_t> global_flags(backend, slots);
+  Buffer<uint8_t> volume_flags(backend, media ? slots : 0);
   const bool footprints = settings.differentials;
   Buffer<PhotonFootprint> slot_footprints(backend, footprints ? slots : 0);
   // Room for the later stores: a path stores past its slots only when roulette spares it through
@@ -388,6 +430,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   while (true) {
     caustic_flags.fill_zero();
     global_flags.fill_zero();
+    volume_flags.fill_zero();
     overflow_counter.fill_zero();
     overflow.resize_discard(overflow_room);
     overflow_keys.resize_discard(overflow_room);
@@ -398,7 +441,9 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     const PhotonStores stores{slot_photons.data(),
                               caustic_flags.data(),
                               global_flags.data(),
+                              media ? volume_flags.data() : nullptr,
                               per_path,
+                              first_slot_bounce,
                               overflow.data(),
                               overflow_keys.data(),
                               overflow_kinds.data(),
@@ -437,6 +482,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   // The overflow in path and bounce order, its kinds alongside.
   Buffer<uint32_t> overflow_order(backend, overflowed);
   Buffer<uint8_t> caustic_overflow(backend, overflowed), global_overflow(backend, overflowed);
+  Buffer<uint8_t> volume_overflow(backend, media ? overflowed : 0);
   {
     uint32_t* order = overflow_order.data();
     parallel_for(backend, "photon_overflow_order", overflowed,
@@ -445,9 +491,11 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     const uint8_t* kind = overflow_kinds.data();
     uint8_t* caustic = caustic_overflow.data();
     uint8_t* global = global_overflow.data();
+    uint8_t* volume = media ? volume_overflow.data() : nullptr;
     parallel_for(backend, "photon_overflow_kinds", overflowed, [=] CAUSTICA_HD(size_t i) {
       caustic[i] = kind[order[i]] == kCausticPhoton;
       global[i] = kind[order[i]] == kGlobalPhoton;
+      if (volume != nullptr) volume[i] = kind[order[i]] == kVolumePhoton;
     });
   }
 
@@ -479,6 +527,10 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   };
   compact(caustic_flags, caustic_overflow, out.caustic, out.caustic_footprints);
   compact(global_flags, global_overflow, out.global, out.global_footprints);
+  if (media) {
+    Buffer<PhotonFootprint> no_footprints(backend, 0);
+    compact(volume_flags, volume_overflow, out.volume, no_footprints);
+  }
   return out;
 }
 

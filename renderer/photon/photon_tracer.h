@@ -27,6 +27,9 @@ struct PhotonTraceSettings {
 struct TracedPhotons {
   Buffer<Photon> caustic;
   Buffer<Photon> global;
+  // Collisions in participating media: where the photon was stopped, the flux scattered there
+  // and the direction back along the way it came. Empty without media.
+  Buffer<Photon> volume;
   // With PhotonTraceSettings::differentials, each stored photon's footprint, in the same order.
   Buffer<PhotonFootprint> caustic_footprints;
   Buffer<PhotonFootprint> global_footprints;

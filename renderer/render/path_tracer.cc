@@ -7,6 +7,7 @@
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
+#include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/scattering.h"
 #include "renderer/render/visible_points.h"
@@ -35,7 +36,7 @@ CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, fl
 template <typename Structure>
 CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Structure& structure,
                                      Vec3f p, Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
-                                     Sampler& s) {
+                                     uint32_t medium, Sampler& s) {
   const AreaLightPoint y = draw_area_light_point(scene, p, s);
   if (!(y.dist2 > 0.0f)) return Vec3f(0.0f);
   const float cos_x = dot(normal, y.wi);
@@ -46,7 +47,51 @@ CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Struc
   if (any_hit(structure, shadow_ray(offset_origin(p, geometric_normal, y.wi), y.position, 1e-3f)))
     return Vec3f(0.0f);
   const float weight = power_heuristic(light_pdf, cos_x * kInvPi);
-  return albedo * y.light->color * (kInvPi * cos_x * weight / light_pdf);
+  return albedo * y.light->color *
+         transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
+         (kInvPi * cos_x * weight / light_pdf);
+}
+
+// The light scattered at `x`, inside `medium`, towards where `travel` came from: one shadow ray
+// to every point, spot and directional light and one to a point on an area light, the latter
+// weighed against the phase function's sampling that could have found the same point. Each is
+// attenuated by the transmittance of its way through the medium.
+template <typename Structure>
+CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structure& structure,
+                                   Vec3f x, Vec3f travel, uint32_t medium, float scene_radius,
+                                   Sampler& s) {
+  const float g = scene.media.media[medium].g;
+  Vec3f sum(0.0f);
+  for (uint32_t i = 0; i < scene.light_count; ++i) {
+    const DeviceLight& l = scene.lights[i];
+    if (l.type == DeviceLightType::kArea) continue;
+    const WayToLight way = way_to_light(l, x, scene_radius);
+    if (!(way.scale > 0.0f)) continue;
+    if (any_hit(structure, shadow_ray(x, way.light_point, 1e-3f))) continue;
+    sum += l.color * transmittance_along(scene.media, medium, x, way.wi, way.dist) *
+           (henyey_greenstein(dot(way.wi, travel), g) * way.scale);
+  }
+  if (scene.area_light_count > 0) {
+    const AreaLightPoint y = draw_area_light_point(scene, x, s);
+    if (y.dist2 > 0.0f && y.cos_light > 0.0f) {
+      const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
+      const float phase = henyey_greenstein(dot(y.wi, travel), g);
+      if (light_pdf > 0.0f && !any_hit(structure, shadow_ray(x, y.position, 1e-3f))) {
+        sum += y.light->color * transmittance_along(scene.media, medium, x, y.wi, sqrtf(y.dist2)) *
+               (phase * power_heuristic(light_pdf, phase) / light_pdf);
+      }
+    }
+  }
+  return sum;
+}
+
+// Russian roulette after bounce `bounce`: whether the path goes on, its throughput rescaled.
+CAUSTICA_HDI bool survives_roulette(uint32_t bounce, Vec3f& throughput, Sampler& s) {
+  if (bounce + 1 < kPathRouletteFrom) return true;
+  const float survive = min_f(kPathSurvivalCap, max_component(throughput));
+  if (!(s.next_float() < survive)) return false;
+  throughput = throughput / survive;
+  return true;
 }
 
 // The radiance a path from the camera along `ray` carries back.
@@ -57,8 +102,31 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
   // The solid-angle pdf of the last bounce's direction when it was a diffuse one, else 0: a light
   // met after it is weighed against the shadow ray that could have found it.
   float bounce_pdf = 0.0f;
+  // The camera stands outside every shape: in the scene-wide medium, where there is one.
+  uint32_t medium = scene.media.scene_medium;
   for (uint32_t bounce = 0; bounce < kPathSafetyBounces; ++bounce) {
     const Hit hit = closest_hit(structure, ray);
+    if (medium != kVacuum) {
+      // A collision before the surface scatters the path there instead.
+      const DeviceMedium& md = scene.media.media[medium];
+      const MediumSpan span = medium_span(scene.media, medium, ray.origin, ray.direction, hit.t);
+      const FreeFlight flight = sample_free_flight(md, span, s.next_float());
+      throughput *= flight.weight;
+      if (flight.collided) {
+        const Vec3f x = ray.origin + ray.direction * flight.t;
+        throughput *= md.albedo;
+        radiance += throughput *
+                    scattered_light(scene, structure, x, ray.direction, medium, scene_radius, s);
+        const Vec3f wi =
+            sample_henyey_greenstein(ray.direction, md.g, s.next_float(), s.next_float());
+        bounce_pdf = henyey_greenstein(dot(wi, ray.direction), md.g);  // f / pdf = 1
+        ray = Ray{};
+        ray.origin = x;
+        ray.direction = wi;
+        if (!survives_roulette(bounce, throughput, s)) break;
+        continue;
+      }
+    }
     if (!hit.valid()) break;  // black background
     const SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
@@ -80,11 +148,11 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         const Vec3f ng =
             dot(d, sh.geometric_normal) < 0.0f ? sh.geometric_normal : -sh.geometric_normal;
         // Point, spot and directional lights: a shadow ray each (no area samples here).
-        radiance += throughput *
-                    direct_light(scene, structure, sh.position, n, ng, m.color, 0, scene_radius, s);
+        radiance += throughput * direct_light(scene, structure, sh.position, n, ng, m.color, 0,
+                                              scene_radius, s, medium);
         if (scene.area_light_count > 0)
-          radiance +=
-              throughput * sample_area_light(scene, structure, sh.position, n, ng, m.color, s);
+          radiance += throughput *
+                      sample_area_light(scene, structure, sh.position, n, ng, m.color, medium, s);
         const Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
         const Vec3f wi = Frame::from_normal(n).to_world(local);
         // A direction under the surface itself (a shading normal tilted from the geometric one)
@@ -112,7 +180,10 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         const float fr = fresnel_dielectric(side.cos_i, side.eta);
         Vec3f next = reflect(d, side.normal);
         Vec3f refracted;
-        if (s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) next = refracted;
+        if (s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) {
+          next = refracted;
+          medium = medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal);
+        }
         bounce_pdf = 0.0f;
         ray = Ray{};
         ray.origin = offset_origin(sh.position, sh.geometric_normal, next);
@@ -122,11 +193,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       case MaterialType::kEmissive:
         break;
     }
-    if (bounce + 1 >= kPathRouletteFrom) {
-      const float survive = min_f(kPathSurvivalCap, max_component(throughput));
-      if (!(s.next_float() < survive)) break;
-      throughput = throughput / survive;
-    }
+    if (!survives_roulette(bounce, throughput, s)) break;
   }
   return radiance;
 }

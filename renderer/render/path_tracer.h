@@ -4,8 +4,11 @@
 // point, spot and directional lights are reached by shadow rays alone (next-event estimation),
 // area lights both by a shadow ray to a point drawn on one of them and by the paths that hit
 // them, the two weighed by the power heuristic (Veach 1997, multiple importance sampling).
-// Russian roulette ends paths by their throughput; a bounce cap only stops the rare path that
-// roulette keeps alive between lossless mirrors. One source for both backends.
+// In participating media a free flight before each surface hit may scatter the path by the phase
+// function instead, with shadow rays to the lights from there; every shadow ray is attenuated by
+// the transmittance of its way (docs/media.md). Russian roulette ends paths by their throughput;
+// a bounce cap only stops the rare path that roulette keeps alive between lossless mirrors. One
+// source for both backends.
 #pragma once
 
 #include "renderer/parallel/backend.h"

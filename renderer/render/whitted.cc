@@ -1,5 +1,6 @@
 #include "renderer/render/whitted.h"
 
+#include <stdexcept>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -23,6 +24,7 @@ struct PendingRay {
   Vec3f throughput;
   uint32_t depth;
   uint64_t branch;  // PathRay::branch
+  uint32_t medium;  // the one the ray travels in (medium/medium.h)
 };
 
 // Room for the pending branches of a specular walk, left unconstructed (a walk uses a handful).
@@ -84,22 +86,35 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& s
 }
 
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
-// pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput)` is
-// called at every diffuse hit in a fixed order; emitted light seen along the tree is returned.
-template <typename Structure, typename OnDiffuse>
+// pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput,
+// medium)` is called at every diffuse hit in a fixed order; emitted light seen along the tree is
+// returned, with the light that the stretches through media gather from `volume` (the beam
+// radiance estimate), each branch attenuated by the media it crosses. Without kMedia the scene has
+// none, and the walk compiles to what it was before media, registers and all.
+// `first_beam` is the camera ray's own stretch's beam estimate, gathered beforehand by warps of
+// neighbouring rays together (gather_primary_beams).
+template <bool kMedia, typename Structure, typename OnDiffuse>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
-                                      const Ray& camera_ray, const Hit& first_hit,
-                                      uint32_t max_depth, const BranchRoulette& roulette,
-                                      OnDiffuse on_diffuse) {
+                                      const VolumeMapView& volume, const Ray& camera_ray,
+                                      const Hit& first_hit, Vec3f first_beam, uint32_t max_depth,
+                                      const BranchRoulette& roulette, OnDiffuse on_diffuse) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
-  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0};
+  // The camera stands outside every shape: in the scene-wide medium, where there is one.
+  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0, kMedia ? scene.media.scene_medium : kVacuum};
   bool first = true;
   Vec3f emitted(0.0f);
   while (top > 0) {
     PendingRay pr = stack[--top];
     Hit hit = first ? first_hit : closest_hit(structure, pr.ray);
+    if (kMedia && pr.medium != kVacuum) {
+      const DeviceMedium& md = scene.media.media[pr.medium];
+      const Vec3f o = pr.ray.origin, d = pr.ray.direction;
+      const MediumSpan span = medium_span(scene.media, pr.medium, o, d, hit.t);
+      emitted += pr.throughput * (first ? first_beam : beam_radiance(volume, md, o, d, span));
+      pr.throughput *= transmittance(md, span.length());
+    }
     first = false;
     if (!hit.valid()) continue;  // black background
     SurfaceHit sh = surface_at(scene, hit);
@@ -111,7 +126,11 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
-      stack[top++] = {r, throughput, pr.depth + 1, branch};
+      const uint32_t medium =
+          kMedia && choice == 1
+              ? medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal)
+              : pr.medium;
+      stack[top++] = {r, throughput, pr.depth + 1, branch, medium};
     };
     switch (m.type) {
       case MaterialType::kEmissive:
@@ -119,7 +138,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        on_diffuse(sh, n, m, pr.throughput);
+        on_diffuse(sh, n, m, pr.throughput, kMedia ? pr.medium : kVacuum);
         break;
       }
       case MaterialType::kMirror:
@@ -192,6 +211,30 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
   return hits;
 }
 
+// The beam estimate along every camera ray's stretch to its first hit, where the scene-wide medium
+// holds it, written per pixel. A warp's 8 x 4 neighbouring rays walk the volume map as one search
+// group, so that it reads each node and collision once for all of them (Fabianowski 2011 sec. 7.4
+// found packets of rays the fastest way to gather beams); inside the walks, lanes part ways.
+void gather_primary_beams(Backend& backend, const PassInputs& in, const Hit* primary,
+                          Vec3f* first_beam) {
+  const size_t threads = in.blocks.thread_count();
+  parallel_for(backend, "beam_primary", threads, [=] CAUSTICA_HD(size_t thread) {
+    const SearchGroup group = launch_warp(thread, threads);
+    size_t pixel = 0;
+    const bool in_image = in.blocks.pixel_of(thread, pixel);
+    const uint32_t medium = in.scene.media.scene_medium;
+    Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
+    const Ray ray = in.camera_ray(pixel, s);
+    MediumSpan span;
+    if (in_image && medium != kVacuum)
+      span = medium_span(in.scene.media, medium, ray.origin, ray.direction, primary[pixel].t);
+    const Vec3f beam =
+        beam_radiance(in.cfg.volume, in.scene.media.media[medium == kVacuum ? 0 : medium],
+                      ray.origin, ray.direction, span, group);
+    if (in_image) first_beam[pixel] = beam;
+  });
+}
+
 // Stage 2, with the shadow rays of direct light. The gathers run apart from the paths that need
 // them (a wavefront, as in pbrt-v4): inside one per-pixel kernel, a pixel on the glass sphere
 // made its warp wait through half a dozen gathers while the other lanes idled, and the lanes of a
@@ -199,10 +242,14 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
 // light per pixel, and one gather request per diffuse hit, appended wherever there is room; each
 // request knows its pixel and its place in the pixel's path order. A pixel makes about one
 // request (1.1 in cornell-caustics); when a pass needs more room than it was given, the walks run
-// again with exactly enough (nothing they compute depends on what they wrote before).
-template <typename Structure>
+// again with exactly enough (nothing they compute depends on what they wrote before). kMedia: the
+// scene has participating media (its own launch, so that scenes without keep their registers).
+template <bool kMedia, typename Structure>
 SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                   const PassInputs& in, const Hit* primary) {
+  Buffer<Vec3f> first_beams(backend, kMedia ? in.pixels : 0);
+  if constexpr (kMedia) gather_primary_beams(backend, in, primary, first_beams.data());
+  const Vec3f* first_beam = first_beams.data();
   SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
   Buffer<uint32_t> appended(backend, 1);
   Vec3f* direct_out = out.direct.data();
@@ -215,19 +262,23 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
     const uint32_t room = uint32_t(capacity);
     backend.fill_bytes(next_request, 0, sizeof(uint32_t));
     parallel_for(
-        backend, "specular_walk", in.blocks.thread_count(), [=] CAUSTICA_HD(size_t thread) {
+        backend, kMedia ? "specular_walk_media" : "specular_walk", in.blocks.thread_count(),
+        [=] CAUSTICA_HD(size_t thread) {
           size_t pixel;
           if (!in.blocks.pixel_of(thread, pixel)) return;
           Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
           Vec3f direct(0.0f);
           uint32_t made = 0;
-          Vec3f emitted = walk_specular_tree(
-              in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
+          Vec3f emitted = walk_specular_tree<kMedia>(
+              in.scene, structure, in.cfg.volume, in.camera_ray(pixel, s), primary[pixel],
+              kMedia ? first_beam[pixel] : Vec3f(0.0f), in.max_depth,
               BranchRoulette(in.cfg, uint32_t(pixel)),
-              [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput) {
+              [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput,
+                  uint32_t medium) {
                 direct += throughput * direct_light(in.scene, structure, sh.position, n,
                                                     sh.geometric_normal, m.color,
-                                                    in.cfg.area_light_samples, in.scene_radius, s);
+                                                    in.cfg.area_light_samples, in.scene_radius, s,
+                                                    medium);
                 const uint32_t slot = atomic_fetch_add(next_request, 1u);
                 if (slot < room)
                   request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
@@ -546,6 +597,11 @@ void render_pass_through(const Structure& structure, Backend& backend,
                          const ShadingSettings& settings, const RadianceGather& gather, Film& film,
                          uint32_t* requests) {
   const PassInputs in(resident, camera, settings);
+  if (resident.has_media() && (settings.ray_queues || !StructureView<Structure>)) {
+    throw std::invalid_argument(
+        "participating media: the ray queues do not trace through media yet; render the scene "
+        "with a structure that answers single rays (every one but dacrt)");
+  }
   SpecularPaths paths;
   {
     const Buffer<Hit> primary = trace_camera_rays(backend, structure, in);
@@ -553,7 +609,9 @@ void render_pass_through(const Structure& structure, Backend& backend,
       if (settings.ray_queues) {
         paths = walk_specular_queues(backend, structure, in, primary.data());
       } else {
-        paths = walk_specular_paths(backend, structure, in, primary.data());
+        paths = resident.has_media()
+                    ? walk_specular_paths<true>(backend, structure, in, primary.data())
+                    : walk_specular_paths<false>(backend, structure, in, primary.data());
       }
     } else {
       paths = walk_specular_queues(backend, structure, in, primary.data());

@@ -7,6 +7,7 @@
 #include "renderer/base/rng.h"
 #include "renderer/parallel/backend.h"
 #include "renderer/photon/density_kernel.h"
+#include "renderer/photon/volume_map.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/film.h"
 #include "renderer/resident/resident_scene.h"
@@ -45,6 +46,9 @@ struct ShadingSettings {
   // lossless branches to the depth cap, 0 ends every branch at kBranchRouletteFrom. A tuning knob
   // of the benchmark's.
   float branch_survival = kBranchSurvival;
+  // The pass's volume photon map, which camera rays through media gather from (the beam radiance
+  // estimate); empty when the scene has no media.
+  VolumeMapView volume{};
 };
 
 // A diffuse hit of a camera path, waiting for the photon maps' estimate of its indirect light.
@@ -131,14 +135,41 @@ CAUSTICA_HDI AreaLightPoint draw_area_light_point(const ResidentSceneView& scene
   return y;
 }
 
+// The way from `p` to a point, spot or directional light: the unit direction, a point to aim a
+// shadow ray at (for a directional light, one outside the scene), its distance, and the factor
+// that turns the light's colour into irradiance at p facing it (1 / r^2 and the spot's falloff).
+struct WayToLight {
+  Vec3f wi, light_point;
+  float dist, scale;
+};
+
+CAUSTICA_HDI WayToLight way_to_light(const DeviceLight& l, Vec3f p, float scene_radius) {
+  WayToLight way;
+  if (l.type == DeviceLightType::kDirectional) {
+    way.wi = -l.direction;
+    way.dist = 4.0f * scene_radius;
+    way.light_point = p + way.wi * way.dist;
+    way.scale = 1.0f;
+    return way;
+  }
+  const Vec3f d = l.position - p;
+  way.dist = length(d);
+  way.light_point = l.position;
+  way.wi = d / way.dist;
+  way.scale = 1.0f / (way.dist * way.dist);
+  if (l.type == DeviceLightType::kSpot) way.scale *= spot_falloff(l, -way.wi);
+  return way;
+}
+
 // Direct light at a diffuse point: every point, spot and directional light with one shadow ray
 // each, and `area_samples` shadow rays to area lights chosen by power. `visible(slot, ray)` says
 // whether the shadow ray `ray` (slot: direct_light_slots) reaches its light. `normal` faces the
-// viewer.
+// viewer. In `medium`, each light's share is attenuated by the transmittance of the way to it.
 template <typename Visible>
 CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
                                      Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
-                                     float scene_radius, Sampler& s, Visible visible_slot) {
+                                     float scene_radius, Sampler& s, Visible visible_slot,
+                                     uint32_t medium = kVacuum) {
   Vec3f sum(0.0f);
   const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
@@ -149,23 +180,12 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
   for (uint32_t i = 0; i < scene.light_count; ++i) {
     const DeviceLight& l = scene.lights[i];
     if (l.type == DeviceLightType::kArea) continue;
-    Vec3f wi, light_point;
-    float scale;
-    if (l.type == DeviceLightType::kDirectional) {
-      wi = -l.direction;
-      light_point = p + wi * (4.0f * scene_radius);  // outside the scene, towards the light
-      scale = 1.0f;
-    } else {
-      Vec3f d = l.position - p;
-      float dist = length(d);
-      light_point = l.position;
-      wi = d / dist;
-      scale = 1.0f / (dist * dist);
-      if (l.type == DeviceLightType::kSpot) scale *= spot_falloff(l, -wi);
-    }
-    float cos_theta = dot(normal, wi);
-    if (cos_theta <= 0.0f || scale <= 0.0f) continue;
-    if (visible(i, light_point, wi)) sum += f * l.color * (cos_theta * scale);
+    const WayToLight way = way_to_light(l, p, scene_radius);
+    float cos_theta = dot(normal, way.wi);
+    if (cos_theta <= 0.0f || way.scale <= 0.0f) continue;
+    if (visible(i, way.light_point, way.wi))
+      sum += f * l.color * transmittance_along(scene.media, medium, p, way.wi, way.dist) *
+             (cos_theta * way.scale);
   }
   if (scene.area_light_count > 0 && area_samples > 0) {
     Vec3f area_sum(0.0f);
@@ -175,7 +195,8 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
       float cos_x = dot(normal, y.wi);
       if (cos_x <= 0.0f || y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
       if (!visible(scene.light_count + k, y.position, y.wi)) continue;
-      area_sum += f * l.color * (cos_x * y.cos_light * l.area / (y.dist2 * y.choice_pdf));
+      area_sum += f * l.color * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
+                  (cos_x * y.cos_light * l.area / (y.dist2 * y.choice_pdf));
     }
     sum += area_sum / float(area_samples);
   }
@@ -186,10 +207,11 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
 template <typename Structure>
 CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
                                 Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
-                                uint32_t area_samples, float scene_radius, Sampler& s) {
+                                uint32_t area_samples, float scene_radius, Sampler& s,
+                                uint32_t medium = kVacuum) {
   return direct_light_with(
       scene, p, normal, geometric_normal, albedo, area_samples, scene_radius, s,
-      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); });
+      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); }, medium);
 }
 
 }  // namespace caustica

@@ -9,6 +9,7 @@ namespace caustica {
 
 // Validated scenes must fit the triangle structure's leaf encoding.
 static_assert(kMaxSceneTriangles <= kMaxBvh4Triangles);
+static_assert(kNoMedium == kVacuum, "a mesh without a medium holds vacuum");
 
 namespace {
 
@@ -54,6 +55,18 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
     weight[i] = light_power(light, scene_radius);
     if (area_flag != nullptr) area_flag[i] = light.type == DeviceLightType::kArea;
   });
+}
+
+DeviceMedium to_device_medium(const Medium& m) {
+  DeviceMedium d{};
+  d.kind = MediumKind::kHomogeneous;
+  d.sigma_s = m.scattering;
+  d.sigma_t = m.absorption + m.scattering;
+  for (int c = 0; c < 3; ++c)
+    d.albedo[c] = d.sigma_t[c] > 0.0f ? d.sigma_s[c] / d.sigma_t[c] : 0.0f;
+  d.majorant = max_component(d.sigma_t);
+  d.g = m.asymmetry;
+  return d;
 }
 
 }  // namespace
@@ -106,6 +119,15 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       }
     }
   }
+  std::vector<DeviceMedium> media;
+  for (const Medium& m : scene.media) media.push_back(to_device_medium(m));
+  std::vector<uint32_t> triangle_medium;
+  if (!media.empty()) {
+    triangle_medium.reserve(n);
+    for (const Mesh& m : scene.meshes)
+      triangle_medium.insert(triangle_medium.end(), m.triangle_count(), m.interior_medium);
+  }
+  r.scene_medium_ = media.empty() ? kVacuum : scene.medium;
   std::vector<DeviceMaterial> materials;
   for (const Material& m : scene.materials)
     materials.push_back({m.type, m.color, m.ior, m.radiance});
@@ -120,6 +142,10 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.corner_normals_.upload(corner_normals);
   r.materials_.bind(backend);
   r.materials_.upload(materials);
+  r.media_.bind(backend);
+  r.media_.upload(media);
+  r.triangle_medium_.bind(backend);
+  r.triangle_medium_.upload(triangle_medium);
   r.lights_.bind(backend);
   r.light_cdf_.bind(backend);
   r.area_light_index_.bind(backend);
@@ -188,13 +214,21 @@ ResidentSceneView ResidentScene::view() const {
   v.area_light_count = uint32_t(area_light_index_.size());
   v.total_power = total_power_;
   v.area_light_power = area_light_power_;
+  if (!media_.empty()) {
+    v.media.media = media_.data();
+    v.media.triangle_medium = triangle_medium_.data();
+    v.media.count = uint32_t(media_.size());
+    v.media.scene_medium = scene_medium_;
+    v.media.bounds = bounds();
+  }
   return v;
 }
 
 size_t ResidentScene::bytes() const {
   return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() +
          triangle_area_light_.bytes() + materials_.bytes() + lights_.bytes() + light_cdf_.bytes() +
-         area_light_index_.bytes() + area_light_cdf_.bytes() + structure_.stats().bytes;
+         area_light_index_.bytes() + area_light_cdf_.bytes() + media_.bytes() +
+         triangle_medium_.bytes() + structure_.stats().bytes;
 }
 
 }  // namespace caustica

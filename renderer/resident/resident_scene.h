@@ -8,6 +8,7 @@
 #include "absl/status/statusor.h"
 #include "renderer/accel/structure.h"
 #include "renderer/base/sampling.h"
+#include "renderer/medium/medium.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica {
@@ -61,6 +62,7 @@ struct ResidentSceneView {
   uint32_t area_light_count;
   float total_power;  // sum over lights of average-channel power (W)
   float area_light_power;
+  MediaView media;  // none when the scene has no participating media
 
   // Index of the first CDF bucket whose upper edge exceeds u; cdf[0] = 0, cdf[count] = 1.
   CAUSTICA_HD static uint32_t sample_cdf(const float* cdf, uint32_t count, float u) {
@@ -145,6 +147,7 @@ class ResidentScene {
   Aabb bounds() const { return structure_.bounds(); }
   float radius() const { return 0.5f * length(bounds().extent()); }
   double surface_area() const { return surface_area_; }  // of every triangle
+  bool has_media() const { return !media_.empty(); }
 
  private:
   void rebuild_light_tables();
@@ -160,6 +163,9 @@ class ResidentScene {
   Buffer<float> light_cdf_;
   Buffer<uint32_t> area_light_index_;
   Buffer<float> area_light_cdf_;
+  Buffer<DeviceMedium> media_;
+  Buffer<uint32_t> triangle_medium_;  // only when there are media
+  uint32_t scene_medium_ = kVacuum;
   float total_power_ = 0;
   float area_light_power_ = 0;
   double surface_area_ = 0;

@@ -122,12 +122,13 @@ TEST_F(ServerTest, MalformedUploadsAreRefusedNamingTheProblem) {
          c[0].mutable_header()->mutable_meshes(0)->set_interior_medium(1);
        },
        grpc::StatusCode::INVALID_ARGUMENT, "encloses medium 'fog' but is not closed"},
-      {"a medium, not rendered yet",
+      {"a medium with an estimator that does not render media",
        [&](auto& c) {
          add_fog(c);
          c[0].mutable_header()->set_medium(1);
+         c[0].mutable_header()->mutable_settings()->set_estimator(v1::SPPM);
        },
-       grpc::StatusCode::UNIMPLEMENTED, "participating media"},
+       grpc::StatusCode::UNIMPLEMENTED, "does not render participating media"},
   };
   for (const BadUpload& bad : cases) {
     SCOPED_TRACE(bad.what);

@@ -973,6 +973,10 @@ TEST(GpuParity, BundledScenesPathTraceAlike) {
   EXPECT_GE(scenes.size(), 3u);
   for (auto [name, scene] : scenes) {
     SCOPED_TRACE(name);
+    // In fog, a path's shadow ray to a point or spot light weighs 1 / r^2, whose variance near the
+    // light is unbounded (docs/media.md, "Not done yet"): such a scene's path-traced images are
+    // fireflies that no two backends place alike. fog-box, lit by an area light, is checked.
+    if (!scene.media.empty() && !scene.lights.empty()) continue;
     scene.camera.width = 96;
     scene.camera.height = 72;
     scene.settings.integrator = Integrator::kPath;
@@ -995,6 +999,7 @@ void expect_bundled_scenes_alike(const std::function<void(RenderSettings&)>& set
     scene.settings.photons_per_pass = 50000;
     scene.settings.seed = 9;
     settings(scene.settings);
+    if (!media_support(scene, scene.settings).ok()) continue;  // refused on both backends
     const std::vector<float> gpu = expect_backends_alike(name, scene, passes, what);
     EXPECT_EQ(render_image(scene, DeviceKind::kCuda, passes), gpu) << "GPU run to run";
   }
