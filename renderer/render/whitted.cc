@@ -1,5 +1,6 @@
 #include "renderer/render/whitted.h"
 
+#include <algorithm>
 #include <stdexcept>
 #include <type_traits>
 #include <utility>
@@ -88,16 +89,15 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& s
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
 // pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput,
 // medium)` is called at every diffuse hit in a fixed order; emitted light seen along the tree is
-// returned, with the light that the stretches through media gather from `volume` (the beam
-// radiance estimate), each branch attenuated by the media it crosses. Without kMedia the scene has
-// none, and the walk compiles to what it was before media, registers and all.
-// `first_beam` is the camera ray's own stretch's beam estimate, gathered beforehand by warps of
-// neighbouring rays together (gather_primary_beams).
-template <bool kMedia, typename Structure, typename OnDiffuse>
+// returned. With kMedia, `on_beam(ray, span, medium, throughput)` is called in the same order for
+// every stretch through a medium, whose beam estimate the caller owes the path, and each branch
+// is attenuated by the media it crosses. Without kMedia the scene has none, and the walk compiles
+// to what it was before media, registers and all.
+template <bool kMedia, typename Structure, typename OnDiffuse, typename OnBeam>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
-                                      const VolumeMapView& volume, const Ray& camera_ray,
-                                      const Hit& first_hit, Vec3f first_beam, uint32_t max_depth,
-                                      const BranchRoulette& roulette, OnDiffuse on_diffuse) {
+                                      const Ray& camera_ray, const Hit& first_hit,
+                                      uint32_t max_depth, const BranchRoulette& roulette,
+                                      OnDiffuse on_diffuse, OnBeam on_beam) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
@@ -109,11 +109,12 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
     PendingRay pr = stack[--top];
     Hit hit = first ? first_hit : closest_hit(structure, pr.ray);
     if (kMedia && pr.medium != kVacuum) {
-      const DeviceMedium& md = scene.media.media[pr.medium];
-      const Vec3f o = pr.ray.origin, d = pr.ray.direction;
-      const MediumSpan span = medium_span(scene.media, pr.medium, o, d, hit.t);
-      emitted += pr.throughput * (first ? first_beam : beam_radiance(volume, md, o, d, span));
-      pr.throughput *= transmittance(md, span.length());
+      const MediumSpan span =
+          medium_span(scene.media, pr.medium, pr.ray.origin, pr.ray.direction, hit.t);
+      if (span.length() > 0.0f) {
+        on_beam(pr.ray, span, pr.medium, pr.throughput);
+        pr.throughput *= transmittance(scene.media.media[pr.medium], span.length());
+      }
     }
     first = false;
     if (!hit.valid()) continue;  // black background
@@ -211,27 +212,57 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
   return hits;
 }
 
-// The beam estimate along every camera ray's stretch to its first hit, where the scene-wide medium
-// holds it, written per pixel. A warp's 8 x 4 neighbouring rays walk the volume map as one search
-// group, so that it reads each node and collision once for all of them (Fabianowski 2011 sec. 7.4
-// found packets of rays the fastest way to gather beams); inside the walks, lanes part ways.
-void gather_primary_beams(Backend& backend, const PassInputs& in, const Hit* primary,
-                          Vec3f* first_beam) {
-  const size_t threads = in.blocks.thread_count();
-  parallel_for(backend, "beam_primary", threads, [=] CAUSTICA_HD(size_t thread) {
-    const SearchGroup group = launch_warp(thread, threads);
-    size_t pixel = 0;
-    const bool in_image = in.blocks.pixel_of(thread, pixel);
-    const uint32_t medium = in.scene.media.scene_medium;
-    Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
-    const Ray ray = in.camera_ray(pixel, s);
-    MediumSpan span;
-    if (in_image && medium != kVacuum)
-      span = medium_span(in.scene.media, medium, ray.origin, ray.direction, primary[pixel].t);
-    const Vec3f beam =
-        beam_radiance(in.cfg.volume, in.scene.media.media[medium == kVacuum ? 0 : medium],
-                      ray.origin, ray.direction, span, group);
-    if (in_image) first_beam[pixel] = beam;
+// A stretch of a camera path through a medium, waiting for its beam estimate: `order` is its
+// place among its pixel's stretches in the order the walk met them, `thread` the walk's thread
+// (pixels in 8 x 4 blocks).
+struct BeamRequest {
+  Vec3f origin;
+  float t0;
+  Vec3f direction;
+  float t1;
+  Vec3f throughput;
+  uint32_t medium;
+  uint32_t pixel, thread, order;
+};
+
+// The pass's beam estimates, from the stretches the walks left (`count` per pixel, `total` in
+// `requests`), added to each pixel's light in its walk's order. The stretches go to the gather
+// sorted by their place in their pixel's walk and then by the walk's thread: the camera rays'
+// first stretches together, then the second ones, each in blocks of 8 x 4 pixels, so that the 32
+// lanes of a warp gather neighbouring stretches and walk the volume map as one search group,
+// reading each node and collision once for all of them (Fabianowski 2011 sec. 7.4 found packets
+// of rays the fastest way to gather beams). In a walk's own thread, the stretches behind the
+// glass sphere made its warp wait for its slowest lane (docs/media.md, "Speed").
+void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* requests,
+                  uint32_t total, const uint32_t* count, Vec3f* pixel_light) {
+  if (total == 0) return;
+  Buffer<uint32_t> offsets(backend, in.pixels);
+  backend.exclusive_scan(count, offsets.data(), in.pixels);
+  Buffer<uint64_t> keys(backend, total);
+  Buffer<uint32_t> order(backend, total);
+  uint64_t* key = keys.data();
+  uint32_t* index = order.data();
+  parallel_for(backend, "beam_keys", total, [=] CAUSTICA_HD(size_t i) {
+    key[i] = uint64_t(requests[i].order) << 32 | requests[i].thread;
+    index[i] = uint32_t(i);
+  });
+  backend.sort_pairs(key, index, total, 48);  // orders below 2^16
+  Buffer<Vec3f> values(backend, total);
+  Vec3f* value = values.data();
+  const uint32_t* offset = offsets.data();
+  const VolumeMapView volume = in.cfg.volume;
+  const MediaView media = in.scene.media;
+  parallel_for(backend, "beam_gather", total, [=] CAUSTICA_HD(size_t rank) {
+    const BeamRequest r = requests[index[rank]];
+    const MediumSpan span{r.t0, r.t1};
+    const Vec3f beam = beam_radiance(volume, media.media[r.medium], r.origin, r.direction, span,
+                                     launch_warp(rank, total));
+    value[offset[r.pixel] + r.order] = r.throughput * beam;
+  });
+  parallel_for(backend, "beam_accumulate", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
+    Vec3f sum(0.0f);
+    for (uint32_t b = offset[pixel]; b < offset[pixel] + count[pixel]; ++b) sum += value[b];
+    pixel_light[pixel] += sum;
   });
 }
 
@@ -247,20 +278,26 @@ void gather_primary_beams(Backend& backend, const PassInputs& in, const Hit* pri
 template <bool kMedia, typename Structure>
 SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                   const PassInputs& in, const Hit* primary) {
-  Buffer<Vec3f> first_beams(backend, kMedia ? in.pixels : 0);
-  if constexpr (kMedia) gather_primary_beams(backend, in, primary, first_beams.data());
-  const Vec3f* first_beam = first_beams.data();
   SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
-  Buffer<uint32_t> appended(backend, 1);
+  // Counters of gather requests and (with media) beam requests appended.
+  Buffer<uint32_t> appended(backend, 2);
   Vec3f* direct_out = out.direct.data();
   uint32_t* count = out.counts.data();
   uint32_t* next_request = appended.data();
+  uint32_t* next_beam = appended.data() + 1;
   size_t capacity = size_t(in.cfg.gather_requests_per_pixel) * in.pixels;
+  // With media, the stretches through them: a camera ray's first, and a few behind glass.
+  Buffer<BeamRequest> beams(backend, 0);
+  Buffer<uint32_t> beam_counts(backend, kMedia ? in.pixels : 0);
+  uint32_t* beam_count = beam_counts.data();
+  size_t beam_capacity = kMedia ? 2 * in.pixels : 0;
   while (true) {
     out.requests.resize_discard(capacity);
+    beams.resize_discard(beam_capacity);
     GatherRequest* request = out.requests.data();
-    const uint32_t room = uint32_t(capacity);
-    backend.fill_bytes(next_request, 0, sizeof(uint32_t));
+    BeamRequest* beam = beams.data();
+    const uint32_t room = uint32_t(capacity), beam_room = uint32_t(beam_capacity);
+    backend.fill_bytes(next_request, 0, 2 * sizeof(uint32_t));
     parallel_for(
         backend, kMedia ? "specular_walk_media" : "specular_walk", in.blocks.thread_count(),
         [=] CAUSTICA_HD(size_t thread) {
@@ -268,10 +305,9 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           if (!in.blocks.pixel_of(thread, pixel)) return;
           Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
           Vec3f direct(0.0f);
-          uint32_t made = 0;
+          uint32_t made = 0, beams_made = 0;
           Vec3f emitted = walk_specular_tree<kMedia>(
-              in.scene, structure, in.cfg.volume, in.camera_ray(pixel, s), primary[pixel],
-              kMedia ? first_beam[pixel] : Vec3f(0.0f), in.max_depth,
+              in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
               BranchRoulette(in.cfg, uint32_t(pixel)),
               [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput,
                   uint32_t medium) {
@@ -283,13 +319,32 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                 if (slot < room)
                   request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
                 ++made;
+              },
+              [&](const Ray& ray, const MediumSpan& span, uint32_t medium, Vec3f throughput) {
+                const uint32_t slot = atomic_fetch_add(next_beam, 1u);
+                if (slot < beam_room)
+                  beam[slot] = {ray.origin,      span.t0,          ray.direction,
+                                span.t1,         throughput,       medium,
+                                uint32_t(pixel), uint32_t(thread), beams_made};
+                ++beams_made;
               });
           direct_out[pixel] = emitted + direct;
           count[pixel] = made;
+          if (kMedia) beam_count[pixel] = beams_made;
         });
     out.request_total = backend.exclusive_scan(count, out.offsets.data(), in.pixels);
-    if (out.request_total <= capacity) return out;
-    capacity = out.request_total;
+    uint32_t beam_total = 0;
+    if constexpr (kMedia) {
+      uint32_t appended_now[2];
+      backend.copy_to_host(appended_now, appended.data(), sizeof(appended_now));
+      beam_total = appended_now[1];
+    }
+    if (out.request_total <= capacity && beam_total <= beam_capacity) {
+      if constexpr (kMedia) gather_beams(backend, in, beam, beam_total, beam_count, direct_out);
+      return out;
+    }
+    capacity = std::max<size_t>(capacity, out.request_total);
+    beam_capacity = std::max<size_t>(beam_capacity, beam_total);
   }
 }
 
