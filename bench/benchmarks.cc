@@ -499,9 +499,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
     PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
-    // In a scene with media, the volume map the beam estimate reads, bandwidths capped as the
-    // knn estimator caps them.
-    const float max_bandwidth = 0.05f * length(resident.bounds().extent());
+    // In a scene with media, the volume map the beam estimate reads, as the knn estimator builds
+    // it.
+    const float max_bandwidth = volume_bandwidth_cap(resident.bounds());
     VolumeMap volume =
         build_volume_map(*backend, traced.volume, per_leaf, kVolumeNearest, max_bandwidth);
     if (!traced.volume.empty()) {

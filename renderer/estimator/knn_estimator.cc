@@ -13,10 +13,9 @@ void KnnEstimator::prepare(Backend& backend, const ResidentScene& scene,
   const uint32_t per_leaf =
       photons_per_leaf_for(backend.kind(), options_.k_nearest, options_.photons_per_leaf);
   maps_ = Maps{pass, build_photon_map(backend, photons.caustic, per_leaf),
-               build_photon_map(backend, photons.global, per_leaf), VolumeMap{}};
-  // Bandwidths are capped where the gathers' radius is by default: 5% of the scene's diagonal.
-  maps_->volume = build_volume_map(backend, photons.volume, per_leaf, kVolumeNearest,
-                                   0.05f * length(scene.bounds().extent()));
+               build_photon_map(backend, photons.global, per_leaf),
+               build_volume_map(backend, photons.volume, per_leaf, kVolumeNearest,
+                                volume_bandwidth_cap(scene.bounds()))};
 }
 
 void KnnEstimator::render(Backend& backend, const ResidentScene& scene, const PinholeCamera& camera,

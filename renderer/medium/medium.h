@@ -2,9 +2,9 @@
 // particle stops it (free-flight sampling), how much of it gets through a segment
 // (transmittance), and where it goes when scattered (the Henyey-Greenstein phase function).
 //
-// The seam where media vary: each DeviceMedium carries its kind, and every function here switches
-// on it once per segment, the way pbrt-v4 dispatches its media, never through a virtual call.
-// Homogeneous media are the only kind so far; their sums are closed forms.
+// The seam where media vary: each DeviceMedium carries its kind, for the functions here to switch
+// on once per segment, the way pbrt-v4 dispatches its media, never through a virtual call.
+// Homogeneous media are the only kind so far, so the functions compute their closed forms.
 //
 // Which medium a ray is in follows from where it started and the dielectric boundaries it has
 // crossed since (medium_after_crossing): the scene-wide medium fills the scene's bounds outside
@@ -94,10 +94,6 @@ CAUSTICA_HDI Vec3f exp_negative(Vec3f x) { return {expf(-x.x), expf(-x.y), expf(
 
 // The fraction of light per channel that crosses `distance` of medium `m` unscattered.
 CAUSTICA_HDI Vec3f transmittance(const DeviceMedium& m, float distance) {
-  switch (m.kind) {
-    case MediumKind::kHomogeneous:
-      break;
-  }
   return exp_negative(m.sigma_t * distance);
 }
 
@@ -123,10 +119,6 @@ CAUSTICA_HDI FreeFlight sample_free_flight(const DeviceMedium& m, const MediumSp
   FreeFlight f{false, span.t1, Vec3f(1.0f)};
   const float length = span.length();
   if (!(length > 0.0f) || !(m.majorant > 0.0f)) return f;
-  switch (m.kind) {
-    case MediumKind::kHomogeneous:
-      break;
-  }
   const float s = -log1pf(-u) / m.majorant;  // u in [0, 1): s finite
   if (s < length) {
     f.collided = true;

@@ -27,6 +27,12 @@ namespace caustica {
 // gathers from every sphere along its way, about 3 k / (4 h) per unit of length.
 constexpr uint32_t kVolumeNearest = 24;
 
+// The largest bandwidth a collision takes, where the gathers' radius is capped by default: 5% of
+// the diagonal of the scene's bounds.
+CAUSTICA_HDI float volume_bandwidth_cap(const Aabb& scene_bounds) {
+  return 0.05f * length(scene_bounds.extent());
+}
+
 struct VolumeMapView {
   PhotonMapView points;              // the collisions, their positions and flux in curve order
   const float* bandwidth = nullptr;  // h_j, same order

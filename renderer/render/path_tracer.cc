@@ -31,25 +31,25 @@ CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, fl
          (cos_light * scene.lights[scene.area_lights[a]].area);
 }
 
-// One shadow ray to a point drawn on an area light chosen by power, weighed against the
-// cosine-weighted bounce that could have found the same point. `normal` faces the viewer.
-template <typename Structure>
+// One shadow ray from `p`, inside `medium`, to a point drawn on an area light chosen by power,
+// weighed against the path's own sampling that could have found the same point. `density(wi)` is
+// both what the path scatters towards wi by and the solid-angle pdf it samples wi with (cos / pi
+// off a diffuse surface, the phase function in a medium); `shadow_origin(wi)` where the shadow
+// ray starts. The shadow ray stops just short of the light, whose own triangle must not block it,
+// and its light is attenuated by the transmittance of the way.
+template <typename Structure, typename Density, typename ShadowOrigin>
 CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Structure& structure,
-                                     Vec3f p, Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
-                                     uint32_t medium, Sampler& s) {
+                                     Vec3f p, uint32_t medium, Sampler& s, Density density,
+                                     ShadowOrigin shadow_origin) {
   const AreaLightPoint y = draw_area_light_point(scene, p, s);
-  if (!(y.dist2 > 0.0f)) return Vec3f(0.0f);
-  const float cos_x = dot(normal, y.wi);
-  if (cos_x <= 0.0f || y.cos_light <= 0.0f) return Vec3f(0.0f);
+  if (!(y.dist2 > 0.0f) || y.cos_light <= 0.0f) return Vec3f(0.0f);
+  const float f = density(y.wi);
+  if (!(f > 0.0f)) return Vec3f(0.0f);
   const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
   if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
-  // Stops just short of the light, whose own triangle must not block it.
-  if (any_hit(structure, shadow_ray(offset_origin(p, geometric_normal, y.wi), y.position, 1e-3f)))
-    return Vec3f(0.0f);
-  const float weight = power_heuristic(light_pdf, cos_x * kInvPi);
-  return albedo * y.light->color *
-         transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
-         (kInvPi * cos_x * weight / light_pdf);
+  if (any_hit(structure, shadow_ray(shadow_origin(y.wi), y.position, 1e-3f))) return Vec3f(0.0f);
+  return y.light->color * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
+         (f * power_heuristic(light_pdf, f) / light_pdf);
 }
 
 // The light scattered at `x`, inside `medium`, towards where `travel` came from: one shadow ray
@@ -72,15 +72,9 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
            (henyey_greenstein(dot(way.wi, travel), g) * way.scale);
   }
   if (scene.area_light_count > 0) {
-    const AreaLightPoint y = draw_area_light_point(scene, x, s);
-    if (y.dist2 > 0.0f && y.cos_light > 0.0f) {
-      const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
-      const float phase = henyey_greenstein(dot(y.wi, travel), g);
-      if (light_pdf > 0.0f && !any_hit(structure, shadow_ray(x, y.position, 1e-3f))) {
-        sum += y.light->color * transmittance_along(scene.media, medium, x, y.wi, sqrtf(y.dist2)) *
-               (phase * power_heuristic(light_pdf, phase) / light_pdf);
-      }
-    }
+    sum += sample_area_light(
+        scene, structure, x, medium, s,
+        [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); }, [&](Vec3f) { return x; });
   }
   return sum;
 }
@@ -150,9 +144,13 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         // Point, spot and directional lights: a shadow ray each (no area samples here).
         radiance += throughput * direct_light(scene, structure, sh.position, n, ng, m.color, 0,
                                               scene_radius, s, medium);
-        if (scene.area_light_count > 0)
-          radiance += throughput *
-                      sample_area_light(scene, structure, sh.position, n, ng, m.color, medium, s);
+        if (scene.area_light_count > 0) {
+          radiance += throughput * m.color *
+                      sample_area_light(
+                          scene, structure, sh.position, medium, s,
+                          [&](Vec3f wi) { return dot(n, wi) * kInvPi; },
+                          [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
+        }
         const Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
         const Vec3f wi = Frame::from_normal(n).to_world(local);
         // A direction under the surface itself (a shading normal tilted from the geometric one)

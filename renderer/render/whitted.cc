@@ -225,19 +225,18 @@ struct BeamRequest {
   uint32_t pixel, thread, order;
 };
 
-// The pass's beam estimates, from the stretches the walks left (`count` per pixel, `total` in
-// `requests`), added to each pixel's light in its walk's order. The stretches go to the gather
-// sorted by their place in their pixel's walk and then by the walk's thread: the camera rays'
-// first stretches together, then the second ones, each in blocks of 8 x 4 pixels, so that the 32
-// lanes of a warp gather neighbouring stretches and walk the volume map as one search group,
-// reading each node and collision once for all of them (Fabianowski 2011 sec. 7.4 found packets
-// of rays the fastest way to gather beams). In a walk's own thread, the stretches behind the
-// glass sphere made its warp wait for its slowest lane (docs/media.md, "Speed").
+// The pass's beam estimates, from the stretches the walks left (`count` per pixel starting at
+// `offset`, `total` in `requests`), added to each pixel's light in its walk's order. The stretches
+// go to the gather sorted by their place in their pixel's walk and then by the walk's thread: the
+// camera rays' first stretches together, then the second ones, each in blocks of 8 x 4 pixels, so
+// that the 32 lanes of a warp gather neighbouring stretches and walk the volume map as one search
+// group, reading each node and collision once for all of them (Fabianowski 2011 sec. 7.4 found
+// packets of rays the fastest way to gather beams). In a walk's own thread, the stretches behind
+// the glass sphere made its warp wait for its slowest lane (docs/media.md, "Speed").
 void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* requests,
-                  uint32_t total, const uint32_t* count, Vec3f* pixel_light) {
+                  uint32_t total, const uint32_t* count, const uint32_t* offset,
+                  Vec3f* pixel_light) {
   if (total == 0) return;
-  Buffer<uint32_t> offsets(backend, in.pixels);
-  backend.exclusive_scan(count, offsets.data(), in.pixels);
   Buffer<uint64_t> keys(backend, total);
   Buffer<uint32_t> order(backend, total);
   uint64_t* key = keys.data();
@@ -249,7 +248,6 @@ void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* req
   backend.sort_pairs(key, index, total, 48);  // orders below 2^16
   Buffer<Vec3f> values(backend, total);
   Vec3f* value = values.data();
-  const uint32_t* offset = offsets.data();
   const VolumeMapView volume = in.cfg.volume;
   const MediaView media = in.scene.media;
   parallel_for(backend, "beam_gather", total, [=] CAUSTICA_HD(size_t rank) {
@@ -289,6 +287,7 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
   // With media, the stretches through them: a camera ray's first, and a few behind glass.
   Buffer<BeamRequest> beams(backend, 0);
   Buffer<uint32_t> beam_counts(backend, kMedia ? in.pixels : 0);
+  Buffer<uint32_t> beam_offsets(backend, kMedia ? in.pixels : 0);
   uint32_t* beam_count = beam_counts.data();
   size_t beam_capacity = kMedia ? 2 * in.pixels : 0;
   while (true) {
@@ -333,14 +332,12 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           if (kMedia) beam_count[pixel] = beams_made;
         });
     out.request_total = backend.exclusive_scan(count, out.offsets.data(), in.pixels);
-    uint32_t beam_total = 0;
-    if constexpr (kMedia) {
-      uint32_t appended_now[2];
-      backend.copy_to_host(appended_now, appended.data(), sizeof(appended_now));
-      beam_total = appended_now[1];
-    }
+    const uint32_t beam_total =
+        kMedia ? backend.exclusive_scan(beam_count, beam_offsets.data(), in.pixels) : 0;
     if (out.request_total <= capacity && beam_total <= beam_capacity) {
-      if constexpr (kMedia) gather_beams(backend, in, beam, beam_total, beam_count, direct_out);
+      if constexpr (kMedia) {
+        gather_beams(backend, in, beam, beam_total, beam_count, beam_offsets.data(), direct_out);
+      }
       return out;
     }
     capacity = std::max<size_t>(capacity, out.request_total);
