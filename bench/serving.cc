@@ -108,7 +108,7 @@ absl::Status stream_benchmarks(const BenchOptions& o, client::Connection& connec
 
 absl::Status upload_benchmark(const BenchOptions& o, client::Connection& connection,
                               const Scene& mesh_scene, const std::string& name, Reporter& report) {
-  const double megabytes = wire::mesh_bytes(mesh_scene) / 1e6;
+  const double megabytes = wire::upload_bytes(mesh_scene) / 1e6;
   std::vector<double> transfer_ms, total_ms;
   for (int i = 0; i < o.warmup + o.runs; ++i) {
     v1::SceneInfo info;

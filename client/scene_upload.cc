@@ -17,11 +17,11 @@ absl::StatusOr<v1::SceneInfo> upload_scene(v1::RenderService::StubInterface& stu
   *header.mutable_header() = wire::encode_scene_header(scene, name);
   // A failed Write means the server already ended the call; Finish() says why.
   if (writer->Write(header)) {
-    const uint64_t total = wire::mesh_bytes(scene);
+    const uint64_t total = wire::upload_bytes(scene);
     uint64_t sent = 0;
     if (progress) progress(0, total);
     const bool all_sent =
-        wire::for_each_mesh_chunk(scene, wire::kMaxChunkBytes, [&](v1::SceneChunk& chunk) {
+        wire::for_each_chunk(scene, wire::kMaxChunkBytes, [&](v1::SceneChunk& chunk) {
           if (!writer->Write(chunk)) return false;
           sent += chunk.mesh().data().size();
           if (progress) progress(sent, total);

@@ -124,10 +124,16 @@ v1::Material encode_material(const Material& m) {
 v1::Medium encode_medium(const Medium& m) {
   v1::Medium out;
   out.set_name(m.name);
-  out.set_type(v1::Medium::HOMOGENEOUS);
+  out.set_type(m.type == MediumType::kGrid ? v1::Medium::GRID : v1::Medium::HOMOGENEOUS);
   *out.mutable_absorption() = encode_vec3(m.absorption);
   *out.mutable_scattering() = encode_vec3(m.scattering);
   out.set_g(m.asymmetry);
+  if (m.type == MediumType::kGrid) {
+    out.set_grid_bytes(m.grid != nullptr ? m.grid->size() : 0);
+    for (const auto& row : m.grid_to_scene.m)
+      for (double x : row) out.add_grid_to_scene(x);
+    out.set_grid_source(m.grid_source);
+  }
   return out;
 }
 
@@ -259,15 +265,22 @@ std::array<std::string_view, 5> mesh_arrays(const Mesh& mesh) {
 
 }  // namespace
 
-size_t mesh_bytes(const Scene& scene) {
+// A grid medium's buffer, empty for every other medium.
+std::string_view grid_of(const Medium& m) {
+  if (m.type != MediumType::kGrid || m.grid == nullptr) return {};
+  return std::string_view(reinterpret_cast<const char*>(m.grid->data()), m.grid->size());
+}
+
+size_t upload_bytes(const Scene& scene) {
   size_t total = 0;
   for (const Mesh& mesh : scene.meshes)
     for (std::string_view a : mesh_arrays(mesh)) total += a.size();
+  for (const Medium& m : scene.media) total += grid_of(m).size();
   return total;
 }
 
-bool for_each_mesh_chunk(const Scene& scene, size_t max_chunk_bytes,
-                         const std::function<bool(v1::SceneChunk& chunk)>& emit) {
+bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
+                    const std::function<bool(v1::SceneChunk& chunk)>& emit) {
   max_chunk_bytes = std::clamp<size_t>(max_chunk_bytes, 16 * sizeof(float), kMaxChunkBytes);
   v1::SceneChunk chunk;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
@@ -286,6 +299,18 @@ bool for_each_mesh_chunk(const Scene& scene, size_t max_chunk_bytes,
         mc->set_crc32(chunk_crc32(piece));
         if (!emit(chunk)) return false;
       }
+    }
+  }
+  for (size_t m = 0; m < scene.media.size(); ++m) {
+    const std::string_view bytes = grid_of(scene.media[m]);
+    for (size_t offset = 0; offset < bytes.size(); offset += max_chunk_bytes) {
+      std::string_view piece = bytes.substr(offset, max_chunk_bytes);
+      v1::GridChunk* gc = chunk.mutable_grid();
+      gc->set_medium(static_cast<uint32_t>(m));
+      gc->set_offset(offset);
+      gc->set_data(piece.data(), piece.size());
+      gc->set_crc32(chunk_crc32(piece));
+      if (!emit(chunk)) return false;
     }
   }
   return true;
@@ -473,8 +498,11 @@ absl::Status SceneAssembler::add(const v1::SceneChunk& chunk) {
     case v1::SceneChunk::kMesh:
       status = add_mesh_chunk(chunk.mesh());
       break;
+    case v1::SceneChunk::kGrid:
+      status = add_grid_chunk(chunk.grid());
+      break;
     default:
-      status = absl::InvalidArgumentError("carries neither a header nor a mesh chunk");
+      status = absl::InvalidArgumentError("carries neither a header nor a mesh or grid chunk");
   }
   if (status.ok()) return status;
   return absl::Status(status.code(), absl::StrCat("chunk ", index, ": ", status.message()));
@@ -529,9 +557,21 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     const std::string field = absl::StrCat("media[", i, "]");
     Medium m;
     m.name = in.name().empty() ? absl::StrCat("medium", i) : in.name();
-    if (in.type() != v1::Medium::HOMOGENEOUS) {
-      return invalid(join_field(field, "type"), absl::StrCat(in.type(), " is not a medium type"));
+    if (in.type() != v1::Medium::HOMOGENEOUS && in.type() != v1::Medium::GRID) {
+      return invalid(join_field(field, "type"),
+                     absl::StrCat(in.type(), " is not a medium type (HOMOGENEOUS or GRID)"));
     }
+    m.type = in.type() == v1::Medium::GRID ? MediumType::kGrid : MediumType::kHomogeneous;
+    uint64_t grid_bytes = 0;
+    if (absl::StatusOr<uint64_t> bytes = decode_grid_header(in, field, &m); bytes.ok()) {
+      grid_bytes = *bytes;
+    } else {
+      return bytes.status();
+    }
+    grid_declared_.push_back(grid_bytes);
+    grid_received_.push_back(0);
+    grids_.emplace_back();
+    bytes_declared_ += grid_bytes;
     absl::StatusOr<Vec3f> absorption =
         decode_vec3(in.absorption(), join_field(field, "absorption"));
     if (!absorption.ok()) return absorption.status();
@@ -601,6 +641,71 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     scene_.meshes.push_back(std::move(mesh));
   }
   has_header_ = true;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<uint64_t> SceneAssembler::decode_grid_header(const v1::Medium& in,
+                                                            const std::string& field,
+                                                            Medium* m) const {
+  if (m->type != MediumType::kGrid) {
+    if (in.grid_bytes() != 0 || in.grid_to_scene_size() != 0) {
+      return invalid(join_field(field, "grid_bytes"), "a HOMOGENEOUS medium carries no grid");
+    }
+    return 0;
+  }
+  if (in.grid_bytes() == 0) return invalid(join_field(field, "grid_bytes"), "is 0");
+  if (in.grid_bytes() > kMaxGridBytes) {
+    return absl::ResourceExhaustedError(absl::StrCat(field, ".grid_bytes: ", in.grid_bytes(),
+                                                     " exceeds the limit of ", kMaxGridBytes));
+  }
+  if (in.grid_to_scene_size() != 12) {
+    return invalid(join_field(field, "grid_to_scene"),
+                   absl::StrCat("has ", in.grid_to_scene_size(), " numbers; it takes 12"));
+  }
+  for (int i = 0; i < 12; ++i) {
+    const double x = in.grid_to_scene(i);
+    if (!std::isfinite(x)) {
+      return invalid(join_field(field, "grid_to_scene"),
+                     absl::StrCat("number ", i, " is ", x, ", not finite"));
+    }
+    m->grid_to_scene.m[i / 4][i % 4] = x;
+  }
+  m->grid_source = in.grid_source();
+  return in.grid_bytes();
+}
+
+absl::Status SceneAssembler::add_grid_chunk(const v1::GridChunk& chunk) {
+  if (!has_header_) return invalid("grid", "arrives before the scene header");
+  if (chunk.medium() >= scene_.media.size() ||
+      scene_.media[chunk.medium()].type != MediumType::kGrid) {
+    return invalid("grid.medium", absl::StrCat(chunk.medium(), " is not a GRID medium's index"));
+  }
+  const uint32_t m = chunk.medium();
+  const std::string where = absl::StrCat("medium '", scene_.media[m].name, "' grid");
+  const std::string& data = chunk.data();
+  if (data.size() > kMaxChunkBytes) {
+    return invalid("grid.data", absl::StrCat(where, ": ", data.size(), " bytes exceed the ",
+                                             kMaxChunkBytes, "-byte chunk limit"));
+  }
+  if (data.empty()) return invalid("grid.data", absl::StrCat(where, ": is empty"));
+  if (chunk_crc32(data) != chunk.crc32()) {
+    return invalid("grid.crc32", absl::StrFormat("%s: checksum %08x does not match the data (%08x)",
+                                                 where, chunk.crc32(), chunk_crc32(data)));
+  }
+  uint64_t& received = grid_received_[m];
+  if (chunk.offset() != received) {
+    return invalid("grid.offset", absl::StrCat(where, ": offset ", chunk.offset(), " but ",
+                                               received, " bytes arrived so far"));
+  }
+  if (received + data.size() > grid_declared_[m]) {
+    return invalid("grid.data",
+                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ",
+                                grid_declared_[m], " the header declares"));
+  }
+  if (grids_[m] == nullptr) grids_[m] = std::make_shared<AlignedBytes>(grid_declared_[m]);
+  std::memcpy(grids_[m]->data() + received, data.data(), data.size());
+  received += data.size();
+  bytes_received_ += data.size();
   return absl::OkStatus();
 }
 
@@ -712,6 +817,14 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
                                     expected, " (", kElementBytes[a], " per element)"));
       }
     }
+  }
+  for (size_t m = 0; m < scene_.media.size(); ++m) {
+    if (grid_received_[m] != grid_declared_[m]) {
+      return invalid(absl::StrCat("media[", m, "] '", scene_.media[m].name, "'"),
+                     absl::StrCat("grid has ", grid_received_[m], " bytes but the header declares ",
+                                  grid_declared_[m]));
+    }
+    scene_.media[m].grid = std::move(grids_[m]);
   }
   for (size_t m = 0; m < scene_.meshes.size(); ++m) {
     if (!counts_[m].per_triangle_materials)

@@ -36,12 +36,13 @@ v1::Structure encode_structure(StructureKind kind);
 v1::Integrator encode_integrator(Integrator integrator);
 v1::Estimator encode_estimator(EstimatorKind estimator);
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name);
-// Bytes the mesh chunks of `scene` carry in total.
-size_t mesh_bytes(const Scene& scene);
-// Calls `emit` with every mesh chunk of `scene`, mesh by mesh and array by array, each at most
-// `max_chunk_bytes` of data. Stops early, returning false, when `emit` returns false.
-bool for_each_mesh_chunk(const Scene& scene, size_t max_chunk_bytes,
-                         const std::function<bool(v1::SceneChunk& chunk)>& emit);
+// Bytes the mesh and grid chunks of `scene` carry in total.
+size_t upload_bytes(const Scene& scene);
+// Calls `emit` with every chunk after the header: the mesh chunks mesh by mesh and array by
+// array, then each grid medium's grid chunks, each at most `max_chunk_bytes` of data. Stops
+// early, returning false, when `emit` returns false.
+bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
+                    const std::function<bool(v1::SceneChunk& chunk)>& emit);
 
 // --- wire -> scene model ---
 // `field` is the path reported in errors, e.g. "lights[2]" or "keyframes[4].lights[0]".
@@ -81,7 +82,8 @@ class SceneAssembler {
   const std::string& name() const { return name_; }
   size_t chunks_received() const { return chunks_; }
   size_t bytes_received() const { return bytes_received_; }
-  // Mesh bytes the header announced (what the scene will hold on the host before upload).
+  // Mesh and grid bytes the header announced (what the scene will hold on the host before
+  // upload).
   size_t bytes_declared() const { return bytes_declared_; }
 
  private:
@@ -89,6 +91,10 @@ class SceneAssembler {
   // A medium reference of the header (1 + index, 0 for none) as an index or kNoMedium.
   absl::StatusOr<uint32_t> decode_medium_ref(uint32_t value, const std::string& field) const;
   absl::Status add_mesh_chunk(const v1::MeshChunk& chunk);
+  // A GRID medium's grid size (0 for others), its placement and source copied into `m`.
+  absl::StatusOr<uint64_t> decode_grid_header(const v1::Medium& in, const std::string& field,
+                                              Medium* m) const;
+  absl::Status add_grid_chunk(const v1::GridChunk& chunk);
 
   struct MeshProgress {
     size_t received[5] = {0, 0, 0, 0, 0};  // bytes, by MeshChunk::Array
@@ -98,6 +104,10 @@ class SceneAssembler {
   Scene scene_;
   std::vector<MeshHeaderCounts> counts_;
   std::vector<MeshProgress> progress_;
+  // Per medium: grid bytes declared and received, and the buffer they arrive in.
+  std::vector<uint64_t> grid_declared_;
+  std::vector<uint64_t> grid_received_;
+  std::vector<std::shared_ptr<AlignedBytes>> grids_;
   size_t chunks_ = 0;
   size_t bytes_received_ = 0;
   size_t bytes_declared_ = 0;

@@ -212,7 +212,8 @@ struct PhotonPathInputs {
       const DeviceMedium& md = scene.media.media[p.medium];
       const MediumSpan span =
           medium_span(scene.media, p.medium, p.ray.origin, p.ray.direction, hit.t);
-      const FreeFlight flight = sample_free_flight(md, span, p.s.next_float());
+      const FreeFlight flight = sample_free_flight(md, p.ray.origin, p.ray.direction, span,
+                                                   [&] { return p.s.next_float(); });
       p.power *= flight.weight;
       if (flight.collided) {
         const Vec3f x = p.ray.origin + p.ray.direction * flight.t;

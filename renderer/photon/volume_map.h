@@ -133,7 +133,10 @@ CAUSTICA_HDI void visit_beam_leaves(const VolumeMapView& map, Vec3f origin, Vec3
 
 // The in-scattered radiance the stretch `span` of the ray (origin, unit direction) in medium `m`
 // gathers from the map, as seen from the stretch's start. With a `group`, every member calls it
-// (an empty span takes part in the votes and gathers nothing).
+// (an empty span takes part in the votes and gathers nothing). kGrids: some medium of the scene
+// is a grid, whose transmittance to each collision comes from the stretch's optical depths
+// (chosen per launch, so that scenes without grids keep their registers).
+template <bool kGrids = false>
 CAUSTICA_HDI Vec3f beam_radiance(const VolumeMapView& map, const DeviceMedium& m, Vec3f origin,
                                  Vec3f direction, const MediumSpan& span, SearchGroup group = {}) {
   Vec3f sum(0.0f);
@@ -142,20 +145,32 @@ CAUSTICA_HDI Vec3f beam_radiance(const VolumeMapView& map, const DeviceMedium& m
   const bool gathers = span.length() > 0.0f;
   if (!group.any(gathers)) return sum;
   const float t0 = gathers ? span.t0 : 1.0f, t1 = gathers ? span.t1 : 0.0f;
-  visit_beam_leaves(map, origin, direction, t0, t1, group, [&](uint32_t i) {
-    const Vec3f v = map.points.positions[i] - origin;
-    const float t = dot(v, direction);
-    if (t < t0 || t > t1) return;
-    const float h = map.bandwidth[i];
-    const float h2 = h * h;
-    const float d2 = length_squared(v) - t * t;
-    if (!(d2 < h2)) return;
-    const PhotonFlux flux = map.points.flux_of(i);
-    // Light travelled along -incoming and leaves towards the ray's origin, along -direction.
-    const float cos_theta = dot(decode_octahedral(flux.incoming), direction);
-    const float kernel = 2.0f * kInvPi * (1.0f - d2 / h2) / h2;
-    sum += flux.power * transmittance(m, t - t0) * (kernel * henyey_greenstein(cos_theta, m.g));
-  });
+  auto gather = [&](auto transmittance_to) {
+    visit_beam_leaves(map, origin, direction, t0, t1, group, [&](uint32_t i) {
+      const Vec3f v = map.points.positions[i] - origin;
+      const float t = dot(v, direction);
+      if (t < t0 || t > t1) return;
+      const float h = map.bandwidth[i];
+      const float h2 = h * h;
+      const float d2 = length_squared(v) - t * t;
+      if (!(d2 < h2)) return;
+      const PhotonFlux flux = map.points.flux_of(i);
+      // Light travelled along -incoming and leaves towards the ray's origin, along -direction.
+      const float cos_theta = dot(decode_octahedral(flux.incoming), direction);
+      const float kernel = 2.0f * kInvPi * (1.0f - d2 / h2) / h2;
+      sum += flux.power * transmittance_to(t) * (kernel * henyey_greenstein(cos_theta, m.g));
+    });
+  };
+  if constexpr (kGrids) {
+    const bool grid = m.kind == MediumKind::kGrid;
+    const OpticalDepth depth(grid ? m.grid : DeviceGrid{}, origin, direction,
+                             grid && gathers ? span : MediumSpan{});
+    gather([&](float t) {
+      return grid ? exp_negative(m.sigma_t * depth.at(t)) : transmittance(m, t - t0);
+    });
+  } else {
+    gather([&](float t) { return transmittance(m, t - t0); });
+  }
   return sum;
 }
 

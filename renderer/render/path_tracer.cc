@@ -104,7 +104,8 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       // A collision before the surface scatters the path there instead.
       const DeviceMedium& md = scene.media.media[medium];
       const MediumSpan span = medium_span(scene.media, medium, ray.origin, ray.direction, hit.t);
-      const FreeFlight flight = sample_free_flight(md, span, s.next_float());
+      const FreeFlight flight =
+          sample_free_flight(md, ray.origin, ray.direction, span, [&] { return s.next_float(); });
       throughput *= flight.weight;
       if (flight.collided) {
         const Vec3f x = ray.origin + ray.direction * flight.t;

@@ -113,7 +113,8 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
           medium_span(scene.media, pr.medium, pr.ray.origin, pr.ray.direction, hit.t);
       if (span.length() > 0.0f) {
         on_beam(pr.ray, span, pr.medium, pr.throughput);
-        pr.throughput *= transmittance(scene.media.media[pr.medium], span.length());
+        pr.throughput *=
+            span_transmittance(scene.media.media[pr.medium], pr.ray.origin, pr.ray.direction, span);
       }
     }
     first = false;
@@ -225,6 +226,21 @@ struct BeamRequest {
   uint32_t pixel, thread, order;
 };
 
+// The beam estimate of every request, in the order `index` sorts them, each written to its
+// pixel's `offset` plus its order. kGrids: some medium is a grid (media.grids).
+template <bool kGrids>
+void gather_beam_queue(Backend& backend, const VolumeMapView& volume, const MediaView& media,
+                       const BeamRequest* requests, const uint32_t* index, uint32_t total,
+                       const uint32_t* offset, Vec3f* value) {
+  parallel_for(backend, "beam_gather", total, [=] CAUSTICA_HD(size_t rank) {
+    const BeamRequest r = requests[index[rank]];
+    const MediumSpan span{r.t0, r.t1};
+    const Vec3f beam = beam_radiance<kGrids>(volume, media.media[r.medium], r.origin, r.direction,
+                                             span, launch_warp(rank, total));
+    value[offset[r.pixel] + r.order] = r.throughput * beam;
+  });
+}
+
 // The pass's beam estimates, from the stretches the walks left (`count` per pixel starting at
 // `offset`, `total` in `requests`), added to each pixel's light in its walk's order. The stretches
 // go to the gather sorted by their place in their pixel's walk and then by the walk's thread: the
@@ -250,13 +266,10 @@ void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* req
   Vec3f* value = values.data();
   const VolumeMapView volume = in.cfg.volume;
   const MediaView media = in.scene.media;
-  parallel_for(backend, "beam_gather", total, [=] CAUSTICA_HD(size_t rank) {
-    const BeamRequest r = requests[index[rank]];
-    const MediumSpan span{r.t0, r.t1};
-    const Vec3f beam = beam_radiance(volume, media.media[r.medium], r.origin, r.direction, span,
-                                     launch_warp(rank, total));
-    value[offset[r.pixel] + r.order] = r.throughput * beam;
-  });
+  if (media.grids)
+    gather_beam_queue<true>(backend, volume, media, requests, index, total, offset, value);
+  else
+    gather_beam_queue<false>(backend, volume, media, requests, index, total, offset, value);
   parallel_for(backend, "beam_accumulate", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
     Vec3f sum(0.0f);
     for (uint32_t b = offset[pixel]; b < offset[pixel] + count[pixel]; ++b) sum += value[b];

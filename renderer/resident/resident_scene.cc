@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/scene/density_grid.h"
 #include "renderer/scene/scene_limits.h"
 
 namespace caustica {
@@ -57,19 +58,28 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
   });
 }
 
-DeviceMedium to_device_medium(const Medium& m) {
+}  // namespace
+
+DeviceMedium to_device_medium(const Medium& m, const uint8_t* grid) {
   DeviceMedium d{};
-  d.kind = MediumKind::kHomogeneous;
+  d.kind = m.type == MediumType::kGrid ? MediumKind::kGrid : MediumKind::kHomogeneous;
   d.sigma_s = m.scattering;
   d.sigma_t = m.absorption + m.scattering;
   for (int c = 0; c < 3; ++c)
     d.albedo[c] = d.sigma_t[c] > 0.0f ? d.sigma_s[c] / d.sigma_t[c] : 0.0f;
   d.majorant = max_component(d.sigma_t);
   d.g = m.asymmetry;
+  if (d.kind == MediumKind::kGrid) {
+    const DensityGridFacts facts = density_grid_facts(*m.grid, m.grid_to_scene);
+    d.grid.grid = reinterpret_cast<const nanovdb::FloatGrid*>(grid);
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 4; ++col) d.grid.to_index[row][col] = facts.scene_to_index[row][col];
+    d.grid.bounds = facts.bounds;
+    d.grid.step = facts.step;
+    d.majorant *= facts.max_density;
+  }
   return d;
 }
-
-}  // namespace
 
 ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   ResidentScene r;
@@ -120,7 +130,15 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
     }
   }
   std::vector<DeviceMedium> media;
-  for (const Medium& m : scene.media) media.push_back(to_device_medium(m));
+  for (const Medium& m : scene.media) {
+    const uint8_t* grid = nullptr;
+    if (m.type == MediumType::kGrid) {
+      Buffer<uint8_t>& bytes = r.grids_.emplace_back(backend, 0);
+      bytes.upload(std::span<const uint8_t>(m.grid->data(), m.grid->size()));
+      grid = bytes.data();
+    }
+    media.push_back(to_device_medium(m, grid));
+  }
   std::vector<uint32_t> triangle_medium;
   if (!media.empty()) {
     triangle_medium.reserve(n);
@@ -220,15 +238,18 @@ ResidentSceneView ResidentScene::view() const {
     v.media.count = uint32_t(media_.size());
     v.media.scene_medium = scene_medium_;
     v.media.bounds = bounds();
+    v.media.grids = !grids_.empty();
   }
   return v;
 }
 
 size_t ResidentScene::bytes() const {
+  size_t grid_bytes = 0;
+  for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();
   return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() +
          triangle_area_light_.bytes() + materials_.bytes() + lights_.bytes() + light_cdf_.bytes() +
          area_light_index_.bytes() + area_light_cdf_.bytes() + media_.bytes() +
-         triangle_medium_.bytes() + structure_.stats().bytes;
+         triangle_medium_.bytes() + structure_.stats().bytes + grid_bytes;
 }
 
 }  // namespace caustica

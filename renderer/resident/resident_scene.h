@@ -44,6 +44,10 @@ struct LightSample {
 // A triangle that is no area light (ResidentSceneView::triangle_area_light).
 constexpr uint32_t kNoAreaLight = 0xffffffffu;
 
+// Medium `m` as kernels read it; a grid medium's `grid` is its NanoVDB buffer in the backend's
+// memory.
+DeviceMedium to_device_medium(const Medium& m, const uint8_t* grid);
+
 // Plain pointers for kernels: everything of the scene but its structure, whose view kernels take
 // beside this one (structure.h).
 struct ResidentSceneView {
@@ -148,6 +152,7 @@ class ResidentScene {
   float radius() const { return 0.5f * length(bounds().extent()); }
   double surface_area() const { return surface_area_; }  // of every triangle
   bool has_media() const { return !media_.empty(); }
+  bool has_grid_media() const { return !grids_.empty(); }
 
  private:
   void rebuild_light_tables();
@@ -164,7 +169,8 @@ class ResidentScene {
   Buffer<uint32_t> area_light_index_;
   Buffer<float> area_light_cdf_;
   Buffer<DeviceMedium> media_;
-  Buffer<uint32_t> triangle_medium_;  // only when there are media
+  std::vector<Buffer<uint8_t>> grids_;  // the grid media's NanoVDB buffers, which media_ points at
+  Buffer<uint32_t> triangle_medium_;    // only when there are media
   uint32_t scene_medium_ = kVacuum;
   float total_power_ = 0;
   float area_light_power_ = 0;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include "renderer/base/vec.h"
 #include "renderer/photon/density_kernel.h"
 #include "renderer/photon/estimator_kind.h"
+#include "renderer/scene/affine.h"
 
 namespace caustica {
 
@@ -23,20 +25,43 @@ struct Material {
   Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
 };
 
-enum class MediumType : uint32_t { kHomogeneous = 0 };
+enum class MediumType : uint32_t { kHomogeneous = 0, kGrid = 1 };
+
+// Bytes kept 32-byte aligned, as NanoVDB wants the buffer of a grid.
+class AlignedBytes {
+ public:
+  explicit AlignedBytes(size_t size) : blocks_((size + 31) / 32), size_(size) {}
+  uint8_t* data() { return blocks_.empty() ? nullptr : blocks_.front().bytes; }
+  const uint8_t* data() const { return blocks_.empty() ? nullptr : blocks_.front().bytes; }
+  size_t size() const { return size_; }
+
+ private:
+  struct alignas(32) Block {
+    uint8_t bytes[32];
+  };
+  std::vector<Block> blocks_;
+  size_t size_;
+};
 
 // No medium: vacuum, where light travels unchanged.
 inline constexpr uint32_t kNoMedium = 0xffffffffu;
 
 // A participating medium (docs/scene-format.md, "Media"): per channel, the absorption and the
 // scattering coefficients (per unit of the scene's length), scattered by the Henyey-Greenstein
-// phase function of asymmetry g.
+// phase function of asymmetry g. A grid medium scales both by the density its grid holds at each
+// point, and is empty outside the grid.
 struct Medium {
   std::string name;
   MediumType type = MediumType::kHomogeneous;
-  Vec3f absorption{0, 0, 0};
+  Vec3f absorption{0, 0, 0};  // a grid medium's: per unit of density
   Vec3f scattering{0, 0, 0};
   float asymmetry = 0;  // g in (-1, 1): mean cosine of the scattering angle
+  // kGrid: one NanoVDB float grid as its buffer (density_grid.h reads and checks it), shared
+  // because scenes are copied and grids are large; where it came from, for messages; and where
+  // it stands: a point p of the grid's own space is at grid_to_scene(p) in the scene.
+  std::shared_ptr<const AlignedBytes> grid;
+  std::string grid_source;
+  Affine grid_to_scene;
 };
 
 // One triangle mesh; every triangle refers to a material by index into Scene::materials.

@@ -11,6 +11,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "renderer/accel/structure_kind.h"
+#include "renderer/scene/density_grid.h"
 #include "renderer/scene/json_fields.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
@@ -97,6 +98,28 @@ std::string shape_label(absl::string_view path, absl::string_view scene_name,
   return label;
 }
 
+// One of `choices` (a name and the value it stands for) by the name `key` holds; `what` names
+// the kind in the error, which lists the names.
+template <typename T>
+absl::Status read_choice(JsonObject& object, const char* key, const char* what,
+                         std::initializer_list<std::pair<const char*, T>> choices, T* out) {
+  std::string name;
+  SCENE_RETURN_IF_ERROR(object.read(key, kRequired, &name));
+  std::string expected;
+  size_t i = 0;
+  for (const auto& [choice, value] : choices) {
+    if (name == choice) {
+      *out = value;
+      return absl::OkStatus();
+    }
+    const char* separator = i == 0 ? "" : i + 1 == choices.size() ? " or " : ", ";
+    absl::StrAppend(&expected, separator, choice);
+    ++i;
+  }
+  return invalid_field(object.field_path(key),
+                       absl::StrCat("unknown ", what, " '", name, "' (expected ", expected, ")"));
+}
+
 class SceneReader {
  public:
   explicit SceneReader(const std::filesystem::path& base_dir) : base_dir_(base_dir) {}
@@ -156,19 +179,11 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(object.read_integer("k", kOptional, &s.k_nearest));
     SCENE_RETURN_IF_ERROR(object.read("max_radius", kOptional, &s.max_radius));
     if (object.has("kernel")) {
-      std::string kernel;
-      SCENE_RETURN_IF_ERROR(object.read("kernel", kRequired, &kernel));
-      if (kernel == "uniform") {
-        s.kernel = DensityKernel::kUniform;
-      } else if (kernel == "cone") {
-        s.kernel = DensityKernel::kCone;
-      } else if (kernel == "epanechnikov") {
-        s.kernel = DensityKernel::kEpanechnikov;
-      } else {
-        return invalid_field(
-            object.field_path("kernel"),
-            absl::StrCat("unknown kernel '", kernel, "' (expected uniform, cone or epanechnikov)"));
-      }
+      SCENE_RETURN_IF_ERROR(read_choice(object, "kernel", "kernel",
+                                        {std::pair{"uniform", DensityKernel::kUniform},
+                                         {"cone", DensityKernel::kCone},
+                                         {"epanechnikov", DensityKernel::kEpanechnikov}},
+                                        &s.kernel));
     }
     SCENE_RETURN_IF_ERROR(object.read_integer("max_depth", kOptional, &s.max_depth));
     SCENE_RETURN_IF_ERROR(
@@ -178,17 +193,9 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));
     SCENE_RETURN_IF_ERROR(object.read_integer("seed", kOptional, &s.seed));
     if (object.has("integrator")) {
-      std::string integrator;
-      SCENE_RETURN_IF_ERROR(object.read("integrator", kRequired, &integrator));
-      if (integrator == "photon") {
-        s.integrator = Integrator::kPhoton;
-      } else if (integrator == "path") {
-        s.integrator = Integrator::kPath;
-      } else {
-        return invalid_field(
-            object.field_path("integrator"),
-            absl::StrCat("unknown integrator '", integrator, "' (expected photon or path)"));
-      }
+      SCENE_RETURN_IF_ERROR(read_choice(
+          object, "integrator", "integrator",
+          {std::pair{"photon", Integrator::kPhoton}, {"path", Integrator::kPath}}, &s.integrator));
     }
     if (object.has("estimator")) {
       std::string estimator;
@@ -209,17 +216,10 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(
         object.read_integer("final_gather_seeds", kOptional, &s.final_gather_seeds));
     if (object.has("sppm_radius")) {
-      std::string radius;
-      SCENE_RETURN_IF_ERROR(object.read("sppm_radius", kRequired, &radius));
-      if (radius == "pixel") {
-        s.sppm_radius = SppmRadius::kPixel;
-      } else if (radius == "global") {
-        s.sppm_radius = SppmRadius::kGlobal;
-      } else {
-        return invalid_field(
-            object.field_path("sppm_radius"),
-            absl::StrCat("unknown radius rule '", radius, "' (expected pixel or global)"));
-      }
+      SCENE_RETURN_IF_ERROR(
+          read_choice(object, "sppm_radius", "radius rule",
+                      {std::pair{"pixel", SppmRadius::kPixel}, {"global", SppmRadius::kGlobal}},
+                      &s.sppm_radius));
     }
     if (object.has("structure")) {
       std::string structure;
@@ -292,19 +292,34 @@ class SceneReader {
     SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
     Medium medium;
     medium.name = name;
-    std::string type;
-    SCENE_RETURN_IF_ERROR(object.read("type", kRequired, &type));
-    if (type != "homogeneous") {
-      return invalid_field(object.field_path("type"),
-                           absl::StrCat("unknown medium type '", type, "' (expected homogeneous)"));
-    }
-    medium.type = MediumType::kHomogeneous;
+    SCENE_RETURN_IF_ERROR(read_choice(
+        object, "type", "medium type",
+        {std::pair{"homogeneous", MediumType::kHomogeneous}, {"grid", MediumType::kGrid}},
+        &medium.type));
     SCENE_RETURN_IF_ERROR(object.read("absorption", kRequired, &medium.absorption));
     SCENE_RETURN_IF_ERROR(object.read("scattering", kRequired, &medium.scattering));
     SCENE_RETURN_IF_ERROR(object.read("g", kOptional, &medium.asymmetry));
+    if (medium.type == MediumType::kGrid) SCENE_RETURN_IF_ERROR(read_grid(object, &medium));
     SCENE_RETURN_IF_ERROR(object.finish());
     medium_ids_[name] = static_cast<uint32_t>(scene_.media.size());
     scene_.media.push_back(std::move(medium));
+    return absl::OkStatus();
+  }
+
+  // A grid medium's "file" (a NanoVDB file, relative to the scene file), the "grid" in it to
+  // read (its first by default) and its "transform" into the scene.
+  absl::Status read_grid(JsonObject& object, Medium* medium) {
+    std::string file, grid_name;
+    SCENE_RETURN_IF_ERROR(object.read("file", kRequired, &file));
+    SCENE_RETURN_IF_ERROR(object.read("grid", kOptional, &grid_name));
+    SCENE_ASSIGN_OR_RETURN(const Json* transform, object.find("transform", kOptional));
+    if (transform != nullptr) {
+      SCENE_ASSIGN_OR_RETURN(medium->grid_to_scene,
+                             read_transform(*transform, object.field_path("transform")));
+    }
+    SCENE_ASSIGN_OR_RETURN(
+        medium->grid, read_density_grid(base_dir_ / file, grid_name, object.field_path("file")));
+    medium->grid_source = grid_name.empty() ? file : absl::StrCat(file, " (", grid_name, ")");
     return absl::OkStatus();
   }
 

@@ -25,5 +25,7 @@ inline constexpr size_t kMaxVerticesPerMesh = 100'000'000;
 inline constexpr size_t kMaxSceneTriangles = size_t{1} << 28;
 // What a (possibly compressed) file may expand to in memory; stops gzip bombs.
 inline constexpr size_t kMaxFileBytes = size_t{8} << 30;
+// The largest density grid one medium may hold, as its NanoVDB buffer.
+inline constexpr size_t kMaxGridBytes = size_t{4} << 30;
 
 }  // namespace caustica

@@ -73,6 +73,20 @@ double Affine::determinant() const {
   return m[0][0] * c[0][0] + m[0][1] * c[0][1] + m[0][2] * c[0][2];
 }
 
+Affine Affine::inverse() const {
+  const auto c = cofactors(*this);
+  const double inv_det = 1.0 / determinant();
+  Affine r;
+  // The linear part's inverse is the transposed cofactors over det; the translation follows.
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r.m[i][j] = c[j][i] * inv_det;
+  }
+  for (int i = 0; i < 3; ++i) {
+    r.m[i][3] = -(r.m[i][0] * m[0][3] + r.m[i][1] * m[1][3] + r.m[i][2] * m[2][3]);
+  }
+  return r;
+}
+
 Affine operator*(const Affine& a, const Affine& b) {
   Affine r;
   for (int i = 0; i < 3; ++i) {

@@ -12,6 +12,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "renderer/scene/density_grid.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 
@@ -141,14 +142,26 @@ absl::Status validate_material(const Material& m) {
 
 absl::Status validate_medium(const Medium& m) {
   const std::string field = absl::StrCat("media.", m.name);
-  if (m.type != MediumType::kHomogeneous) return invalid_field(field, "has an unknown type");
+  if (m.type != MediumType::kHomogeneous && m.type != MediumType::kGrid)
+    return invalid_field(field, "has an unknown type");
   SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".absorption"), m.absorption));
   SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".scattering"), m.scattering));
   if (!(std::isfinite(m.asymmetry) && std::fabs(m.asymmetry) < 1)) {
     return invalid_field(absl::StrCat(field, ".g"),
                          absl::StrCat(m.asymmetry, " is outside (-1, 1)"));
   }
-  return absl::OkStatus();
+  if (m.type != MediumType::kGrid) return absl::OkStatus();
+  const std::string grid_field = absl::StrCat(field, ".grid");
+  if (m.grid == nullptr) return invalid_field(grid_field, "is missing: a grid medium needs one");
+  const double det = m.grid_to_scene.determinant();
+  bool finite = std::isfinite(det);
+  for (const auto& row : m.grid_to_scene.m)
+    for (double x : row) finite = finite && std::isfinite(x);
+  if (!finite || det == 0) {
+    return invalid_field(absl::StrCat(field, ".transform"),
+                         "is not an invertible map of finite numbers");
+  }
+  return check_density_grid(*m.grid, grid_field);
 }
 
 // A mesh that encloses a medium must be closed, so that every ray that enters it leaves it: each

@@ -144,7 +144,7 @@ std::vector<v1::SceneChunk> scene_chunks(const Scene& scene, const std::string& 
                                          size_t max_chunk_bytes) {
   std::vector<v1::SceneChunk> chunks(1);
   *chunks[0].mutable_header() = wire::encode_scene_header(scene, name);
-  wire::for_each_mesh_chunk(scene, max_chunk_bytes, [&](v1::SceneChunk& chunk) {
+  wire::for_each_chunk(scene, max_chunk_bytes, [&](v1::SceneChunk& chunk) {
     chunks.push_back(chunk);
     return true;
   });

@@ -462,7 +462,7 @@ TEST_F(ServerTest, ListGetAndDeleteScenes) {
   EXPECT_EQ(info.lights(), 0u);
   EXPECT_EQ(info.camera().width(), 16u);
   EXPECT_EQ(info.settings().photons_per_pass(), 2000u);
-  EXPECT_EQ(info.upload_bytes(), wire::mesh_bytes(scene));
+  EXPECT_EQ(info.upload_bytes(), wire::upload_bytes(scene));
   EXPECT_EQ(info.structure(), "lbvh4");
   EXPECT_GT(info.structure_nodes(), 0u);
   EXPECT_GT(info.structure_bytes(), 0u);

@@ -13,6 +13,7 @@
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/load_scene.h"
 #include "renderer/scene/scene_limits.h"
+#include "tests/renderer/grid_files.h"
 
 namespace caustica::wire {
 namespace {
@@ -29,7 +30,7 @@ Scene bundled(const char* name) {
 std::vector<v1::SceneChunk> encode(const Scene& scene, size_t chunk_bytes) {
   std::vector<v1::SceneChunk> chunks(1);
   *chunks[0].mutable_header() = encode_scene_header(scene, "test");
-  for_each_mesh_chunk(scene, chunk_bytes, [&](v1::SceneChunk& c) {
+  for_each_chunk(scene, chunk_bytes, [&](v1::SceneChunk& c) {
     chunks.push_back(c);
     return true;
   });
@@ -56,13 +57,13 @@ TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
     EXPECT_LE(chunks[i].mesh().data().size(), 4096u);
     data_bytes += chunks[i].mesh().data().size();
   }
-  EXPECT_EQ(data_bytes, mesh_bytes(scene));
+  EXPECT_EQ(data_bytes, upload_bytes(scene));
   EXPECT_GT(chunks.size(), 10u);  // the spheres need several chunks at this size
 
   SceneAssembler assembler;
   for (const v1::SceneChunk& c : chunks) ASSERT_TRUE(assembler.add(c).ok());
-  EXPECT_EQ(assembler.bytes_declared(), mesh_bytes(scene));
-  EXPECT_EQ(assembler.bytes_received(), mesh_bytes(scene));
+  EXPECT_EQ(assembler.bytes_declared(), upload_bytes(scene));
+  EXPECT_EQ(assembler.bytes_received(), upload_bytes(scene));
   absl::StatusOr<Scene> back = assembler.finish();
   ASSERT_TRUE(back.ok()) << back.status();
   ASSERT_EQ(back->meshes.size(), scene.meshes.size());
@@ -420,6 +421,79 @@ INSTANTIATE_TEST_SUITE_P(
         if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
       return name;
     });
+
+// fog-box with its fog a grid medium: a 12^3 block of rising density, turned and moved.
+Scene with_grid_fog() {
+  Scene scene = bundled("fog-box");
+  Medium& fog = scene.media.at(0);
+  fog.type = MediumType::kGrid;
+  fog.grid = test_grids::grid_bytes(test_grids::density_grid(
+      12, 0.5, nanovdb::Vec3d(1.0), [](int i, int j, int k) { return 0.01f * (i + j + k); }));
+  fog.grid_source = "block.nvdb";
+  fog.grid_to_scene = Affine{};
+  fog.grid_to_scene.m[0] = {0.0, -40.0, 0.0, 270.0};
+  fog.grid_to_scene.m[1] = {40.0, 0.0, 0.0, 10.0};
+  fog.grid_to_scene.m[2] = {0.0, 0.0, 40.0, 30.0};
+  return scene;
+}
+
+TEST(SceneWire, AGridMediumArrivesByteForByteWithItsPlacement) {
+  const Scene scene = with_grid_fog();
+  const std::vector<v1::SceneChunk> chunks = encode(scene, 4096);
+  size_t grid_chunks = 0;
+  for (const v1::SceneChunk& c : chunks) {
+    if (!c.has_grid()) continue;
+    EXPECT_LE(c.grid().data().size(), 4096u);
+    ++grid_chunks;
+  }
+  EXPECT_EQ(grid_chunks, (scene.media[0].grid->size() + 4095) / 4096);
+  absl::StatusOr<Scene> back = assemble(chunks);
+  ASSERT_TRUE(back.ok()) << back.status();
+  const Medium& a = scene.media[0];
+  const Medium& b = back->media.at(0);
+  EXPECT_EQ(b.type, MediumType::kGrid);
+  EXPECT_EQ(b.grid_source, "block.nvdb");
+  EXPECT_EQ(b.grid_to_scene.m, a.grid_to_scene.m);
+  ASSERT_NE(b.grid, nullptr);
+  ASSERT_EQ(b.grid->size(), a.grid->size());
+  EXPECT_EQ(0, std::memcmp(b.grid->data(), a.grid->data(), a.grid->size()));
+  EXPECT_EQ(reinterpret_cast<uintptr_t>(b.grid->data()) % 32, 0u);
+}
+
+TEST(SceneWire, BadGridChunksAreRefusedNamingTheirField) {
+  const Scene scene = with_grid_fog();
+  const std::vector<v1::SceneChunk> good = encode(scene, 4096);
+  size_t first_grid = 0;
+  while (!good[first_grid].has_grid()) ++first_grid;
+  auto fails_with = [&](auto&& edit, const std::string& message) {
+    std::vector<v1::SceneChunk> chunks = good;
+    edit(chunks);
+    const absl::Status status = assemble(chunks).status();
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << message;
+    EXPECT_THAT(std::string(status.message()), HasSubstr(message));
+  };
+  fails_with([&](auto& c) { c[first_grid].mutable_grid()->set_medium(3); },
+             "grid.medium: 3 is not a GRID medium's index");
+  fails_with([&](auto& c) { c[first_grid].mutable_grid()->set_crc32(1); },
+             "grid.crc32: medium 'fog' grid: checksum");
+  fails_with([&](auto& c) { std::swap(c[first_grid], c[first_grid + 1]); },
+             "grid.offset: medium 'fog' grid: offset 4096 but 0 bytes arrived so far");
+  fails_with([&](auto& c) { c.pop_back(); }, "media[0] 'fog': grid has");
+  fails_with([&](auto& c) { c[0].mutable_header()->mutable_media(0)->set_grid_bytes(0); },
+             "media[0].grid_bytes: is 0");
+  fails_with([&](auto& c) { c[0].mutable_header()->mutable_media(0)->add_grid_to_scene(1.0); },
+             "media[0].grid_to_scene: has 13 numbers; it takes 12");
+  fails_with(
+      [&](auto& c) { c[0].mutable_header()->mutable_media(0)->set_grid_to_scene(5, std::nan("")); },
+      "media[0].grid_to_scene: number 5 is nan, not finite");
+  fails_with(
+      [&](auto& c) { c[0].mutable_header()->mutable_media(0)->set_type(v1::Medium::HOMOGENEOUS); },
+      "media[0].grid_bytes: a HOMOGENEOUS medium carries no grid");
+  // A grid larger than the limit is refused from its header, before anything is allocated.
+  std::vector<v1::SceneChunk> huge = good;
+  huge[0].mutable_header()->mutable_media(0)->set_grid_bytes(kMaxGridBytes + 1);
+  EXPECT_EQ(assemble(huge).status().code(), absl::StatusCode::kResourceExhausted);
+}
 
 }  // namespace
 }  // namespace caustica::wire

@@ -351,7 +351,18 @@ std::vector<Edit> edits() {
        {"media.fog.scattering: is required"}},
       {"UnknownMediumType",
        {add_media(R"("fog": {"type": "smoke", "absorption": [0, 0, 0], "scattering": [1, 1, 1]})")},
-       {"media.fog.type: unknown medium type 'smoke' (expected homogeneous)"}},
+       {"media.fog.type: unknown medium type 'smoke' (expected homogeneous or grid)"}},
+      {"GridWithoutFile",
+       {add_media(R"("fog": {"type": "grid", "absorption": [0, 0, 0], "scattering": [1, 1, 1]})")},
+       {"media.fog.file: is required"}},
+      {"MissingGridFile",
+       {add_media(
+           R"("fog": {"type": "grid", "file": "no-such.nvdb", "absorption": [0, 0, 0], "scattering": [1, 1, 1]})")},
+       {"media.fog.file (", "no-such.nvdb): file not found"}},
+      {"GridKeyOnAHomogeneousMedium",
+       {add_media(
+           R"("fog": {"type": "homogeneous", "file": "a.nvdb", "absorption": [0, 0, 0], "scattering": [1, 1, 1]})")},
+       {"media.fog.file: unknown key"}},
       {"UnknownMediumKey",
        {add_media(
            R"("fog": {"type": "homogeneous", "absorption": [0, 0, 0], "scattering": [1, 1, 1], "density": 2})")},
