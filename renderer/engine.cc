@@ -62,8 +62,8 @@ absl::Status no_cuda_backend() {
 
 }  // namespace
 
-// Participating media render with the path integrator and the knn estimator's beam radiance
-// estimate; the other estimators would render a scene with media as if they were not there.
+// Participating media render with the path integrator and the beam radiance estimate of the knn
+// and vkde estimators; sppm would render a scene with media as if they were not there.
 absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
   if (scene.media.empty()) return absl::OkStatus();
   if (rs.structure == StructureKind::kDacrt) {
@@ -72,11 +72,11 @@ absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
         "through participating media yet; choose another structure");
   }
   if (rs.integrator == Integrator::kPath) return absl::OkStatus();
-  if (rs.estimator != EstimatorKind::kKnn) {
+  if (rs.estimator != EstimatorKind::kKnn && rs.estimator != EstimatorKind::kVkde) {
     return absl::UnimplementedError(absl::StrCat(
         "media: the ", estimator_kind_name(rs.estimator),
-        " estimator does not render participating media yet; the knn estimator and the path "
-        "integrator do"));
+        " estimator does not render participating media yet; the knn and vkde estimators and the "
+        "path integrator do"));
   }
   if (rs.final_gather) {
     return absl::UnimplementedError(

@@ -1,8 +1,10 @@
 #include "renderer/estimator/vkde_estimator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
+#include "renderer/estimator/knn_gather.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/vkde_photons.h"
 
@@ -24,6 +26,16 @@ VkdeSettings vkde_settings(const EstimatorOptions& options, float scene_radius) 
                                         : std::sqrt(float(options.k_nearest) / (2.0f * kPi));
   s.pivot = scene_radius;
   s.max_axis = scene_radius / 8.0f;
+  return s;
+}
+
+VolumeKernelSettings volume_kernel_settings(float scene_radius, const Aabb& scene_bounds,
+                                            uint32_t photons) {
+  VolumeKernelSettings s;
+  s.spread = std::cbrt(3.0f * float(kVolumeNearest) / (4.0f * kPi));
+  s.pivot = kVolumePivotScale * scene_radius;
+  s.max_bandwidth = volume_bandwidth_cap(scene_bounds);
+  s.photons = photons;
   return s;
 }
 
@@ -49,7 +61,8 @@ void VkdeGather::gather(Backend& backend, const GatherRequests& requests,
 
 void VkdeEstimator::prepare(Backend& backend, const ResidentScene& scene,
                             const TracedPhotons& photons, uint32_t pass) {
-  map_.reset();  // frees the old map before the new one is allocated
+  map_.reset();  // frees the old maps before the new ones are allocated
+  volume_.reset();
   const VkdeSettings settings = vkde_settings(options_, scene.radius());
   const VkdeKernels made = make_vkde_kernels(backend, photons, settings);
   // Fabianowski's n_auto unless the leaf size is set (a benchmark's knob).
@@ -58,6 +71,11 @@ void VkdeEstimator::prepare(Backend& backend, const ResidentScene& scene,
           ? options_.photons_per_leaf
           : kernel_leaf_size(made.support_area, scene.surface_area(), kVkdeLeafScale);
   map_ = build_kernel_map(backend, made.kernels, leaf_size);
+  // The collisions' leaves as the knn estimator's (the leaf-size knob is the kernels').
+  const uint32_t per_leaf = photons_per_leaf_for(backend.kind(), options_.k_nearest);
+  volume_ = build_volume_map(
+      backend, photons.volume, photons.volume_footprints, per_leaf,
+      volume_kernel_settings(scene.radius(), scene.bounds(), std::max(photons.emitted, 1u)));
   map_pass_ = pass;
 }
 
@@ -65,8 +83,12 @@ void VkdeEstimator::render(Backend& backend, const ResidentScene& scene,
                            const PinholeCamera& camera, const ShadingSettings& shading,
                            Film& film) {
   const std::optional<KernelMap> map = std::move(map_);
+  const std::optional<VolumeMap> volume = std::move(volume_);
   map_.reset();
-  render_pass(backend, scene, camera, shading, VkdeGather(*map), film);
+  volume_.reset();
+  ShadingSettings with_volume = shading;
+  with_volume.volume = volume->view();
+  render_pass(backend, scene, camera, with_volume, VkdeGather(*map), film);
 }
 
 }  // namespace caustica

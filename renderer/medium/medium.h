@@ -270,6 +270,25 @@ CAUSTICA_HDI FreeFlight sample_free_flight(const DeviceMedium& m, Vec3f origin, 
   return f;
 }
 
+// What photon differentials need of the free flights through `m` along the ray (origin,
+// direction) from t0, a span's start, to t: the rate at which the flights stop at t (the density
+// they are drawn from there, divided by the survival) and the fraction of them that get from t0 to
+// t unstopped. Not any one channel's: a homogeneous medium's flights run at the majorant, and a
+// grid's real collisions at the channels' mean extinction times the density.
+struct FlightOdds {
+  float rate;
+  float survival;
+};
+
+CAUSTICA_HDI FlightOdds flight_odds(const DeviceMedium& m, Vec3f origin, Vec3f direction, float t0,
+                                    float t) {
+  if (m.kind == MediumKind::kHomogeneous) return {m.majorant, expf(-m.majorant * (t - t0))};
+  const DensitySampler density(m.grid);
+  const float mean_sigma_t = average(m.sigma_t);
+  return {mean_sigma_t * density(origin + direction * t),
+          expf(-mean_sigma_t * density_integral(m.grid, density, origin, direction, t0, t))};
+}
+
 // The Henyey-Greenstein phase function for the angle between the direction light travelled in
 // and the one it leaves in (g > 0 scatters forwards), per steradian.
 CAUSTICA_HDI float henyey_greenstein(float cos_theta, float g) {

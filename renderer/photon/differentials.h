@@ -18,6 +18,15 @@
 //   that keeps the incoming footprint's area in expectation;
 // - Russian roulette, whose survivors stand for 1 / rho as many photons, so their footprints grow
 //   by rho^(-1/2) in each direction.
+// Through participating media (Fabianowski 2011 sec. 7.2):
+// - a photon that crosses a medium to a surface is one of the fraction tau that the free flights
+//   let through, which acts as roulette does: its footprint grows by tau^(-1/2);
+// - a photon stopped in a medium gains a third parameter, the free flight's number p3, and a
+//   three-dimensional footprint whose third side runs along its direction with length
+//   dt/dp3 = 1 / (sigma tau), the inverse of the free flight's density there;
+// - scattering is an absorption and a re-emission by the phase function from a virtual point that
+//   keeps the footprint's volume in expectation, after the albedo's roulette has grown each of the
+//   three sides by alpha^(-1/3).
 #pragma once
 
 #include <cmath>
@@ -44,26 +53,38 @@ CAUSTICA_HDI float footprint_area(const PhotonDifferentials& d, float photons) {
 
 namespace detail {
 
-// Direction differentials of a direction with inclination p1, azimuth p2 in `frame` (cos and sin
-// of each given), each scaled by `scale1`, `scale2`: Fabianowski's eqs. 5.2 and 5.3 with his
-// scalings applied (the second already divided by sin p1).
-CAUSTICA_HDI void spherical_direction_differentials(const Frame& frame, float cos_p1, float sin_p1,
-                                                    float cos_p2, float sin_p2, float scale1,
-                                                    float scale2, Vec3f& dw1, Vec3f& dw2) {
-  dw1 = frame.to_world(Vec3f(cos_p2 * cos_p1, sin_p2 * cos_p1, -sin_p1)) * scale1;
-  dw2 = frame.to_world(Vec3f(-sin_p2, cos_p2, 0.0f)) * scale2;
-}
+// Unit direction w in spherical coordinates about `axis`: the frame, the inclination p1 (its
+// cosine at least `cos_floor`) and the azimuth p2, by cos and sin (azimuth 0 at the poles).
+struct SphericalCoordinates {
+  Frame frame;
+  float cos_p1, sin_p1, cos_p2, sin_p2;
+};
 
-// cos and sin of the azimuth of `local` (a unit vector in a frame), 1 and 0 at the poles.
-CAUSTICA_HDI void azimuth_of(Vec3f local, float& cos_p2, float& sin_p2) {
+CAUSTICA_HDI SphericalCoordinates spherical_coordinates(Vec3f w, Vec3f axis,
+                                                        float cos_floor = -1.0f) {
+  SphericalCoordinates c{Frame::from_normal(axis), 0.0f, 0.0f, 1.0f, 0.0f};
+  const Vec3f local(dot(w, c.frame.s), dot(w, c.frame.t), dot(w, c.frame.n));
+  c.cos_p1 = max_f(local.z, cos_floor);
+  c.sin_p1 = sqrtf(max_f(0.0f, 1.0f - c.cos_p1 * c.cos_p1));
   const float r = sqrtf(local.x * local.x + local.y * local.y);
   if (r > 1e-12f) {
-    cos_p2 = local.x / r;
-    sin_p2 = local.y / r;
-  } else {
-    cos_p2 = 1.0f;
-    sin_p2 = 0.0f;
+    c.cos_p2 = local.x / r;
+    c.sin_p2 = local.y / r;
   }
+  return c;
+}
+
+// The differentials of a direction leaving along `c`: Fabianowski's eqs. 5.2 and 5.3, both scaled
+// by `scale` (the second already divided by sin p1), from a virtual point `offset` behind the
+// start along the direction (eqs. 5.28 and 5.29; 0 for a real point).
+CAUSTICA_HDI PhotonDifferentials spherical_differentials(const SphericalCoordinates& c, float scale,
+                                                         float offset) {
+  PhotonDifferentials d;
+  d.dw1 = c.frame.to_world(Vec3f(c.cos_p2 * c.cos_p1, c.sin_p2 * c.cos_p1, -c.sin_p1)) * scale;
+  d.dw2 = c.frame.to_world(Vec3f(-c.sin_p2, c.cos_p2, 0.0f)) * scale;
+  d.dz1 = d.dw1 * offset;
+  d.dz2 = d.dw2 * offset;
+  return d;
 }
 
 }  // namespace detail
@@ -71,16 +92,8 @@ CAUSTICA_HDI void azimuth_of(Vec3f local, float& cos_p2, float& sin_p2) {
 // A photon leaving a point (or spot) light along `w` (unit), drawn uniformly among the directions
 // within acos(cos_max) of `axis` (cos_max = -1 for a point light): eqs. 5.9 and 5.10.
 CAUSTICA_HDI PhotonDifferentials emitted_from_point(Vec3f w, Vec3f axis, float cos_max) {
-  const Frame frame = Frame::from_normal(axis);
-  const Vec3f local(dot(w, frame.s), dot(w, frame.t), dot(w, frame.n));
-  const float cos_p1 = local.z, sin_p1 = sqrtf(max_f(0.0f, 1.0f - local.z * local.z));
-  float cos_p2, sin_p2;
-  detail::azimuth_of(local, cos_p2, sin_p2);
-  const float scale = sqrtf(0.5f * (1.0f - cos_max));
-  PhotonDifferentials d{Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
-  detail::spherical_direction_differentials(frame, cos_p1, sin_p1, cos_p2, sin_p2, scale, scale,
-                                            d.dw1, d.dw2);
-  return d;
+  return detail::spherical_differentials(detail::spherical_coordinates(w, axis),
+                                         sqrtf(0.5f * (1.0f - cos_max)), 0.0f);
 }
 
 // A photon leaving a diffuse surface with unit normal `n` (on the side it leaves) along the
@@ -88,18 +101,8 @@ CAUSTICA_HDI PhotonDifferentials emitted_from_point(Vec3f w, Vec3f axis, float c
 // that its footprint there is spread as it arrives: eqs. 5.25 (third component -sin p1', as
 // corrected) and 5.26, moved by eqs. 5.28 and 5.29.
 CAUSTICA_HDI PhotonDifferentials reemitted_diffusely(Vec3f w, Vec3f n, float offset) {
-  const Frame frame = Frame::from_normal(n);
-  const Vec3f local(dot(w, frame.s), dot(w, frame.t), dot(w, frame.n));
-  const float cos_p1 = max_f(local.z, 1e-6f), sin_p1 = sqrtf(max_f(0.0f, 1.0f - cos_p1 * cos_p1));
-  float cos_p2, sin_p2;
-  detail::azimuth_of(local, cos_p2, sin_p2);
-  const float scale = sqrtf(0.25f / cos_p1);
-  PhotonDifferentials d;
-  detail::spherical_direction_differentials(frame, cos_p1, sin_p1, cos_p2, sin_p2, scale, scale,
-                                            d.dw1, d.dw2);
-  d.dz1 = d.dw1 * offset;
-  d.dz2 = d.dw2 * offset;
-  return d;
+  const detail::SphericalCoordinates c = detail::spherical_coordinates(w, n, 1e-6f);
+  return detail::spherical_differentials(c, sqrtf(0.25f / c.cos_p1), offset);
 }
 
 // The virtual offset that keeps a footprint's area in expectation through a diffuse re-emission:
@@ -183,8 +186,47 @@ CAUSTICA_HDI void refract_differentials(PhotonDifferentials& d, Vec3f w, Vec3f n
   d.dw2 = refracted(d.dw2, dn2);
 }
 
+// Propagation by `t` along unit `w` to a collision in a medium, where no surface turns the
+// footprint: eqs. 7.4 and 7.5.
+CAUSTICA_HDI void propagate(PhotonDifferentials& d, float t) {
+  d.dz1 = d.dz1 + d.dw1 * t;
+  d.dz2 = d.dz2 + d.dw2 * t;
+}
+
+// The volume of the footprint of a photon stopped in a medium, travelling along unit `w`, among
+// `photons` emitted: (4 pi / n) |<dz1, dz2, dz3>| with dz3 = w / flight_density (eqs. 7.6, 7.7 and
+// 7.26), flight_density = sigma tau the density the free flight was drawn from at the collision.
+// The inverse of the collisions' density there.
+CAUSTICA_HDI float footprint_volume(const PhotonDifferentials& d, Vec3f w, float flight_density,
+                                    float photons) {
+  return 4.0f * kPi / photons * fabsf(dot(cross(d.dz1, d.dz2), w)) / flight_density;
+}
+
+// The virtual offset of a photon scattered at a collision (along unit `w` before, the free
+// flights having let through the fraction `tau` of photons up to it) that the albedo's roulette
+// spared with probability `survive`: with the three sides grown by survive^(-1/3),
+// t_v = sqrt(sigma V n / 4 pi) keeps the volume in expectation (sec. 7.2.2), where the sigma of
+// the flight's density sigma tau cancels.
+CAUSTICA_HDI float scattering_offset(const PhotonDifferentials& d, Vec3f w, float tau,
+                                     float survive) {
+  return sqrtf(fabsf(dot(cross(d.dz1, d.dz2), w)) / (tau * survive));
+}
+
+// A photon leaving a collision along unit `w`, drawn from the phase function `pdf` (per steradian,
+// for w) around the direction it travelled in, `travel`, re-emitted from the virtual point `offset`
+// behind it: the spherical differentials of a point light (eqs. 5.2 and 5.3) about `travel`, each
+// scaled by 1 / sqrt(4 pi pdf) so that the neighbours' spacing in parameter space is the global
+// sqrt(4 pi / n) (eqs. 7.18 and 7.19, there for Schlick's phase function), then moved by eqs.
+// 7.20 and 7.21.
+CAUSTICA_HDI PhotonDifferentials scattered_in_medium(Vec3f w, Vec3f travel, float pdf,
+                                                     float offset) {
+  return detail::spherical_differentials(detail::spherical_coordinates(w, travel),
+                                         1.0f / sqrtf(4.0f * kPi * pdf), offset);
+}
+
 // A photon that survived Russian roulette with probability `survive` stands for 1 / survive as
-// many: its footprint grows by that factor in area (Fabianowski sec. 5.1.4).
+// many: its footprint grows by that factor in area (Fabianowski sec. 5.1.4). The same holds for
+// the fraction tau of free flights that cross a medium to a surface (sec. 7.2.1.1).
 CAUSTICA_HDI void survived_roulette(PhotonDifferentials& d, float survive) {
   const float s = 1.0f / sqrtf(survive);
   d.dz1 = d.dz1 * s;

@@ -34,7 +34,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
 
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes,
-                           Buffer<uint32_t>* leaf_codes_out) {
+                           Buffer<uint32_t>* leaf_codes_out, Buffer<uint32_t>* order_out) {
   PhotonMap map;
   map.node_layout = nodes;
   map.pair_nodes.bind(backend);
@@ -86,6 +86,7 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
     map.bvh.nodes = Buffer<BvhNode>(backend, 0);
   }
   if (leaf_codes_out != nullptr) *leaf_codes_out = std::move(leaf_codes);
+  if (order_out != nullptr) *order_out = std::move(sorted_order.order);
   return map;
 }
 

@@ -105,10 +105,12 @@ struct PhotonMap {
 // over runs of `photons_per_leaf` (>= 1) of them, its nodes stored as `nodes` says (by default
 // kDefaultPhotonMapNodes).
 // `leaf_codes`, when given, gets each leaf's curve code, ascending: what a tree over the same
-// leaves with other boxes is built from (volume_map.h).
+// leaves with other boxes is built from (volume_map.h); `order`, when given, the index in
+// `photons` of each photon of the map, for what travels beside them.
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, Curve curve, PhotonMapNodes nodes,
-                           Buffer<uint32_t>* leaf_codes = nullptr);
+                           Buffer<uint32_t>* leaf_codes = nullptr,
+                           Buffer<uint32_t>* order = nullptr);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf, PhotonMapNodes nodes);
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,

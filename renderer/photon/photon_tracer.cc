@@ -148,16 +148,38 @@ struct PhotonStores {
   uint8_t* overflow_kind;
   uint32_t* overflow_count;
   uint32_t overflow_room;
-  // With differentials: each stored photon's footprint, beside it.
+  // With differentials: each stored photon's footprint beside it, a surface photon's spanning
+  // vectors and a collision's volume.
   PhotonFootprint* slot_footprint;
   PhotonFootprint* overflow_footprint;
+  float* slot_volume_footprint;  // null without media
+  float* overflow_volume_footprint;
 
   CAUSTICA_HDI void store(uint32_t path, uint32_t bounce, const Photon& photon, uint8_t kind,
                           const PhotonFootprint& footprint) const {
+    store_as(path, bounce, photon, kind, [&](bool in_slot, size_t at) {
+      PhotonFootprint* to = in_slot ? slot_footprint : overflow_footprint;
+      if (to != nullptr) to[at] = footprint;
+    });
+  }
+
+  CAUSTICA_HDI void store_collision(uint32_t path, uint32_t bounce, const Photon& photon,
+                                    float footprint_volume) const {
+    store_as(path, bounce, photon, kVolumePhoton, [&](bool in_slot, size_t at) {
+      float* to = in_slot ? slot_volume_footprint : overflow_volume_footprint;
+      if (to != nullptr) to[at] = footprint_volume;
+    });
+  }
+
+ private:
+  // Stores the photon and calls with_footprint(in a slot, index) for its footprint's place.
+  template <typename WithFootprint>
+  CAUSTICA_HDI void store_as(uint32_t path, uint32_t bounce, const Photon& photon, uint8_t kind,
+                             WithFootprint with_footprint) const {
     if (bounce - first_slot_bounce < slots_per_path) {
       const size_t k = size_t(path) * slots_per_path + (bounce - first_slot_bounce);
       slot[k] = photon;
-      if (slot_footprint != nullptr) slot_footprint[k] = footprint;
+      with_footprint(true, k);
       (kind == kCausticPhoton  ? caustic_flag
        : kind == kGlobalPhoton ? global_flag
                                : volume_flag)[k] = 1;
@@ -166,7 +188,7 @@ struct PhotonStores {
     const uint32_t at = atomic_fetch_add(overflow_count, 1u);
     if (at >= overflow_room) return;  // counted: the trace runs again with room for all
     overflow[at] = photon;
-    if (overflow_footprint != nullptr) overflow_footprint[at] = footprint;
+    with_footprint(false, at);
     overflow_key[at] = uint64_t(path) << 32 | bounce;
     overflow_kind[at] = kind;
   }
@@ -181,6 +203,7 @@ struct PhotonPathInputs {
   uint32_t seed, pass, max_bounces;
   PhotonStores stores;
   float spacing;  // differential_spacing of the photon count
+  float photons;  // the photon count
 
   // Path `path`'s emission: its light, chosen by power, and its first ray.
   template <bool kDifferentials>
@@ -215,20 +238,41 @@ struct PhotonPathInputs {
       const FreeFlight flight = sample_free_flight(md, p.ray.origin, p.ray.direction, span,
                                                    [&] { return p.s.next_float(); });
       p.power *= flight.weight;
+      [[maybe_unused]] FlightOdds odds{};
+      if constexpr (kDifferentials) {
+        if (span.length() > 0.0f)
+          odds = flight_odds(md, p.ray.origin, p.ray.direction, span.t0, flight.t);
+      }
       if (flight.collided) {
         const Vec3f x = p.ray.origin + p.ray.direction * flight.t;
-        stores.store(p.path, p.bounce, Photon{x, p.power * md.albedo, -p.ray.direction},
-                     kVolumePhoton, PhotonFootprint{});
+        float volume = 0.0f;
+        if constexpr (kDifferentials) {
+          propagate(p.differentials, flight.t);
+          volume = footprint_volume(p.differentials, p.ray.direction, odds.rate * odds.survival,
+                                    photons);
+        }
+        stores.store_collision(p.path, p.bounce, Photon{x, p.power * md.albedo, -p.ray.direction},
+                               volume);
         const float survive = average(md.albedo);
         if (!(p.s.next_float() < survive)) return false;
         p.power = p.power * md.albedo / survive;
+        const Vec3f travel = p.ray.direction;
         p.ray.origin = x;
         p.ray.direction =
-            sample_henyey_greenstein(p.ray.direction, md.g, p.s.next_float(), p.s.next_float());
+            sample_henyey_greenstein(travel, md.g, p.s.next_float(), p.s.next_float());
         p.ray.t_min = 0.0f;
         p.ray.t_max = FLT_MAX;
         p.only_specular = false;
+        if constexpr (kDifferentials) {
+          p.differentials = scattered_in_medium(
+              p.ray.direction, travel, henyey_greenstein(dot(travel, p.ray.direction), md.g),
+              scattering_offset(p.differentials, travel, odds.survival, survive));
+        }
         return ++p.bounce < max_bounces;
+      }
+      // Through to the surface: one of the share of flights the medium let through.
+      if constexpr (kDifferentials) {
+        if (span.length() > 0.0f) survived_roulette(p.differentials, odds.survival);
       }
     }
     if (!hit.valid()) return false;
@@ -366,6 +410,29 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
   parallel_for<kWorkersPerMultiprocessor>(backend, "photon_trace", workers, trace_paths);
 }
 
+// Which slots and overflow entries hold one kind's photons, in the order they are kept.
+struct Compaction {
+  Buffer<uint32_t> index;        // slots
+  Buffer<uint32_t> later_index;  // overflow entries, after the slots'
+  size_t slotted = 0, extra = 0;
+
+  // The footprints beside the kept photons, in their order.
+  template <typename Footprint>
+  void gather(Backend& backend, const Buffer<Footprint>& from_slots,
+              const Buffer<Footprint>& from_overflow, Buffer<Footprint>& into) const {
+    into.resize_discard(slotted + extra);
+    Footprint* to = into.data();
+    const Footprint* slot = from_slots.data();
+    const Footprint* later = from_overflow.data();
+    const uint32_t* idx = index.data();
+    const uint32_t* later_idx = later_index.data();
+    const size_t n = slotted;
+    parallel_for(backend, "photon_compact_footprints", slotted + extra, [=] CAUSTICA_HD(size_t i) {
+      to[i] = i < n ? slot[idx[i]] : later[later_idx[i - n]];
+    });
+  }
+};
+
 // trace_photons with the paths traced through `structure`, the view of the scene's structure.
 template <typename Structure>
 TracedPhotons trace_photons_through(const Structure& structure, Backend& backend,
@@ -377,6 +444,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   out.caustic_footprints.bind(backend);
   out.global_footprints.bind(backend);
   out.volume.bind(backend);
+  out.volume_footprints.bind(backend);
   const ResidentSceneView scene = resident.view();
   // A photon is stored at a surface at its second hit at the earliest (first hits are direct
   // light), so without media a path of one hit stores nothing; in a medium its first collision is
@@ -399,6 +467,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   Buffer<uint8_t> volume_flags(backend, media ? slots : 0);
   const bool footprints = settings.differentials;
   Buffer<PhotonFootprint> slot_footprints(backend, footprints ? slots : 0);
+  Buffer<float> slot_volume_footprints(backend, footprints && media ? slots : 0);
   // Room for the later stores: a path stores past its slots only when roulette spares it through
   // kSlotsPerPath diffuse bounces, a few in a hundred; a trace that finds too little room runs
   // again with exactly enough.
@@ -407,6 +476,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   Buffer<uint64_t> overflow_keys(backend, 0);
   Buffer<uint8_t> overflow_kinds(backend, 0);
   Buffer<PhotonFootprint> overflow_footprints(backend, 0);
+  Buffer<float> overflow_volume_footprints(backend, 0);
   Buffer<uint32_t> overflow_counter(backend, 1);
 
   const Vec3f center = resident.bounds().center();
@@ -437,6 +507,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     overflow_keys.resize_discard(overflow_room);
     overflow_kinds.resize_discard(overflow_room);
     if (footprints) overflow_footprints.resize_discard(overflow_room);
+    if (footprints && media) overflow_volume_footprints.resize_discard(overflow_room);
     parallel_for(backend, "photon_next_path", 1,
                  [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
     const PhotonStores stores{slot_photons.data(),
@@ -451,10 +522,13 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
                               overflow_counter.data(),
                               uint32_t(overflow_room),
                               footprints ? slot_footprints.data() : nullptr,
-                              footprints ? overflow_footprints.data() : nullptr};
+                              footprints ? overflow_footprints.data() : nullptr,
+                              footprints && media ? slot_volume_footprints.data() : nullptr,
+                              footprints && media ? overflow_volume_footprints.data() : nullptr};
     const PhotonPathInputs in{scene,       center, radius,
                               inv_count,   seed,   pass,
-                              max_bounces, stores, differential_spacing(float(count))};
+                              max_bounces, stores, differential_spacing(float(count)),
+                              float(count)};
     // The differentials' two instantiations: a path state without them keeps the common trace's
     // registers, which its occupancy depends on.
     const auto trace = [&](auto with_differentials) {
@@ -504,33 +578,34 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const Photon* slot = slot_photons.data();
   const Photon* later = overflow.data();
   const uint32_t* later_order = overflow_order.data();
-  const PhotonFootprint* slot_footprint = slot_footprints.data();
-  const PhotonFootprint* later_footprint = overflow_footprints.data();
-  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags, Buffer<Photon>& into,
-                     Buffer<PhotonFootprint>& footprints_into) {
-    Buffer<uint32_t> index(backend, slots), later_index(backend, overflowed);
-    const size_t slotted = backend.select_flagged(nullptr, flags.data(), slots, index.data());
-    const size_t extra =
-        backend.select_flagged(later_order, overflow_flags.data(), overflowed, later_index.data());
-    into.resize_discard(slotted + extra);
+  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags,
+                     Buffer<Photon>& into) {
+    Compaction c{Buffer<uint32_t>(backend, slots), Buffer<uint32_t>(backend, overflowed)};
+    c.slotted = backend.select_flagged(nullptr, flags.data(), slots, c.index.data());
+    c.extra = backend.select_flagged(later_order, overflow_flags.data(), overflowed,
+                                     c.later_index.data());
+    into.resize_discard(c.slotted + c.extra);
     Photon* dst = into.data();
-    const uint32_t* idx = index.data();
-    const uint32_t* later_idx = later_index.data();
-    parallel_for(backend, "photon_compact", slotted + extra, [=] CAUSTICA_HD(size_t i) {
+    const uint32_t* idx = c.index.data();
+    const uint32_t* later_idx = c.later_index.data();
+    const size_t slotted = c.slotted;
+    parallel_for(backend, "photon_compact", slotted + c.extra, [=] CAUSTICA_HD(size_t i) {
       dst[i] = i < slotted ? slot[idx[i]] : later[later_idx[i - slotted]];
     });
-    if (!footprints) return;
-    footprints_into.resize_discard(slotted + extra);
-    PhotonFootprint* fp = footprints_into.data();
-    parallel_for(backend, "photon_compact_footprints", slotted + extra, [=] CAUSTICA_HD(size_t i) {
-      fp[i] = i < slotted ? slot_footprint[idx[i]] : later_footprint[later_idx[i - slotted]];
-    });
+    return c;
   };
-  compact(caustic_flags, caustic_overflow, out.caustic, out.caustic_footprints);
-  compact(global_flags, global_overflow, out.global, out.global_footprints);
+  const Compaction caustic = compact(caustic_flags, caustic_overflow, out.caustic);
+  const Compaction global = compact(global_flags, global_overflow, out.global);
+  if (footprints) {
+    caustic.gather(backend, slot_footprints, overflow_footprints, out.caustic_footprints);
+    global.gather(backend, slot_footprints, overflow_footprints, out.global_footprints);
+  }
   if (media) {
-    Buffer<PhotonFootprint> no_footprints(backend, 0);
-    compact(volume_flags, volume_overflow, out.volume, no_footprints);
+    const Compaction volume = compact(volume_flags, volume_overflow, out.volume);
+    if (footprints) {
+      volume.gather(backend, slot_volume_footprints, overflow_volume_footprints,
+                    out.volume_footprints);
+    }
   }
   return out;
 }

@@ -33,6 +33,9 @@ struct TracedPhotons {
   // With PhotonTraceSettings::differentials, each stored photon's footprint, in the same order.
   Buffer<PhotonFootprint> caustic_footprints;
   Buffer<PhotonFootprint> global_footprints;
+  // With differentials, each collision's footprint volume (differentials.h): the inverse of the
+  // collisions' density there.
+  Buffer<float> volume_footprints;
   uint32_t emitted = 0;
 };
 

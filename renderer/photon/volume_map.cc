@@ -1,5 +1,6 @@
 #include "renderer/photon/volume_map.h"
 
+#include <stdexcept>
 #include <utility>
 
 #include "renderer/accel/bvh_build.h"
@@ -10,19 +11,57 @@
 
 namespace caustica {
 
-VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
-                           uint32_t photons_per_leaf, uint32_t k, float max_bandwidth) {
+namespace {
+
+// The beams' tree: the points' leaves and codes, each leaf's box its spheres' bounds.
+void build_beams(Backend& backend, VolumeMap& map, const Buffer<uint32_t>& leaf_codes) {
+  const uint32_t n = uint32_t(map.points.size());
+  const uint32_t per_leaf = map.points.photons_per_leaf;
+  const uint32_t leaves = uint32_t(leaf_codes.size());
+  Buffer<Aabb> leaf_boxes(backend, leaves);
+  Aabb* leaf_box = leaf_boxes.data();
+  const Vec3f* position = map.points.positions.data();
+  const float* bandwidth = map.bandwidth.data();
+  parallel_for(backend, "volume_beam_boxes", leaves, [=] CAUSTICA_HD(size_t leaf) {
+    const uint32_t end = photon_leaf_end(uint32_t(leaf), per_leaf, n);
+    Aabb box;
+    for (uint32_t i = uint32_t(leaf) * per_leaf; i < end; ++i) {
+      const Vec3f h(bandwidth[i]);
+      box.extend(Aabb{position[i] - h, position[i] + h});
+    }
+    leaf_box[leaf] = box;
+  });
+  Buffer<BvhSummary> summary(backend, 1);
+  backend.reduce_bounds_to(leaf_box, leaves, &summary.data()->bounds);
+  map.beams =
+      build_bvh_from_sorted_codes(backend, leaf_codes.data(), leaves, summary.data(),
+                                  [=] CAUSTICA_HD(uint32_t leaf) { return leaf_box[leaf]; });
+}
+
+// The map's points over `collisions`, its bandwidths room for one each; the leaves' codes and
+// (when asked) each point's index in `collisions` for what the builders add.
+VolumeMap volume_map_points(Backend& backend, const Buffer<Photon>& collisions,
+                            uint32_t photons_per_leaf, Buffer<uint32_t>& leaf_codes,
+                            Buffer<uint32_t>* order = nullptr) {
   VolumeMap map;
-  Buffer<uint32_t> leaf_codes(backend, 0);
   map.points = build_photon_map(backend, collisions, photons_per_leaf, backend_curve(backend),
-                                PhotonMapNodes::kBoxPairs, &leaf_codes);
+                                PhotonMapNodes::kBoxPairs, &leaf_codes, order);
   map.bandwidth.bind(backend);
   map.beams.nodes.bind(backend);
+  map.bandwidth.resize_discard(map.points.size());
+  return map;
+}
+
+}  // namespace
+
+VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
+                           uint32_t photons_per_leaf, uint32_t k, float max_bandwidth) {
+  Buffer<uint32_t> leaf_codes(backend, 0);
+  VolumeMap map = volume_map_points(backend, collisions, photons_per_leaf, leaf_codes);
   const uint32_t n = uint32_t(map.points.size());
   if (n == 0) return map;
 
   // Each collision's bandwidth: the distance to its k-th nearest, found in the points' tree.
-  map.bandwidth.resize_discard(n);
   float* bandwidth = map.bandwidth.data();
   const PhotonMapView points = map.points.view();
   const uint32_t nearest = k < 1 ? 1 : (k > kMaxNearest ? kMaxNearest : k);
@@ -40,27 +79,27 @@ VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
                            });
     bandwidth[i] = heap.size == wanted ? sqrtf(limit) : max_bandwidth;
   });
+  build_beams(backend, map, leaf_codes);
+  return map;
+}
 
-  // The beams' tree: the points' leaves and codes, each leaf's box its spheres' bounds.
-  const uint32_t per_leaf = map.points.photons_per_leaf;
-  const uint32_t leaves = uint32_t(leaf_codes.size());
-  Buffer<Aabb> leaf_boxes(backend, leaves);
-  Aabb* leaf_box = leaf_boxes.data();
-  const Vec3f* position = points.positions;
-  parallel_for(backend, "volume_beam_boxes", leaves, [=] CAUSTICA_HD(size_t leaf) {
-    const uint32_t end = photon_leaf_end(uint32_t(leaf), per_leaf, n);
-    Aabb box;
-    for (uint32_t i = uint32_t(leaf) * per_leaf; i < end; ++i) {
-      const Vec3f h(bandwidth[i]);
-      box.extend(Aabb{position[i] - h, position[i] + h});
-    }
-    leaf_box[leaf] = box;
+VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
+                           const Buffer<float>& footprint_volumes, uint32_t photons_per_leaf,
+                           const VolumeKernelSettings& settings) {
+  if (footprint_volumes.size() != collisions.size())
+    throw std::invalid_argument("build_volume_map: collisions traced without differentials");
+  Buffer<uint32_t> leaf_codes(backend, 0), order(backend, 0);
+  VolumeMap map = volume_map_points(backend, collisions, photons_per_leaf, leaf_codes, &order);
+  const uint32_t n = uint32_t(map.points.size());
+  if (n == 0) return map;
+  float* bandwidth = map.bandwidth.data();
+  const float* volume = footprint_volumes.data();
+  const uint32_t* from = order.data();
+  const VolumeKernelSettings s = settings;
+  parallel_for(backend, "volume_differential_bandwidths", n, [=] CAUSTICA_HD(size_t i) {
+    bandwidth[i] = differential_bandwidth(volume[from[i]], s);
   });
-  Buffer<BvhSummary> summary(backend, 1);
-  backend.reduce_bounds_to(leaf_box, leaves, &summary.data()->bounds);
-  map.beams =
-      build_bvh_from_sorted_codes(backend, leaf_codes.data(), leaves, summary.data(),
-                                  [=] CAUSTICA_HD(uint32_t leaf) { return leaf_box[leaf]; });
+  build_beams(backend, map, leaf_codes);
   return map;
 }
 

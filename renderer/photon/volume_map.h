@@ -1,13 +1,17 @@
 // The volume photon map and the beam radiance estimate (Jarosz et al. 2008, with Fabianowski's
 // corrected units, 2011 sec. 7.1): every collision a photon had in a medium, each given a
-// bandwidth h_j, its distance to the k-th nearest collision, and the radiance a camera ray gathers
-// along a stretch of medium in one query of a hierarchy over the collisions' spheres:
+// bandwidth h_j, and the radiance a camera ray gathers along a stretch of medium in one query of a
+// hierarchy over the collisions' spheres:
 //
 //   L = sum over collisions j whose sphere the ray passes through, at t_j in the stretch, of
 //       K(d_j / h_j) / h_j^2 * Tr(t0, t_j) * p(cos theta_j) * Phi_j
 //
 // with d_j the ray's distance from the collision, K the 2D Epanechnikov kernel, p the phase
 // function and Phi_j the flux scattered there (the extinguished flux times the albedo).
+//
+// A bandwidth is either the distance to the k-th nearest collision (the knn estimator's) or set by
+// the collision's photon differentials (the vkde estimator's, Fabianowski sec. 7.3): the cube root
+// of its footprint's volume times a spread, dampened.
 //
 // The collisions are a photon map (photon_map.h): sorted along the backend's curve, positions
 // apart from flux, the k-nearest search its hierarchy answers. The beams' hierarchy is a second
@@ -59,6 +63,33 @@ struct VolumeMap {
 // to the k-th nearest other collision (itself counted), at most `max_bandwidth`.
 VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
                            uint32_t photons_per_leaf, uint32_t k, float max_bandwidth);
+
+// Bandwidths from footprints: with V a collision's footprint volume among n photons emitted,
+// x = cbrt(V n / (4 pi)) the cube root of its differentials' own volume, and P the pivot,
+//   h = spread cbrt(4 pi / n) P log(1 + x / P),
+// which is spread cbrt(V) where x is well below P and grows only logarithmically beyond it, as
+// Fabianowski dampens with log1p (his sec. 7.3.2): a path's differentials see only its own
+// spreading, while the collisions of many paths overlap. At most max_bandwidth.
+struct VolumeKernelSettings {
+  float spread;
+  float pivot;
+  float max_bandwidth;
+  uint32_t photons;  // n, emitted
+};
+
+// The bandwidth of a collision of footprint volume `volume` (volume_bandwidths' formula).
+CAUSTICA_HDI float differential_bandwidth(float volume, const VolumeKernelSettings& s) {
+  const float per_photon = cbrtf(4.0f * kPi / float(s.photons));
+  const float x = cbrtf(volume) / per_photon;
+  const float h = s.spread * per_photon * s.pivot * log1pf(x / s.pivot);
+  return h < s.max_bandwidth ? h : s.max_bandwidth;
+}
+
+// Builds the map over `collisions` with `photons_per_leaf` per leaf, each bandwidth set by its
+// footprint volume in `footprint_volumes` (the same order).
+VolumeMap build_volume_map(Backend& backend, const Buffer<Photon>& collisions,
+                           const Buffer<float>& footprint_volumes, uint32_t photons_per_leaf,
+                           const VolumeKernelSettings& settings);
 
 // Whether the segment [t0, t1] of the ray (origin, inverse direction) meets `box`.
 CAUSTICA_HDI bool segment_meets(const BvhChild& box, Vec3f origin, Vec3f inv_direction, float t0,

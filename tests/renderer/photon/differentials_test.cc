@@ -7,8 +7,12 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
+#include <string>
 
+#include "absl/strings/str_format.h"
+#include "renderer/medium/medium.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/photon/scattering.h"
 #include "renderer/resident/resident_scene.h"
@@ -230,6 +234,61 @@ TEST(PhotonDifferentials, DiffuseReemissionKeepsTheFootprintInExpectation) {
   EXPECT_NEAR(mean / before, 1.0, 1e-3);
 }
 
+// Scattering in a medium re-emits like a point light whose directions follow the phase function:
+// with g = 0 exactly a point light's differentials, and for any g the footprint volume after a
+// zero-length step, (4 pi / n) t_v^2 / (sigma 4 pi pdf), keeps in expectation over the phase
+// function the volume the collision had, grown by the albedo's roulette (sec. 7.2.2).
+TEST(PhotonDifferentials, ScatteringKeepsTheFootprintVolumeInExpectation) {
+  const Vec3f travel = normalize(Vec3f(0.2f, -0.5f, 1.0f));
+  const Vec3f w = normalize(Vec3f(-0.7f, 0.1f, 0.3f));
+  const PhotonDifferentials iso = scattered_in_medium(w, travel, 0.25f * kInvPi, 0.0f);
+  const PhotonDifferentials point = emitted_from_point(w, travel, -1.0f);
+  expect_near(iso.dw1, point.dw1, 1e-6, "dw1");
+  expect_near(iso.dw2, point.dw2, 1e-6, "dw2");
+
+  const float n = 1e5f, sigma = 0.8f, tau = 0.3f, survive = 0.6f;
+  const PhotonDifferentials arriving{Vec3f(0.02f, 0.0f, 0.01f), Vec3f(0.005f, 0.03f, 0.0f),
+                                     Vec3f(0.0f), Vec3f(0.0f)};
+  const double before = footprint_volume(arriving, travel, sigma * tau, n);
+  const float offset = scattering_offset(arriving, travel, tau, survive);
+  for (const float g : {0.0f, 0.6f, -0.4f}) {
+    SCOPED_TRACE(g);
+    // The mean over the phase function by quadrature over cos theta (the volume does not depend
+    // on the azimuth).
+    const Frame frame = Frame::from_normal(travel);
+    double mean = 0;
+    const int steps = 20000;
+    for (int i = 0; i < steps; ++i) {
+      const double cos_theta = -1.0 + (i + 0.5) * 2.0 / steps;
+      const double sin_theta = std::sqrt(1.0 - cos_theta * cos_theta);
+      const Vec3f out =
+          frame.to_world(Vec3f(float(0.6 * sin_theta), float(0.8 * sin_theta), float(cos_theta)));
+      const float pdf = henyey_greenstein(dot(travel, out), g);
+      const PhotonDifferentials d = scattered_in_medium(out, travel, pdf, offset);
+      // The photon steps zero far: dz3 = w / sigma (eq. 7.24), as if the flight density were
+      // sigma, its survival 1.
+      const double volume = footprint_volume(d, out, sigma, n);
+      EXPECT_NEAR(volume, 4.0 * kPi / n * offset * offset / (sigma * 4.0 * kPi * pdf),
+                  1e-3 * volume);
+      mean += volume * pdf * 2.0 * kPi * 2.0 / steps;  // pdf per steradian, d omega = 2 pi dcos
+    }
+    EXPECT_NEAR(mean * survive / before, 1.0, 2e-3);
+  }
+}
+
+// Propagation to a collision moves the position differentials along the direction's, with no
+// surface to turn them: a point light's photons stopped at distance t span t dw.
+TEST(PhotonDifferentials, PropagationToACollisionFollowsTheDirections) {
+  const RayFamily family{Vec3f(0.1f, 0.2f, 0.0f), Vec3f(0.3f, 0.0f, 0.1f), Vec3f(0.2f, -0.1f, 1.0f),
+                         Vec3f(0.0f, 0.5f, 0.2f)};
+  PhotonDifferentials d = family.differentials();
+  const float t = 1.7f;
+  propagate(d, t);
+  expect_near(d.dz1,
+              derivative([&](float p) { return family.origin(p) + family.direction(p) * t; }), 1e-3,
+              "dz1");
+}
+
 TEST(PhotonDifferentials, RouletteSurvivorsSpreadByTheInverseSquareRoot) {
   PhotonDifferentials d{Vec3f(1, 0, 0), Vec3f(0, 2, 0), Vec3f(0, 0, 3), Vec3f(4, 0, 0)};
   const float before = footprint_area(d, 100.0f);
@@ -244,44 +303,96 @@ TEST(PhotonDifferentials, RouletteSurvivorsSpreadByTheInverseSquareRoot) {
 namespace caustica {
 namespace {
 
-// Through the photon tracer: a point light above a flat mirror under a diffuse ceiling. A photon
-// that the mirror sends up lands on the ceiling as if from the light's mirror image, and its
-// footprint is that of a point light there, exactly: 4 pi r^2 / (n cos theta).
-TEST(PhotonDifferentials, TracedCausticFootprintsAreThoseOfTheMirroredLight) {
-  absl::StatusOr<Scene> scene = parse_scene(R"({
-    "camera": {"position": [0, 0, 1.5], "look_at": [0, 0, 0], "fov": 60, "width": 8, "height": 8},
-    "materials": {"mirror": {"type": "mirror", "reflectance": [1, 1, 1]},
-                  "white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
-    "lights": [{"type": "point", "position": [0.3, -0.2, 1], "intensity": [1, 1, 1]}],
-    "shapes": [
-      {"type": "quad", "material": "mirror", "vertices": [[-6, -6, 0], [6, -6, 0], [6, 6, 0], [-6, 6, 0]]},
-      {"type": "quad", "material": "white", "vertices": [[-6, -6, 2], [-6, 6, 2], [6, 6, 2], [6, -6, 2]]}]
-  })",
-                                            ".", "mirror.json");
-  ASSERT_TRUE(scene.ok()) << scene.status();
+// A point light above a flat mirror under a diffuse ceiling, all in grey fog of extinction
+// `sigma` (none at 0), traced with differentials.
+struct MirrorUnderCeiling {
+  float sigma = 0.0f;
+  Vec3f light{0.3f, -0.2f, 1.0f};
   std::unique_ptr<Backend> backend = make_cpu_backend(size_t(1) << 30);
-  const ResidentScene resident = ResidentScene::upload(*backend, *scene);
-  PhotonTraceSettings settings;
-  settings.photon_count = 20000;
-  settings.differentials = true;
-  const TracedPhotons traced = trace_photons(*backend, resident, settings);
-  const std::vector<Photon> photons = traced.caustic.download();
-  const std::vector<PhotonFootprint> footprints = traced.caustic_footprints.download();
-  ASSERT_EQ(photons.size(), footprints.size());
-  ASSERT_GT(photons.size(), 1000u);
-  EXPECT_EQ(traced.global_footprints.size(), traced.global.size());
-  const Vec3f image(0.3f, -0.2f, -1.0f);
-  int checked = 0;
-  for (size_t i = 0; i < photons.size(); ++i) {
-    const Vec3f to = photons[i].position - image;
-    const float r = length(to), cos_theta = to.z / r;
-    if (cos_theta < 0.3f) continue;  // grazing: first order is far from exact
-    const double expected = 4.0 * kPi * r * r / (settings.photon_count * cos_theta);
-    const double got = length(cross(footprints[i].span1, footprints[i].span2));
-    EXPECT_NEAR(got / expected, 1.0, 2e-3) << "photon " << i;
-    ++checked;
+  std::optional<ResidentScene> resident;
+
+  explicit MirrorUnderCeiling(float fog) : sigma(fog) {
+    const std::string media = fog > 0.0f
+                                  ? absl::StrFormat(R"("media": {"fog": {"type": "homogeneous",
+                     "absorption": [0, 0, 0], "scattering": [%f, %f, %f]}}, "medium": "fog",)",
+                                                    fog, fog, fog)
+                                  : "";
+    absl::StatusOr<Scene> scene = parse_scene(absl::StrFormat(R"({
+      "camera": {"position": [0, 0, 1.5], "look_at": [0, 0, 0], "fov": 60, "width": 8,
+                 "height": 8},
+      "materials": {"mirror": {"type": "mirror", "reflectance": [1, 1, 1]},
+                    "white": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+      %s
+      "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [1, 1, 1]}],
+      "shapes": [
+        {"type": "quad", "material": "mirror", "vertices": [[-6, -6, 0], [6, -6, 0], [6, 6, 0], [-6, 6, 0]]},
+        {"type": "quad", "material": "white", "vertices": [[-6, -6, 2], [-6, 6, 2], [6, 6, 2], [6, -6, 2]]}]
+    })",
+                                                              media, light.x, light.y, light.z),
+                                              ".", "mirror.json");
+    EXPECT_TRUE(scene.ok()) << scene.status();
+    if (scene.ok()) resident.emplace(ResidentScene::upload(*backend, *scene));
   }
-  EXPECT_GT(checked, 1000);
+
+  TracedPhotons trace(uint32_t count, uint32_t max_bounces = 64) const {
+    PhotonTraceSettings settings;
+    settings.photon_count = count;
+    settings.max_bounces = max_bounces;
+    settings.differentials = true;
+    return trace_photons(*backend, *resident, settings);
+  }
+
+  // Checks each caustic photon's footprint (grazing ones aside, where first order is far from
+  // exact) against a point light's at the light's mirror image, 4 pi r^2 / (n cos theta), grown
+  // by exp(sigma r) for the fraction of photons the fog let through; returns how many it checked.
+  int check_caustic_footprints(const TracedPhotons& traced, uint32_t count) const {
+    const std::vector<Photon> photons = traced.caustic.download();
+    const std::vector<PhotonFootprint> footprints = traced.caustic_footprints.download();
+    EXPECT_EQ(photons.size(), footprints.size());
+    const Vec3f image(light.x, light.y, -light.z);
+    int checked = 0;
+    for (size_t i = 0; i < photons.size(); ++i) {
+      const Vec3f to = photons[i].position - image;
+      const float r = length(to), cos_theta = to.z / r;
+      if (cos_theta < 0.3f) continue;
+      const double expected = 4.0 * kPi * r * r * std::exp(sigma * r) / (count * cos_theta);
+      const double got = length(cross(footprints[i].span1, footprints[i].span2));
+      EXPECT_NEAR(got / expected, 1.0, 2e-3) << "photon " << i;
+      ++checked;
+    }
+    return checked;
+  }
+};
+
+// Through the photon tracer: a photon that the mirror sends up lands on the ceiling as if from the
+// light's mirror image, and its footprint is that of a point light there, exactly.
+TEST(PhotonDifferentials, TracedCausticFootprintsAreThoseOfTheMirroredLight) {
+  const MirrorUnderCeiling scene(0.0f);
+  const TracedPhotons traced = scene.trace(20000);
+  EXPECT_EQ(traced.global_footprints.size(), traced.global.size());
+  EXPECT_GT(scene.check_caustic_footprints(traced, 20000), 1000);
+}
+
+// The same in grey fog: a photon stopped on its first flight at distance r, where the collisions'
+// density is n sigma e^(-sigma r) / (4 pi r^2), has the inverse of that as its footprint volume;
+// and one that crossed the fog to the mirror and on to the ceiling has the mirrored light's
+// footprint grown by e^(sigma r), the fraction the fog let through (sec. 7.2.1).
+TEST(PhotonDifferentials, TracedFootprintsThroughFogAreTheInverseOfTheirDensity) {
+  const uint32_t n = 20000;
+  const MirrorUnderCeiling scene(0.3f);
+  // Paths of one interaction: every collision is a first flight's.
+  const TracedPhotons first = scene.trace(n, 1);
+  const std::vector<Photon> collisions = first.volume.download();
+  const std::vector<float> volumes = first.volume_footprints.download();
+  ASSERT_EQ(collisions.size(), volumes.size());
+  ASSERT_GT(collisions.size(), 5000u);
+  for (size_t i = 0; i < collisions.size(); ++i) {
+    const float r = length(collisions[i].position - scene.light);
+    if (r < 0.01f) continue;  // where float positions leave too few digits of r
+    const double expected = 4.0 * kPi * r * r * std::exp(scene.sigma * r) / (n * scene.sigma);
+    EXPECT_NEAR(volumes[i] / expected, 1.0, 2e-3) << "collision " << i << " at distance " << r;
+  }
+  EXPECT_GT(scene.check_caustic_footprints(scene.trace(n), n), 200);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <span>
 #include <string>
@@ -16,8 +17,9 @@
 
 namespace caustica {
 
-inline Scene parse_or_die(const std::string& json) {
-  absl::StatusOr<Scene> scene = parse_scene(json, ".", "test.json");
+// `base_dir`: where the scene's files are.
+inline Scene parse_or_die(const std::string& json, const std::filesystem::path& base_dir = ".") {
+  absl::StatusOr<Scene> scene = parse_scene(json, base_dir, "test.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   return scene.ok() ? *scene : Scene{};
 }

@@ -278,7 +278,12 @@ TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
 TEST(Engine, RefusesABadMediumAndKeepsItsScene) {
   auto engine = engine_with(parse_or_die(kGreyQuad));
   Scene foggy = parse_or_die(kGreyQuad);
-  foggy.media.push_back({"fog", MediumType::kHomogeneous, Vec3f(0.1f), Vec3f(0.2f), 1.0f});
+  Medium fog;
+  fog.name = "fog";
+  fog.absorption = Vec3f(0.1f);
+  fog.scattering = Vec3f(0.2f);
+  fog.asymmetry = 1.0f;
+  foggy.media.push_back(fog);
   foggy.medium = 0;
   EXPECT_THAT(std::string(engine->load(foggy).status().message()),
               testing::HasSubstr("media.fog.g: 1 is outside (-1, 1)"));

@@ -253,13 +253,18 @@ TEST(Media, PathTracerMatchesSingleScatteringInFog) {
 
 TEST(Media, BeamRadianceEstimateMatchesSingleScatteringInFog) {
   const FogAroundAPointLight fog;
-  const Scene s = fog.scene(R"({"photons": 200000})");
-  auto engine = engine_with(s);
-  ASSERT_TRUE(engine->render(16).ok());
-  // A pass's estimate along one ray scatters by about 6% here (its rays gather 100 to 200
-  // collisions where most of their light comes from), and neighbouring pixels share collisions:
-  // blocks of 8 x 8 pixels over 16 passes leave about 2%.
-  EXPECT_LT(fog.worst_block_error(s, engine->image_linear(), 8), 0.06);
+  // The knn estimator's bandwidths, and those of the collisions' photon differentials.
+  for (const char* settings :
+       {R"({"photons": 200000})", R"({"photons": 200000, "estimator": "vkde"})"}) {
+    SCOPED_TRACE(settings);
+    const Scene s = fog.scene(settings);
+    auto engine = engine_with(s);
+    ASSERT_TRUE(engine->render(16).ok());
+    // A pass's estimate along one ray scatters by about 6% here (its rays gather 100 to 200
+    // collisions where most of their light comes from), and neighbouring pixels share
+    // collisions: blocks of 8 x 8 pixels over 16 passes leave about 2%.
+    EXPECT_LT(fog.worst_block_error(s, engine->image_linear(), 8), 0.06);
+  }
 }
 
 // Grid media, their files in a directory of each test's own.
@@ -328,6 +333,49 @@ TEST_F(GridMedia, TransmittanceAndFreeFlightsFollowTheDensity) {
   }
 }
 
+// Photon differentials through a grid: a point light in the density ramp 0.1 + 0.4 x, whose
+// first flights stop at distance r with density n sigma rho(x) tau / (4 pi r^2), tau the
+// transmittance exp(-sigma r rho(midpoint)) of the ramp (linear along the way): the collisions'
+// footprint volumes are its inverse.
+TEST_F(GridMedia, CollisionFootprintsAreTheInverseOfTheirDensity) {
+  test_grids::write_grid(dir_ / "ramp.nvdb", test_grids::density_grid(
+                                                 32, 0.125, nanovdb::Vec3d(0.0),
+                                                 [](int i, int, int) { return 0.1f + 0.05f * i; }));
+  const float sigma = 0.5f;
+  const Vec3f light(2.0f, 2.0f, 2.0f);
+  const Scene scene = parse_or_die(absl::StrFormat(R"({
+      "camera": {"position": [2, 2, 1], "look_at": [2, 2, 2], "fov": 60, "width": 8, "height": 8},
+      "materials": {"black": {"type": "diffuse", "albedo": [0, 0, 0]}},
+      "media": {"ramp": {"type": "grid", "file": "ramp.nvdb", "grid": "density",
+                         "absorption": [0, 0, 0], "scattering": [%f, %f, %f]}},
+      "medium": "ramp",
+      "lights": [{"type": "point", "position": [%f, %f, %f], "intensity": [1, 1, 1]}],
+      "shapes": [{"type": "sphere", "center": [2, 2, 2], "radius": 1.5, "material": "black"}]
+    })",
+                                                   sigma, sigma, sigma, light.x, light.y, light.z),
+                                   dir_);
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(1) << 30);
+  const ResidentScene resident = ResidentScene::upload(*backend, scene);
+  PhotonTraceSettings trace;
+  trace.photon_count = 20000;
+  trace.max_bounces = 1;  // first flights only
+  trace.differentials = true;
+  const TracedPhotons traced = trace_photons(*backend, resident, trace);
+  const std::vector<Photon> collisions = traced.volume.download();
+  const std::vector<float> volumes = traced.volume_footprints.download();
+  ASSERT_EQ(collisions.size(), volumes.size());
+  ASSERT_GT(collisions.size(), 5000u);
+  auto density = [](Vec3f p) { return 0.1 + 0.4 * p.x; };
+  for (size_t i = 0; i < collisions.size(); ++i) {
+    const Vec3f x = collisions[i].position;
+    const double r = length(x - light);
+    if (r < 0.01) continue;  // where float positions leave too few digits of r
+    const double tau = std::exp(-sigma * r * density((x + light) * 0.5f));
+    const double expected = 4.0 * kPi * r * r / (trace.photon_count * sigma * density(x) * tau);
+    EXPECT_NEAR(volumes[i] / expected, 1.0, 2e-3) << "collision " << i << " at distance " << r;
+  }
+}
+
 TEST_F(GridMedia, PathTracerMatchesSingleScatteringInAGrid) {
   const FogAroundAPointLight fog;
   const Scene s = fog.scene(R"({"integrator": "path"})", write_unit_fog(), dir_);
@@ -339,10 +387,15 @@ TEST_F(GridMedia, PathTracerMatchesSingleScatteringInAGrid) {
 
 TEST_F(GridMedia, BeamRadianceEstimateMatchesSingleScatteringInAGrid) {
   const FogAroundAPointLight fog;
-  const Scene s = fog.scene(R"({"photons": 200000})", write_unit_fog(), dir_);
-  auto engine = engine_with(s);
-  ASSERT_TRUE(engine->render(16).ok());
-  EXPECT_LT(fog.worst_block_error(s, engine->image_linear(), 8), 0.06);
+  const std::string file = write_unit_fog();
+  for (const char* settings :
+       {R"({"photons": 200000})", R"({"photons": 200000, "estimator": "vkde"})"}) {
+    SCOPED_TRACE(settings);
+    const Scene s = fog.scene(settings, file, dir_);
+    auto engine = engine_with(s);
+    ASSERT_TRUE(engine->render(16).ok());
+    EXPECT_LT(fog.worst_block_error(s, engine->image_linear(), 8), 0.06);
+  }
 }
 
 // A point light at the centre of a closed black sphere of fog that absorbs nothing: every photon
@@ -441,7 +494,9 @@ struct FloorInInk {
 
 TEST(Media, TransmittanceAttenuatesTheWayToAndFromALitFloor) {
   const FloorInInk ink;
-  for (const char* settings : {R"({"photons": 20000})", R"({"integrator": "path"})"}) {
+  for (const char* settings :
+       {R"({"photons": 20000})", R"({"photons": 20000, "estimator": "vkde"})",
+        R"({"integrator": "path"})"}) {
     SCOPED_TRACE(settings);
     const Scene s = ink.scene(settings);
     auto engine = engine_with(s);
@@ -466,7 +521,7 @@ TEST(Media, EstimatorsThatDoNotRenderMediaRefuseThem) {
   EXPECT_EQ(engine->scene().settings.estimator, EstimatorKind::kKnn);
   EXPECT_TRUE(engine->render(1).ok());
   const absl::StatusOr<RebuildReport> loaded =
-      Engine::create({}).value()->load(ink.scene(R"({"estimator": "vkde"})"));
+      Engine::create({}).value()->load(ink.scene(R"({"estimator": "sppm"})"));
   EXPECT_EQ(loaded.status().code(), absl::StatusCode::kUnimplemented);
   RenderSettings gathered = engine->scene().settings;
   gathered.final_gather = true;
