@@ -3,9 +3,11 @@
 #include <chrono>
 #include <optional>
 #include <stdexcept>
+#include <tuple>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "renderer/estimator/estimator.h"
 #include "renderer/photon/photon_map.h"
 #include "renderer/photon/photon_tracer.h"
@@ -13,6 +15,7 @@
 #include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
+#include "renderer/scene/scene_limits.h"
 #include "renderer/scene/validate.h"
 
 #if defined(CAUSTICA_WITH_CUDA)
@@ -279,10 +282,22 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   return report;
 }
 
-absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings) {
+absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings,
+                                                   const ImageSize& size) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
+  // Everything is checked before anything changes, so a refused change changes nothing.
+  Camera camera = st.scene.camera;
+  for (auto [field, value, side] : {std::tuple{"width", size.width, &camera.width},
+                                    std::tuple{"height", size.height, &camera.height}}) {
+    if (value > uint32_t(kMaxImageSide)) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "%s: %d is outside [1, %d] (0 keeps the current size)", field, value, kMaxImageSide));
+    }
+    if (value > 0) *side = int(value);
+  }
   if (absl::Status s = validate_settings(settings); !s.ok()) return s;
+  if (absl::Status s = validate_camera(camera); !s.ok()) return s;
   if (absl::Status s = media_support(st.scene, settings); !s.ok()) return s;
   const RenderSettings& old = st.scene.settings;
   const bool estimator_change = !same_estimator(settings, old);
@@ -291,8 +306,13 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
                               settings.max_photon_bounces != old.max_photon_bounces ||
                               settings.seed != old.seed || estimator_change;
   const bool structure_change = settings.structure != old.structure;
+  const bool resize =
+      camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
+    // The new film first: when it does not fit, nothing has changed yet.
+    std::optional<Film> film;
+    if (resize) film.emplace(*st.backend, camera.width, camera.height);
     if (structure_change) {
       // The photons traced ahead went through the old structure: they are traced again through
       // the new one, as after any geometry change.
@@ -307,7 +327,13 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
     if (estimator_change)
       st.estimator = make_estimator(*st.backend, estimator_options(settings, st.photons_per_leaf));
     st.scene.settings = settings;
-    st.film->clear();
+    if (resize) {
+      st.film = std::move(film);
+      st.scene.camera = camera;
+      ++st.epochs.camera;
+    } else {
+      st.film->clear();
+    }
     ++st.epochs.settings;
     report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
                                       : std::vector<std::string>{"film"};
@@ -373,6 +399,7 @@ std::span<const Rgba8> Engine::image_srgb8(float exposure_stops) {
 }
 const Scene& Engine::scene() const { return state_->scene; }
 const Epochs& Engine::epochs() const { return state_->epochs; }
+uint32_t Engine::film_passes() const { return state_->film ? state_->film->passes() : 0; }
 DeviceInfo Engine::device_info() const { return state_->backend->info(); }
 Backend& Engine::backend() { return *state_->backend; }
 

@@ -47,6 +47,11 @@ struct EngineOptions {
   uint32_t photons_per_leaf = 0;
 };
 
+// A film size to change to with the settings; 0 keeps that side as it is.
+struct ImageSize {
+  uint32_t width = 0, height = 0;
+};
+
 // Change counters; each frame reports the epochs it reflects.
 struct Epochs {
   uint64_t geometry = 0, lights = 0, camera = 0, settings = 0;
@@ -109,8 +114,11 @@ class Engine {
   absl::StatusOr<RebuildReport> set_camera(const Camera& camera);
   // Restarts accumulation; settings that change the photons re-trace them as set_lights does. A new
   // structure is built over the same triangles (a geometry change: its epoch moves, "geometry" is
-  // reported) and the photons are traced through it.
-  absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings);
+  // reported) and the photons are traced through it. With a `size`, the film takes it as well
+  // (the camera's epoch moves too): the settings and the size are checked together and the new
+  // film allocated before anything changes, so a refused change leaves both as they were.
+  absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings,
+                                             const ImageSize& size = {});
 
   using Progress = std::function<void(uint32_t done, uint32_t total)>;
   // Adds `passes` progressive passes to the film.
@@ -123,6 +131,8 @@ class Engine {
 
   const Scene& scene() const;
   const Epochs& epochs() const;
+  // Passes in the film since the last change (0 without a scene).
+  uint32_t film_passes() const;
   SceneStats scene_stats() const;
   DeviceInfo device_info() const;
   Backend& backend();

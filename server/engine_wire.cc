@@ -1,7 +1,5 @@
 #include "server/engine_wire.h"
 
-#include <algorithm>
-
 #include "proto/wire/scene_wire.h"
 
 namespace caustica::server {
@@ -42,24 +40,6 @@ void add_timings(const v1::StageTimings& t, v1::StageTimings* out) {
   out->set_queue_ms(out->queue_ms() + t.queue_ms());
 }
 
-void merge_rebuild(const RebuildReport& next, RebuildReport* report) {
-  for (const std::string& what : next.rebuilt) {
-    if (std::find(report->rebuilt.begin(), report->rebuilt.end(), what) == report->rebuilt.end())
-      report->rebuilt.push_back(what);
-  }
-  report->timings.structure_build_ms += next.timings.structure_build_ms;
-  report->timings.photon_trace_ms += next.timings.photon_trace_ms;
-  report->timings.photon_map_build_ms += next.timings.photon_map_build_ms;
-  report->timings.render_ms += next.timings.render_ms;
-  // The later change traced the photons in use now.
-  if (next.photons_emitted > 0) {
-    report->photons_emitted = next.photons_emitted;
-    report->caustic_photons = next.caustic_photons;
-    report->global_photons = next.global_photons;
-  }
-  report->epochs = next.epochs;
-}
-
 void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   uint64_t vertices = 0;
   uint64_t emissive_triangles = 0;
@@ -75,7 +55,7 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   info->set_area_lights(static_cast<uint32_t>(emissive_triangles));
 }
 
-void describe_state(const Engine& engine, uint32_t film_passes, v1::SceneInfo* info) {
+void describe_state(const Engine& engine, v1::SceneInfo* info) {
   const Scene& scene = engine.scene();
   const SceneStats stats = engine.scene_stats();
   info->set_triangles(stats.triangles);
@@ -90,7 +70,7 @@ void describe_state(const Engine& engine, uint32_t film_passes, v1::SceneInfo* i
   info->set_structure_sah_cost(stats.structure_sah_cost);
   info->set_photon_map_bytes(stats.photon_map_bytes);
   info->set_device_bytes(stats.device_bytes);
-  info->set_passes(film_passes);
+  info->set_passes(engine.film_passes());
 }
 
 }  // namespace caustica::server

@@ -14,13 +14,11 @@ v1::Epochs encode_epochs(const Epochs& epochs);
 void add_timings(const StageTimings& timings, v1::StageTimings* out);
 void add_timings(const v1::StageTimings& timings, v1::StageTimings* out);
 v1::RebuildReport encode_rebuild(const RebuildReport& report);
-// Appends `next` to `report`, as when one request made two engine changes.
-void merge_rebuild(const RebuildReport& next, RebuildReport* report);
 
 // The SceneInfo fields fixed at upload: name, counts of meshes, materials, vertices, emissive
 // triangles.
 void describe_geometry(const Scene& scene, v1::SceneInfo* info);
 // The fields that change with updates and passes, from the engine (call under the device lease).
-void describe_state(const Engine& engine, uint32_t film_passes, v1::SceneInfo* info);
+void describe_state(const Engine& engine, v1::SceneInfo* info);
 
 }  // namespace caustica::server

@@ -8,8 +8,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "proto/wire/scene_wire.h"
-#include "renderer/scene/scene_limits.h"
-#include "renderer/scene/validate.h"
 #include "server/engine_wire.h"
 #include "server/log.h"
 
@@ -128,7 +126,6 @@ absl::StatusOr<v1::RebuildReport> RenderService::rebuild(
   record_stages(report->timings);
   v1::RebuildReport out = encode_rebuild(*report);
   out.mutable_timings()->set_queue_ms(queue_ms);
-  entry.film_passes = 0;  // every change restarts accumulation
   entry.refresh(&out);
   return out;
 }
@@ -155,12 +152,11 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
     if (!lease.ok()) return lease.status();
     Engine& engine = *entry.engine;
     const uint32_t goal = target > 0 ? target : std::max(engine.scene().settings.passes, 1u);
-    auto wants_pass = [&] { return entry.film_passes < goal && rendered < max_passes; };
+    auto wants_pass = [&] { return engine.film_passes() < goal && rendered < max_passes; };
     if (wants_pass()) {
       absl::StatusOr<PassReport> pass = engine.render(1);
       if (!pass.ok()) return pass.status();
       ++rendered;
-      entry.film_passes = pass->total_passes;
       photons += pass->photons_emitted;
       add_timings(pass->timings, timings);
       record_stages(pass->timings);
@@ -185,7 +181,7 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
       srgb8.assign(srgb8_image.begin(), srgb8_image.end());
       linear.assign(linear_image.begin(), linear_image.end());
     }
-    frame.header.set_passes(entry.film_passes);
+    frame.header.set_passes(engine.film_passes());
     *frame.header.mutable_epochs() = encode_epochs(engine.epochs());
     resolve_ms = ms_since(resolve_start);
     break;
@@ -380,41 +376,14 @@ grpc::Status RenderService::UpdateCamera(grpc::ServerContext* context,
 grpc::Status RenderService::UpdateSettings(grpc::ServerContext* context,
                                            const v1::UpdateSettingsRequest* request,
                                            v1::RebuildReport* response) {
-  return serve_update(context, "UpdateSettings", request->scene_id(), response,
-                      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
-                        // Everything is checked before anything changes, so a refused request
-                        // changes nothing.
-                        for (auto [field, value] : {std::pair{"width", request->width()},
-                                                    std::pair{"height", request->height()}}) {
-                          if (value > static_cast<uint32_t>(kMaxImageSide)) {
-                            return absl::InvalidArgumentError(absl::StrFormat(
-                                "%s: %d is outside [1, %d] (0 keeps the current size)", field,
-                                value, kMaxImageSide));
-                          }
-                        }
-                        const RenderSettings previous = engine.scene().settings;
-                        absl::StatusOr<RenderSettings> settings =
-                            wire::apply_settings(request->settings(), previous, "settings");
-                        if (!settings.ok()) return settings.status();
-                        Camera camera = engine.scene().camera;
-                        if (request->width() > 0) camera.width = static_cast<int>(request->width());
-                        if (request->height() > 0)
-                          camera.height = static_cast<int>(request->height());
-                        if (absl::Status s = validate_settings(*settings); !s.ok()) return s;
-                        if (absl::Status s = validate_camera(camera); !s.ok()) return s;
-                        absl::StatusOr<RebuildReport> changed = engine.set_settings(*settings);
-                        if (!changed.ok() || (request->width() == 0 && request->height() == 0))
-                          return changed;
-                        absl::StatusOr<RebuildReport> resized = engine.set_camera(camera);
-                        if (!resized.ok()) {
-                          // Everything was validated above, so only the film allocation can fail
-                          // here; put the settings back so the scene keeps what it had.
-                          (void)engine.set_settings(previous);
-                          return resized.status();
-                        }
-                        merge_rebuild(*resized, &*changed);
-                        return changed;
-                      });
+  return serve_update(
+      context, "UpdateSettings", request->scene_id(), response,
+      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+        absl::StatusOr<RenderSettings> settings =
+            wire::apply_settings(request->settings(), engine.scene().settings, "settings");
+        if (!settings.ok()) return settings.status();
+        return engine.set_settings(*settings, {request->width(), request->height()});
+      });
 }
 
 // --- frames ---

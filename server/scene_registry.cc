@@ -21,7 +21,7 @@ v1::SceneInfo SceneEntry::info() const {
 void SceneEntry::refresh(const v1::RebuildReport* last_rebuild) {
   if (!engine) return;
   v1::SceneInfo info = this->info();
-  describe_state(*engine, film_passes, &info);
+  describe_state(*engine, &info);
   if (last_rebuild != nullptr) *info.mutable_last_rebuild() = *last_rebuild;
   std::lock_guard<std::mutex> lock(mutex_);
   info_ = std::move(info);

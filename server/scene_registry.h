@@ -29,7 +29,6 @@ class SceneEntry {
   // --- touched only under the device lease, which serialises every engine call ---
   // Null once the scene is deleted (calls still holding the entry then get NOT_FOUND).
   std::unique_ptr<Engine> engine;
-  uint32_t film_passes = 0;  // passes in the film since the last change
 
   // --- the snapshot, any thread ---
   v1::SceneInfo info() const;

@@ -274,6 +274,57 @@ TEST(Engine, RefusedUpdatesNameTheFieldAndChangeNothing) {
   EXPECT_EQ(engine->scene().lights.size(), 1u);
 }
 
+// Settings and the film's size change in one call: together, or not at all. A refused size, a
+// refused setting, or a film beyond the memory budget leaves the settings, the camera, the film's
+// passes and the epochs as they were; the film's passes restart only with a change.
+TEST(Engine, SettingsAndSizeChangeTogetherOrNotAtAll) {
+  const Scene scene = parse_or_die(kGreyQuad);
+  auto engine =
+      Engine::create({.device = DeviceKind::kCpu, .memory_budget_bytes = size_t{64} << 20});
+  ASSERT_TRUE(engine.ok());
+  ASSERT_TRUE((*engine)->load(scene).ok());
+  Engine& e = **engine;
+  ASSERT_TRUE(e.render(3).ok());
+  EXPECT_EQ(e.film_passes(), 3u);
+  const Epochs before = e.epochs();
+  RenderSettings more_k = scene.settings;
+  more_k.k_nearest = scene.settings.k_nearest + 8;
+
+  auto expect_unchanged = [&](const absl::StatusOr<RebuildReport>& refused, absl::StatusCode code,
+                              const std::string& message) {
+    EXPECT_EQ(refused.status().code(), code) << refused.status();
+    EXPECT_THAT(std::string(refused.status().message()), testing::HasSubstr(message));
+    EXPECT_EQ(e.scene().settings.k_nearest, scene.settings.k_nearest);
+    EXPECT_EQ(e.scene().camera.width, scene.camera.width);
+    EXPECT_EQ(e.scene().camera.height, scene.camera.height);
+    EXPECT_EQ(e.film_passes(), 3u);
+    EXPECT_EQ(e.epochs().settings, before.settings);
+    EXPECT_EQ(e.epochs().camera, before.camera);
+  };
+  expect_unchanged(e.set_settings(more_k, {.width = 1u << 20}), absl::StatusCode::kInvalidArgument,
+                   "width: 1048576 is outside [1, ");
+  RenderSettings no_k = more_k;
+  no_k.k_nearest = 0;
+  expect_unchanged(e.set_settings(no_k, {.width = 64, .height = 48}),
+                   absl::StatusCode::kInvalidArgument, "settings.k");
+  // 4096 x 4096 float RGBA accumulators are 256 MiB, beyond the budget.
+  expect_unchanged(e.set_settings(more_k, {.width = 4096, .height = 4096}),
+                   absl::StatusCode::kResourceExhausted, "");
+  ASSERT_TRUE(e.render(1).ok());
+  EXPECT_EQ(e.film_passes(), 4u);
+
+  absl::StatusOr<RebuildReport> changed = e.set_settings(more_k, {.width = 64});
+  ASSERT_TRUE(changed.ok()) << changed.status();
+  EXPECT_EQ(e.scene().settings.k_nearest, more_k.k_nearest);
+  EXPECT_EQ(e.scene().camera.width, 64);
+  EXPECT_EQ(e.scene().camera.height, scene.camera.height);  // 0 kept it
+  EXPECT_EQ(e.film_passes(), 0u);
+  EXPECT_EQ(changed->epochs.settings, before.settings + 1);
+  EXPECT_EQ(changed->epochs.camera, before.camera + 1);
+  ASSERT_TRUE(e.render(1).ok());
+  EXPECT_EQ(e.image_linear().size(), size_t{64} * scene.camera.height * 4);
+}
+
 // A bad medium is named, and the engine keeps the scene it had.
 TEST(Engine, RefusesABadMediumAndKeepsItsScene) {
   auto engine = engine_with(parse_or_die(kGreyQuad));
