@@ -5,8 +5,11 @@
 #include <grpcpp/security/credentials.h>
 
 #include <chrono>
+#include <iostream>
+#include <string>
 
 #include "client/health_check.h"
+#include "proto/wire/api_version.h"
 
 namespace caustica::client {
 namespace {
@@ -17,6 +20,29 @@ constexpr auto kProbeTimeout = std::chrono::milliseconds(1500);
 bool is_loopback(const std::string& address) {
   return address.rfind("localhost:", 0) == 0 || address.rfind("127.", 0) == 0 ||
          address.rfind("[::1]:", 0) == 0;
+}
+
+// How long the version check waits: a server that does not answer by then is reported by the
+// command's own call.
+constexpr auto kVersionTimeout = std::chrono::seconds(3);
+
+// Asks the server for its version and warns on stderr when it speaks another API or is another
+// release, or does not say (a server from before GetVersion). Says nothing when the call fails
+// otherwise: the command's own call reports that.
+void warn_on_version_mismatch(Connection& connection) {
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + kVersionTimeout);
+  v1::VersionInfo server;
+  const grpc::Status status =
+      connection.stub().GetVersion(&context, v1::GetVersionRequest(), &server);
+  std::string warning;
+  if (status.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
+    warning = "the server does not report its version (it predates this client's API " +
+              wire::api_version() + "): calls may be refused or fields lost";
+  } else if (status.ok()) {
+    warning = wire::version_mismatch(server);
+  }
+  if (!warning.empty()) std::cerr << "caustica: warning: " << warning << "\n";
 }
 
 }  // namespace
@@ -54,6 +80,7 @@ absl::StatusOr<std::unique_ptr<Connection>> Connection::open(const ConnectOption
     connection->channel_ = make_channel(connection->address_, max_bytes);
   }
   connection->stub_ = v1::RenderService::NewStub(connection->channel_);
+  warn_on_version_mismatch(*connection);
   return connection;
 }
 

@@ -9,6 +9,7 @@
 #include "client/commands.h"
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
+#include "proto/wire/api_version.h"
 #include "renderer/accel/structure_kind.h"
 #include "tools/cli/setting_names.h"
 #include "tools/cli/structure_option.h"
@@ -72,6 +73,8 @@ int main(int argc, char** argv) {
       "from a caustica-server (without --server: localhost:50051, else a local server "
       "started for the command)."};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("caustica ") + caustica::wire::release_version() +
+                                        " (API " + caustica::wire::api_version() + ")");
   app.option_defaults()->always_capture_default();  // --help shows the defaults
   app.fallthrough();                                // global flags may follow the subcommand
   GlobalOptions global;

@@ -2,6 +2,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "proto/wire/api_version.h"
 #include "server/log.h"
 #include "server/server_main.h"
 
@@ -9,6 +10,9 @@ int main(int argc, char** argv) {
   caustica::server::ServerOptions options;
   std::string memory_budget = "8G";
   CLI::App app{"Caustica render server: resident scenes, photon-mapped frames over gRPC."};
+  app.set_version_flag("--version", std::string("caustica-server ") +
+                                        caustica::wire::release_version() + " (API " +
+                                        caustica::wire::api_version() + ")");
   app.add_option("--listen", options.listen, "host:port to listen on; port 0 picks a free port")
       ->capture_default_str();
   app.add_option("--port-file", options.port_file, "write the bound port to this file");

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/wire/api_version.h"
 #include "proto/wire/scene_wire.h"
 #include "server/engine_wire.h"
 #include "server/log.h"
@@ -497,6 +498,14 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
 }
 
 // --- stats ---
+
+grpc::Status RenderService::GetVersion(grpc::ServerContext* context, const v1::GetVersionRequest*,
+                                       v1::VersionInfo* response) {
+  return serve(context, "GetVersion", "", [&] {
+    *response = wire::own_version();
+    return absl::OkStatus();
+  });
+}
 
 grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                                      const v1::GetStatsRequest* request, v1::Stats* response) {

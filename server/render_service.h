@@ -61,6 +61,8 @@ class RenderService final : public v1::RenderService::Service {
                              grpc::ServerWriter<v1::Frame>* writer) override;
   grpc::Status GetStats(grpc::ServerContext* context, const v1::GetStatsRequest* request,
                         v1::Stats* response) override;
+  grpc::Status GetVersion(grpc::ServerContext* context, const v1::GetVersionRequest* request,
+                          v1::VersionInfo* response) override;
 
  private:
   // A frame resolved from the film: header fields and the encoded bytes.

@@ -17,6 +17,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/wire/api_version.h"
 #include "server/log.h"
 
 namespace caustica::server {
@@ -118,10 +119,11 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   }
   const DeviceInfo info = (*backend)->info();
   log_line(LogLevel::kInfo,
-           absl::StrFormat("caustica-server listening on port %d (%s); device %s: %s, %d compute "
-                           "units; memory budget %d bytes; at most %d scenes",
-                           server->port_, options.listen, device_kind_name(*device), info.name,
-                           info.compute_units, (*backend)->budget(), options.max_scenes));
+           absl::StrFormat("caustica-server %s (API %s) listening on port %d (%s); device %s: %s, "
+                           "%d compute units; memory budget %d bytes; at most %d scenes",
+                           wire::release_version(), wire::api_version(), server->port_,
+                           options.listen, device_kind_name(*device), info.name, info.compute_units,
+                           (*backend)->budget(), options.max_scenes));
   return server;
 }
 

@@ -73,3 +73,14 @@ TEST(ClientOptions, HelpListsTheStructures) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(ClientOptions, VersionNamesTheReleaseAndTheApi) {
+  const ClientRun run = run_client("--version");
+  EXPECT_EQ(run.exit_code, 0);
+  EXPECT_THAT(run.output, ::testing::MatchesRegex("caustica [0-9]+\\.[0-9]+\\.[0-9]+ \\(API "
+                                                  "v1-[0-9a-f]{8}\\)\n"));
+}
+
+}  // namespace
