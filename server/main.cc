@@ -34,6 +34,9 @@ int main(int argc, char** argv) {
                  "seconds running calls may take to finish after SIGTERM/SIGINT")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--metrics-listen", options.metrics_listen,
+                 "host:port to serve Prometheus metrics on (/metrics); port 0 picks a free port; "
+                 "off by default");
   CLI11_PARSE(app, argc, argv);
 
   absl::StatusOr<size_t> budget = caustica::server::parse_byte_size(memory_budget);

@@ -52,7 +52,12 @@ RenderService::RenderService(std::shared_ptr<Backend> backend, const ServiceOpti
     : backend_(std::move(backend)),
       options_(options),
       device_info_(backend_->info()),
-      registry_(options.max_scenes) {}
+      registry_(options.max_scenes),
+      metrics_([this] {
+        return ServerReadings{backend_->bytes_in_use(), backend_->peak_bytes(), backend_->budget(),
+                              registry_.size(),         registry_.max_scenes(), active_streams_,
+                              calls_in_flight_};
+      }) {}
 
 void RenderService::begin_shutdown() {
   shutting_down_ = true;
@@ -68,6 +73,7 @@ grpc::Status RenderService::serve(grpc::ServerContext* context, const char* meth
       shutting_down_ ? absl::UnavailableError("the server is shutting down") : work();
   const double ms = ms_since(start);
   latencies_.record(absl::StrCat("rpc/", method), ms);
+  metrics_.record_call(method, status.code(), ms);
   ++requests_served_;
   const LogLevel level = status.ok() || absl::IsCancelled(status) || absl::IsNotFound(status)
                              ? LogLevel::kInfo
@@ -95,7 +101,7 @@ absl::StatusOr<DeviceQueue::Lease> RenderService::acquire(grpc::ServerContext* c
   absl::StatusOr<DeviceQueue::Lease> lease =
       queue_.acquire([this, context] { return stop_status(context); });
   if (!lease.ok()) return lease.status();
-  latencies_.record("stage/queue", lease->waited_ms());
+  record_stage("queue", lease->waited_ms());
   if (queue_ms != nullptr) *queue_ms += lease->waited_ms();
   if (!entry.engine) {
     return absl::NotFoundError(absl::StrCat("scene_id: scene '", entry.id(), "' was deleted"));
@@ -106,14 +112,19 @@ absl::StatusOr<DeviceQueue::Lease> RenderService::acquire(grpc::ServerContext* c
 void RenderService::record_stages(const StageTimings& t) {
   // Stages a call did not run stay out of the percentiles.
   const std::pair<const char*, double> stages[] = {
-      {"stage/structure_build", t.structure_build_ms},
-      {"stage/photon_trace", t.photon_trace_ms},
-      {"stage/photon_map_build", t.photon_map_build_ms},
-      {"stage/render", t.render_ms},
+      {"structure_build", t.structure_build_ms},
+      {"photon_trace", t.photon_trace_ms},
+      {"photon_map_build", t.photon_map_build_ms},
+      {"render", t.render_ms},
   };
   for (const auto& [name, ms] : stages) {
-    if (ms > 0) latencies_.record(name, ms);
+    if (ms > 0) record_stage(name, ms);
   }
+}
+
+void RenderService::record_stage(const char* stage, double ms) {
+  latencies_.record(absl::StrCat("stage/", stage), ms);
+  metrics_.record_stage(stage, ms);
 }
 
 absl::StatusOr<v1::RebuildReport> RenderService::rebuild(
@@ -193,7 +204,7 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   frame.data = *std::move(data);
   timings->set_resolve_ms(resolve_ms + ms_since(encode_start));
   timings->set_queue_ms(queue_ms);
-  latencies_.record("stage/resolve", timings->resolve_ms());
+  record_stage("resolve", timings->resolve_ms());
   frame.header.set_scene_id(entry.id());
   frame.header.set_width(static_cast<uint32_t>(width));
   frame.header.set_height(static_cast<uint32_t>(height));

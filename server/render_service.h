@@ -20,6 +20,7 @@
 #include "server/device_queue.h"
 #include "server/frame_encoding.h"
 #include "server/latency_stats.h"
+#include "server/metrics.h"
 #include "server/scene_registry.h"
 
 namespace caustica::server {
@@ -37,6 +38,8 @@ class RenderService final : public v1::RenderService::Service {
   void begin_shutdown();
   // Handlers running now.
   uint32_t calls_in_flight() const { return calls_in_flight_; }
+  // What the calls and stages recorded, for /metrics.
+  ServerMetrics& metrics() { return metrics_; }
 
   grpc::Status UploadScene(grpc::ServerContext* context, grpc::ServerReader<v1::SceneChunk>* reader,
                            v1::SceneInfo* response) override;
@@ -110,6 +113,8 @@ class RenderService final : public v1::RenderService::Service {
   // The chunk size for a request's max_chunk_bytes (0 = 4 MiB, clamped to the message limit).
   size_t chunk_bytes(uint32_t requested) const;
   void record_stages(const StageTimings& timings);
+  // One run of `stage` ("queue", "render", ...), for GetStats' percentiles and /metrics.
+  void record_stage(const char* stage, double ms);
 
   const std::shared_ptr<Backend> backend_;
   const ServiceOptions options_;
@@ -123,6 +128,7 @@ class RenderService final : public v1::RenderService::Service {
   std::atomic<uint64_t> requests_served_{0};
   std::atomic<uint32_t> active_streams_{0};
   std::atomic<uint32_t> calls_in_flight_{0};
+  ServerMetrics metrics_;  // last: its gauges read the members above
 };
 
 }  // namespace caustica::server

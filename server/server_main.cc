@@ -111,6 +111,16 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   if (!server->server_ || server->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen));
   }
+  // Metrics listen before the port file appears, so whoever waits for it can scrape at once.
+  if (!options.metrics_listen.empty()) {
+    absl::StatusOr<int> metrics_port = server->service_->metrics().serve(options.metrics_listen);
+    if (!metrics_port.ok()) {
+      server->shutdown();
+      return metrics_port.status();
+    }
+    log_line(LogLevel::kInfo, absl::StrFormat("caustica-server: metrics on port %d (%s), /metrics",
+                                              *metrics_port, options.metrics_listen));
+  }
   if (!options.port_file.empty()) {
     if (absl::Status written = write_port_file(options.port_file, server->port_); !written.ok()) {
       server->shutdown();

@@ -24,6 +24,7 @@ struct ServerOptions {
   size_t max_message_mb = 64;
   std::string log_level = "info";
   double shutdown_grace_s = 5;  // how long running calls may finish before they are cancelled
+  std::string metrics_listen;   // host:port for Prometheus' /metrics; empty: none
 };
 
 // "8G", "512M", "64k", "1.5G" (binary units, case-insensitive, optional trailing B or iB) or a
