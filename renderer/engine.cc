@@ -39,6 +39,8 @@ absl::Status guarded(Fn&& fn) {
     return fn();
   } catch (const BudgetExceeded& e) {
     return absl::ResourceExhaustedError(e.what());
+  } catch (const OutOfDeviceMemory& e) {
+    return absl::ResourceExhaustedError(e.what());
   } catch (const std::bad_alloc&) {
     return absl::ResourceExhaustedError("out of memory");
   } catch (const DeviceError& e) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <string_view>
 
 #include "absl/strings/str_format.h"
@@ -13,11 +14,27 @@ BudgetExceeded::BudgetExceeded(size_t requested, size_t in_use, size_t budget)
           absl::StrFormat("memory budget exceeded: %d bytes requested with %d of %d bytes in use",
                           requested, in_use, budget)) {}
 
+OutOfDeviceMemory::OutOfDeviceMemory(size_t requested, size_t in_use)
+    : message_(absl::StrFormat(
+          "the device is out of memory: %d bytes requested with %d in use (within the budget)",
+          requested, in_use)) {}
+
+Backend::Backend(size_t memory_budget_bytes) : budget_(memory_budget_bytes) {
+  if (const char* above = std::getenv(kFailAllocationsAboveVariable); above != nullptr)
+    fail_above_ = std::strtoull(above, nullptr, 10);
+}
+
 void* Backend::allocate(size_t bytes) {
   if (bytes == 0) return nullptr;
   std::lock_guard<std::mutex> lock(memory_mutex_);
   if (bytes > budget_ || in_use_ > budget_ - bytes) throw BudgetExceeded(bytes, in_use_, budget_);
-  void* p = allocate_raw(bytes);
+  if (fail_above_ > 0 && bytes > fail_above_) throw OutOfDeviceMemory(bytes, in_use_);
+  void* p;
+  try {
+    p = allocate_raw(bytes);
+  } catch (const std::bad_alloc&) {
+    throw OutOfDeviceMemory(bytes, in_use_);
+  }
   in_use_ += bytes;
   peak_ = std::max(peak_, in_use_);
   return p;

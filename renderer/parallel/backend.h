@@ -37,6 +37,22 @@ class BudgetExceeded : public std::bad_alloc {
   std::string message_;
 };
 
+// Thrown when the device has no memory left for an allocation within the budget (the budget is
+// larger than what is free); RESOURCE_EXHAUSTED at the engine's border, as a budget overrun is.
+class OutOfDeviceMemory : public std::bad_alloc {
+ public:
+  OutOfDeviceMemory(size_t requested, size_t in_use);
+  const char* what() const noexcept override { return message_.c_str(); }
+
+ private:
+  std::string message_;
+};
+
+// The environment variable that makes every allocation of more than its value in bytes fail as
+// if the device were out of memory: a fault-injection hook for tests of what a real device
+// failure does to a running server (docs/reliability.md).
+inline constexpr char kFailAllocationsAboveVariable[] = "CAUSTICA_FAIL_ALLOCATIONS_ABOVE";
+
 // Thrown when the device itself fails (a CUDA call returns an error); the engine converts it into
 // INTERNAL at its border.
 class DeviceError : public std::runtime_error {
@@ -59,7 +75,7 @@ struct LaunchTime {
 
 class Backend {
  public:
-  explicit Backend(size_t memory_budget_bytes) : budget_(memory_budget_bytes) {}
+  explicit Backend(size_t memory_budget_bytes);
   virtual ~Backend() = default;
   Backend(const Backend&) = delete;
   Backend& operator=(const Backend&) = delete;
@@ -168,6 +184,7 @@ class Backend {
 
  private:
   size_t budget_;
+  size_t fail_above_ = 0;  // kFailAllocationsAboveVariable's value; 0: off
   mutable std::mutex memory_mutex_;
   size_t in_use_ = 0;
   size_t peak_ = 0;

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <limits>
 
 #include "proto/wire/scene_wire.h"
+#include "renderer/parallel/backend.h"
 #include "tests/server/server_harness.h"
 
 namespace caustica::testing {
@@ -347,6 +349,50 @@ TEST_F(SmallBudgetTest, ScenesOverTheBudgetOrLimitsAreResourceExhausted) {
   EXPECT_FALSE(upload_scene(*stub_, cornell_box(8, 8, 500, 8, 1)).empty())
       << "deleting a scene makes room";
   EXPECT_TRUE(health_serving(server_->channel()));
+}
+
+// A device that runs out of memory within the budget (the budget is larger than what is free),
+// simulated by the backends' fault-injection hook: every allocation above 16 MiB fails as a
+// device's would. The call gets RESOURCE_EXHAUSTED naming it, nothing of it stays, and the
+// server keeps serving its other scenes.
+class DeviceOutOfMemoryTest : public ServerTest {
+ protected:
+  void SetUp() override {
+    setenv(kFailAllocationsAboveVariable, "16777216", 1);
+    ServerTest::SetUp();
+    unsetenv(kFailAllocationsAboveVariable);
+  }
+};
+
+TEST_F(DeviceOutOfMemoryTest, AnAllocationTheDeviceRefusesIsResourceExhausted) {
+  const std::string id = upload_scene(*stub_, cornell_box(32, 24, 2000, 16, 1));
+  // A 2048 x 2048 film's accumulators alone are 64 MiB.
+  v1::SceneInfo info;
+  const grpc::Status upload_status =
+      upload(*stub_, scene_chunks(cornell_box(2048, 2048, 2000, 16, 1), "wide"), &info);
+  EXPECT_EQ(upload_status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_NE(upload_status.error_message().find("the device is out of memory"), std::string::npos)
+      << upload_status.error_message();
+  EXPECT_EQ(resident_scenes(*stub_), 1u);
+
+  // A resize the device cannot hold changes neither the size nor the settings.
+  {
+    grpc::ClientContext context;
+    v1::UpdateSettingsRequest request;
+    request.set_scene_id(id);
+    request.set_width(2048);
+    request.set_height(2048);
+    request.mutable_settings()->set_k_nearest(24);
+    v1::RebuildReport report;
+    const grpc::Status status = stub_->UpdateSettings(&context, request, &report);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  }
+  const v1::SceneInfo kept = get_scene(*stub_, id);
+  EXPECT_EQ(kept.camera().width(), 32u);
+  EXPECT_EQ(kept.settings().k_nearest(), 16u);
+  v1::Frame frame;
+  EXPECT_TRUE(render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &frame).ok());
+  expect_server_healthy(*server_);
 }
 
 class SmallMessageTest : public ServerTest {
