@@ -4,7 +4,7 @@ PRESET ?= cpu
 BUILD_DIR := build/$(PRESET)
 JOBS ?= $(shell nproc)
 
-.PHONY: setup build test test-asan demo bench clean
+.PHONY: setup build test test-asan fuzz demo bench clean
 
 setup:
 	scripts/setup-deps
@@ -18,6 +18,12 @@ test: build
 
 test-asan:
 	$(MAKE) test PRESET=asan
+
+# Every libFuzzer target of fuzz/ for FUZZ_SECONDS each, built with clang in build/fuzz
+# (docs/reliability.md); fails when any of them finds a crash.
+FUZZ_SECONDS ?= 60
+fuzz: setup
+	FUZZ_SECONDS=$(FUZZ_SECONDS) JOBS=$(JOBS) scripts/fuzz
 
 # The demo renders on the GPU where there is one (nvcc and a working NVIDIA driver): the CUDA
 # build, whose server takes the GPU with --device auto. Elsewhere the CPU build.

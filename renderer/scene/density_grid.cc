@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -55,8 +56,7 @@ class Surveyor {
     for (uint32_t i = 0; i < data->mTableSize && out_.problem.empty(); ++i) {
       const auto* tile = data->tile(i);
       if (tile->isChild()) {
-        const Upper* upper = data->getChild(tile);
-        if (inside(upper, "an upper node")) walk(*upper);
+        if (const Upper* upper = node_at<Upper>(data, tile->child, "an upper node")) walk(*upper);
       } else {
         const nanovdb::Coord origin = tile->origin();
         value(tile->value, nanovdb::CoordBBox(origin, origin.offsetBy(Upper::DIM - 1)));
@@ -67,14 +67,21 @@ class Surveyor {
   }
 
  private:
+  // The node `offset` bytes from `base` (a node inside the buffer), as NanoVDB links children,
+  // or null with the problem noted when it would not lie whole and aligned inside the buffer.
+  // Checked on the offset before a pointer is formed: NanoVDB's getChild adds it unchecked, and a
+  // pointer computed past the buffer is undefined behaviour even if it is never read.
   template <typename Node>
-  bool inside(const Node* node, const char* what) {
-    const auto* p = reinterpret_cast<const uint8_t*>(node);
-    if (p < begin_ || p > end_ - sizeof(Node) || (p - begin_) % NANOVDB_DATA_ALIGNMENT != 0) {
+  const Node* node_at(const void* base, int64_t offset, const char* what) {
+    const int64_t size = end_ - begin_;
+    const int64_t from = reinterpret_cast<const uint8_t*>(base) - begin_;
+    const int64_t last = size - static_cast<int64_t>(sizeof(Node));
+    if (last < 0 || offset < -from || offset > last - from ||
+        (from + offset) % NANOVDB_DATA_ALIGNMENT != 0) {
       out_.problem = absl::StrCat(what, " lies outside the grid's buffer");
-      return false;
+      return nullptr;
     }
-    return true;
+    return reinterpret_cast<const Node*>(begin_ + (from + offset));
   }
 
   // One value, covering `box` (empty for the background).
@@ -103,8 +110,8 @@ class Surveyor {
       value(*it, nanovdb::CoordBBox(origin, origin.offsetBy(Child::DIM - 1)));
     }
     for (auto it = node.beginChild(); it && out_.problem.empty(); ++it) {
-      const Child* child = it.operator->();
-      if (inside(child, child_name)) walk_child(*child);
+      const int64_t offset = node.data()->mTable[it.pos()].child;
+      if (const Child* child = node_at<Child>(node.data(), offset, child_name)) walk_child(*child);
     }
   }
 
@@ -134,14 +141,21 @@ absl::Status check_header(const AlignedBytes& bytes, const std::string& field) {
   if (data->mMagic != NANOVDB_MAGIC_NUMBER) {
     return grid_error(field, "is not a NanoVDB grid (its magic number is wrong)");
   }
-  if (data->mVersion.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER) {
+  if (const nanovdb::Version version = data->mVersion;
+      version.getMajor() != NANOVDB_MAJOR_VERSION_NUMBER) {
+    // Not Version::c_str(): it returns a malloc'd string that every such grid would leak.
     return grid_error(
-        field, absl::StrCat("was written by NanoVDB ", data->mVersion.c_str(),
-                            "; this build reads version ", NANOVDB_MAJOR_VERSION_NUMBER, ".x"));
+        field, absl::StrCat("was written by NanoVDB ", version.getMajor(), ".", version.getMinor(),
+                            ".", version.getPatch(), "; this build reads version ",
+                            NANOVDB_MAJOR_VERSION_NUMBER, ".x"));
   }
   if (data->mGridType != nanovdb::GridType::Float) {
-    return grid_error(field, absl::StrCat("is a grid of ", nanovdb::toStr(data->mGridType),
-                                          "; a density grid holds floats"));
+    // toStr indexes a table with the type, which a damaged grid can put past the table's end.
+    const std::string type =
+        data->mGridType < nanovdb::GridType::End
+            ? std::string(nanovdb::toStr(data->mGridType))
+            : absl::StrCat("unknown type ", static_cast<uint32_t>(data->mGridType));
+    return grid_error(field, absl::StrCat("is a grid of ", type, "; a density grid holds floats"));
   }
   if (data->mGridSize != size) {
     return grid_error(field, absl::StrCat("says it is ", data->mGridSize, " bytes long but ", size,

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <memory>
 #include <system_error>
 
@@ -39,13 +40,16 @@ absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
   gzbuffer(file.get(), 256 * 1024);
 
   std::string bytes;
-  // The on-disk size is exact for plain files and a lower bound for compressed ones.
+  // The on-disk size is exact for plain files and a lower bound for compressed ones. The first
+  // read asks for that size and one byte more (to see the end), so that a small file costs a small
+  // buffer rather than a zero-filled 4 MiB one; reads then double up to kChunkBytes.
   const uintmax_t disk_size = std::filesystem::file_size(path, ec);
-  if (!ec) bytes.reserve(disk_size + kChunkBytes);
+  size_t step = ec ? kChunkBytes
+                   : static_cast<size_t>(std::clamp<uintmax_t>(disk_size + 1, 4096, kChunkBytes));
   size_t used = 0;
   while (true) {
-    if (bytes.size() < used + kChunkBytes) bytes.resize(used + kChunkBytes);
-    const int n = gzread(file.get(), bytes.data() + used, static_cast<unsigned>(kChunkBytes));
+    if (bytes.size() < used + step) bytes.resize(used + step);
+    const int n = gzread(file.get(), bytes.data() + used, static_cast<unsigned>(step));
     if (n < 0) {
       // gzerror's text repeats the path, so only its code is used.
       int zerr = 0;
@@ -55,6 +59,7 @@ absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
     }
     used += static_cast<size_t>(n);
     if (n == 0) break;
+    step = std::min(2 * step, kChunkBytes);
     if (used > kMaxFileBytes) {
       return absl::InvalidArgumentError(absl::StrCat(
           path.string(), ": file is larger than the limit of ", kMaxFileBytes, " bytes"));

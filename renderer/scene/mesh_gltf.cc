@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <exception>
 #include <string>
@@ -414,11 +415,14 @@ class GltfReader {
       return absl::InvalidArgumentError(
           absl::StrCat("node '", node.name, "': KHR_lights_punctual without a light index"));
     }
-    const int index = it->second.Get("light").GetNumberAsInt();
-    if (index < 0 || static_cast<size_t>(index) >= model_.lights.size()) {
+    // As a double: GetNumberAsInt converts 1e10 or -1e10 to int unchecked, which is undefined.
+    const double number = it->second.Get("light").GetNumberAsDouble();
+    if (!(number >= 0 && number < static_cast<double>(model_.lights.size())) ||
+        number != std::floor(number)) {
       return absl::InvalidArgumentError(
-          absl::StrCat("node '", node.name, "' refers to missing light ", index));
+          absl::StrCat("node '", node.name, "' refers to missing light ", number));
     }
+    const size_t index = static_cast<size_t>(number);
     SCENE_ASSIGN_OR_RETURN(Light light, convert_light(model_.lights[index], index));
     transform_light(world, &light);
     file_.lights.push_back(std::move(light));

@@ -6,6 +6,7 @@
 #include <string>
 #include <unordered_map>
 #include <utility>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -61,6 +62,32 @@ size_t face_line(const std::filesystem::path& path, size_t face_number) {
   return 0;
 }
 
+// tinyobjloader keeps a face's corner count in an unsigned char: a face of 256 or more corners
+// keeps all its indices but a wrapped count, which would pair the following faces with the wrong
+// corners. The error names the first such face, found again in the text (only on this path).
+absl::Status long_face_error(const std::filesystem::path& path) {
+  constexpr size_t kMaxCorners = 255;
+  const absl::StatusOr<std::string> text = read_file(path);
+  size_t line_number = 0;
+  if (text.ok()) {
+    for (absl::string_view line : absl::StrSplit(*text, '\n')) {
+      ++line_number;
+      line = absl::StripLeadingAsciiWhitespace(line);
+      if (line.size() < 2 || line[0] != 'f' || (line[1] != ' ' && line[1] != '\t')) continue;
+      const std::vector<absl::string_view> corners =
+          absl::StrSplit(line.substr(1), absl::ByAnyChar(" \t\r"), absl::SkipEmpty());
+      if (corners.size() > kMaxCorners) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path.string(), ":", line_number, ": face has ", corners.size(),
+                         " vertices; at most ", kMaxCorners, " are supported (split it)"));
+      }
+    }
+  }
+  return absl::InvalidArgumentError(absl::StrCat(path.string(), ": a face has more than ",
+                                                 kMaxCorners, " vertices; at most ", kMaxCorners,
+                                                 " are supported (split it)"));
+}
+
 // A face corner as OBJ stores it: separate indices into positions, normals and texcoords.
 struct Corner {
   int position, normal, uv;
@@ -90,6 +117,9 @@ class ObjMeshBuilder {
       if (shape.mesh.material_ids.size() != shape.mesh.num_face_vertices.size()) {
         return absl::InternalError(absl::StrCat(path_.string(), ": inconsistent tinyobj output"));
       }
+      size_t corner_total = 0;
+      for (const unsigned char corners : shape.mesh.num_face_vertices) corner_total += corners;
+      if (corner_total != shape.mesh.indices.size()) return long_face_error(path_);
       size_t offset = 0;
       for (const unsigned char corners : shape.mesh.num_face_vertices) {
         if (offset + corners > shape.mesh.indices.size()) {

@@ -18,8 +18,16 @@ inline constexpr uint32_t kMaxPasses = 100'000;
 inline constexpr float kMaxVkdeSpread = 100.0f;
 inline constexpr uint32_t kMaxFinalGatherRays = 4096;
 inline constexpr uint32_t kMaxFinalGatherSeeds = 1 << 20;
+#ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
+// The fuzz preset (fuzz/): a few bytes of scene may legally ask for a 100M-triangle sphere, which
+// would exceed a fuzzer's memory and time per input and be reported as a finding. Meshes a fuzzer
+// can afford keep the same checks meaningful.
+inline constexpr size_t kMaxTrianglesPerMesh = size_t{1} << 20;
+inline constexpr size_t kMaxVerticesPerMesh = size_t{1} << 20;
+#else
 inline constexpr size_t kMaxTrianglesPerMesh = 100'000'000;
 inline constexpr size_t kMaxVerticesPerMesh = 100'000'000;
+#endif
 // All meshes together: the triangle structure's leaves address the sorted triangles with 28 bits
 // (kMaxBvh4Triangles in accel/bvh4.h; resident_scene.cc checks that the two agree).
 inline constexpr size_t kMaxSceneTriangles = size_t{1} << 28;

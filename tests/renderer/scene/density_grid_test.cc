@@ -170,6 +170,25 @@ TEST(DensityGridBytes, DamagedBuffersAreRefusedWithTheirProblem) {
                 grid->tree().root().data()->mTableSize = 1u << 30;
               }),
               HasSubstr("its root table runs past the end of its buffer"));
+  // Another NanoVDB major version: named as numbers (its c_str() leaked a string per grid).
+  EXPECT_THAT(
+      damaged([](AlignedBytes& b) {
+        reinterpret_cast<nanovdb::GridData*>(b.data())->mVersion =
+            nanovdb::Version(NANOVDB_MAJOR_VERSION_NUMBER + 7, 4, 2);
+      }),
+      HasSubstr(absl::StrFormat("was written by NanoVDB %d.4.2; this build reads version %d.x",
+                                NANOVDB_MAJOR_VERSION_NUMBER + 7, NANOVDB_MAJOR_VERSION_NUMBER)));
+  // A grid type past the end of NanoVDB's table of type names, which must not be indexed with it.
+  EXPECT_THAT(damaged([](AlignedBytes& b) {
+                reinterpret_cast<nanovdb::GridData*>(b.data())->mGridType =
+                    static_cast<nanovdb::GridType>(4000);
+              }),
+              HasSubstr("is a grid of unknown type 4000; a density grid holds floats"));
+  EXPECT_THAT(damaged([](AlignedBytes& b) {
+                reinterpret_cast<nanovdb::GridData*>(b.data())->mGridType =
+                    nanovdb::GridType::Double;
+              }),
+              HasSubstr("is a grid of double; a density grid holds floats"));
   // Too short to be anything, and shorter than the grid says.
   EXPECT_THAT(message_of(check_density_grid(AlignedBytes(64), "g")), HasSubstr("too few"));
   AlignedBytes truncated(good->size() - 32);

@@ -130,6 +130,16 @@ TEST(LoadGltf, IndexOutOfRangeIsRejected) {
   EXPECT_THAT(message_of(file.status()), HasSubstr("index 1 is 7, out of range (4 vertices)"));
 }
 
+// A light index of 1e10 used to reach tinygltf's GetNumberAsInt, whose unchecked conversion to
+// int is undefined behaviour (UBSan's float-cast-overflow).
+TEST(LoadGltf, LightIndexBeyondIntIsAMissingLight) {
+  const absl::StatusOr<MeshFile> file = load_gltf(scene_data("bad/light_index_overflow.gltf"));
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(file.status()), HasSubstr("light_index_overflow.gltf"));
+  EXPECT_THAT(message_of(file.status()), HasSubstr("node 'Lamp' refers to missing light 1e+10"));
+}
+
 TEST(LoadGltf, MissingFileIsNotFound) {
   const absl::StatusOr<MeshFile> file = load_gltf(scene_data("meshes/nope.glb"));
   EXPECT_EQ(file.status().code(), absl::StatusCode::kNotFound);

@@ -2,6 +2,12 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
 
 #include "tests/renderer/scene/scene_test_util.h"
 
@@ -78,6 +84,30 @@ TEST(LoadObj, OutOfRangeIndexReportsFaceLine) {
   ASSERT_FALSE(file.ok());
   EXPECT_THAT(message_of(file.status()), HasSubstr("obj_index_out_of_range.obj:7: face 1"));
   EXPECT_THAT(message_of(file.status()), HasSubstr("vertex index 9 is out of range"));
+}
+
+// tinyobjloader counts a face's corners in an unsigned char; a 300-corner face used to wrap to 44
+// and shift every later face onto the wrong corners, silently.
+TEST(LoadObj, FaceWithMoreCornersThanTheReaderCountsIsRefusedWithItsLine) {
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("caustica-long-face-" + std::to_string(::getpid()) + ".obj");
+  {
+    std::ofstream obj(path);
+    obj << "# one face of 300 corners, then a triangle\n";
+    for (int i = 0; i < 300; ++i) {
+      const double angle = 2 * 3.14159265358979 * i / 300;
+      obj << "v " << std::cos(angle) << " " << std::sin(angle) << " 0\n";
+    }
+    obj << "f";
+    for (int i = 1; i <= 300; ++i) obj << " " << i;
+    obj << "\nf 1 2 3\n";
+  }
+  const absl::StatusOr<MeshFile> file = load_obj(path);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(file.ok());
+  EXPECT_EQ(file.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(file.status()),
+              HasSubstr(path.string() + ":302: face has 300 vertices; at most 255 are supported"));
 }
 
 TEST(LoadObj, MissingFileIsNotFound) {
