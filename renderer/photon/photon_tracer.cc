@@ -416,18 +416,19 @@ struct Compaction {
   Buffer<uint32_t> later_index;  // overflow entries, after the slots'
   size_t slotted = 0, extra = 0;
 
-  // The footprints beside the kept photons, in their order.
-  template <typename Footprint>
-  void gather(Backend& backend, const Buffer<Footprint>& from_slots,
-              const Buffer<Footprint>& from_overflow, Buffer<Footprint>& into) const {
+  // The kept entries of per-slot and per-overflow-entry arrays (the photons, or the footprints
+  // beside them), in their order, by launch `name`.
+  template <typename T>
+  void gather(Backend& backend, const char* name, const Buffer<T>& from_slots,
+              const Buffer<T>& from_overflow, Buffer<T>& into) const {
     into.resize_discard(slotted + extra);
-    Footprint* to = into.data();
-    const Footprint* slot = from_slots.data();
-    const Footprint* later = from_overflow.data();
+    T* to = into.data();
+    const T* slot = from_slots.data();
+    const T* later = from_overflow.data();
     const uint32_t* idx = index.data();
     const uint32_t* later_idx = later_index.data();
     const size_t n = slotted;
-    parallel_for(backend, "photon_compact_footprints", slotted + extra, [=] CAUSTICA_HD(size_t i) {
+    parallel_for(backend, name, slotted + extra, [=] CAUSTICA_HD(size_t i) {
       to[i] = i < n ? slot[idx[i]] : later[later_idx[i - n]];
     });
   }
@@ -575,8 +576,6 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   }
 
   // Compaction: the stored slots' photons in path order, then the overflow's of the same kind.
-  const Photon* slot = slot_photons.data();
-  const Photon* later = overflow.data();
   const uint32_t* later_order = overflow_order.data();
   auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags,
                      Buffer<Photon>& into) {
@@ -584,27 +583,22 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     c.slotted = backend.select_flagged(nullptr, flags.data(), slots, c.index.data());
     c.extra = backend.select_flagged(later_order, overflow_flags.data(), overflowed,
                                      c.later_index.data());
-    into.resize_discard(c.slotted + c.extra);
-    Photon* dst = into.data();
-    const uint32_t* idx = c.index.data();
-    const uint32_t* later_idx = c.later_index.data();
-    const size_t slotted = c.slotted;
-    parallel_for(backend, "photon_compact", slotted + c.extra, [=] CAUSTICA_HD(size_t i) {
-      dst[i] = i < slotted ? slot[idx[i]] : later[later_idx[i - slotted]];
-    });
+    c.gather(backend, "photon_compact", slot_photons, overflow, into);
     return c;
   };
   const Compaction caustic = compact(caustic_flags, caustic_overflow, out.caustic);
   const Compaction global = compact(global_flags, global_overflow, out.global);
   if (footprints) {
-    caustic.gather(backend, slot_footprints, overflow_footprints, out.caustic_footprints);
-    global.gather(backend, slot_footprints, overflow_footprints, out.global_footprints);
+    caustic.gather(backend, "photon_compact_footprints", slot_footprints, overflow_footprints,
+                   out.caustic_footprints);
+    global.gather(backend, "photon_compact_footprints", slot_footprints, overflow_footprints,
+                  out.global_footprints);
   }
   if (media) {
     const Compaction volume = compact(volume_flags, volume_overflow, out.volume);
     if (footprints) {
-      volume.gather(backend, slot_volume_footprints, overflow_volume_footprints,
-                    out.volume_footprints);
+      volume.gather(backend, "photon_compact_footprints", slot_volume_footprints,
+                    overflow_volume_footprints, out.volume_footprints);
     }
   }
   return out;

@@ -15,6 +15,7 @@
 #include "renderer/parallel/cuda/cuda_backend.h"
 #include "renderer/render/image_error.h"
 #include "renderer/scene/load_scene.h"
+#include "tests/renderer/gpu/render_image.h"
 
 namespace caustica {
 namespace {
@@ -24,17 +25,7 @@ namespace {
 constexpr int kSize = 512;
 
 std::vector<float> render_on_gpu(const Scene& scene, uint32_t passes) {
-  auto engine =
-      Engine::create({.device = DeviceKind::kCuda, .memory_budget_bytes = size_t{4} << 30});
-  EXPECT_TRUE(engine.ok()) << engine.status();
-  if (!engine.ok()) return {};
-  absl::StatusOr<RebuildReport> loaded = (*engine)->load(scene);
-  EXPECT_TRUE(loaded.ok()) << loaded.status();
-  absl::StatusOr<PassReport> rendered = loaded.ok() ? (*engine)->render(passes) : loaded.status();
-  EXPECT_TRUE(rendered.ok()) << rendered.status();
-  if (!rendered.ok()) return {};
-  const std::span<const float> image = (*engine)->image_linear();
-  return {image.begin(), image.end()};
+  return render_image(scene, DeviceKind::kCuda, passes, size_t{4} << 30);
 }
 
 struct Estimate {

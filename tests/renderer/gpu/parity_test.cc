@@ -40,6 +40,7 @@
 #include "renderer/scene/load_scene.h"
 #include "tests/renderer/accel/structure_snapshot.h"
 #include "tests/renderer/accel/triangle_soup.h"
+#include "tests/renderer/gpu/render_image.h"
 #include "tests/renderer/parallel/host_download_check.h"
 #include "tests/renderer/parallel/scratch_check.h"
 
@@ -873,18 +874,9 @@ TEST(GpuParity, CountingGroupSearchesFindWhatLoneHeapSearchesFind) {
   check_group_searches(/*binned=*/true, 300, 0.04f, 16);
 }
 
-// `passes` passes of `scene` on a fresh engine on `device`: linear RGBA, or empty after a failure.
+// render_image (render_image.h) within this suite's budget.
 std::vector<float> render_image(const Scene& scene, DeviceKind device, uint32_t passes) {
-  auto engine = Engine::create({.device = device, .memory_budget_bytes = kBudget});
-  EXPECT_TRUE(engine.ok()) << engine.status();
-  if (!engine.ok()) return {};
-  absl::StatusOr<RebuildReport> loaded = (*engine)->load(scene);
-  EXPECT_TRUE(loaded.ok()) << loaded.status();
-  absl::StatusOr<PassReport> rendered = loaded.ok() ? (*engine)->render(passes) : loaded.status();
-  EXPECT_TRUE(rendered.ok()) << rendered.status();
-  if (!rendered.ok()) return {};
-  const std::span<const float> image = (*engine)->image_linear();
-  return {image.begin(), image.end()};
+  return caustica::render_image(scene, device, passes, kBudget);
 }
 
 // Whole images of every bundled scene on both backends, same seed. Photon paths may part where
