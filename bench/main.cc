@@ -1,14 +1,25 @@
-// caustica-bench: prints one JSON line per measured figure.
+// caustica-bench: prints one JSON line per measured figure, or with --soak one line of a soak
+// test's results.
 #include <CLI/CLI.hpp>
 #include <iostream>
 
 #include "absl/strings/str_join.h"
 #include "bench/benchmarks.h"
+#include "bench/soak.h"
 #include "tools/cli/setting_names.h"
 
 int main(int argc, char** argv) {
   caustica::BenchOptions options;
-  CLI::App app{"Benchmarks of the Caustica renderer stages; one JSON line per figure."};
+  caustica::SoakOptions soak;
+  CLI::App app{
+      "Benchmarks of the Caustica renderer stages; one JSON line per figure.\n"
+      "With --soak, a soak test of caustica-server instead: --clients clients cycle upload, light "
+      "change, render, stream, cancelled stream and delete for --minutes after --warmup-minutes "
+      "of warm-up, then --storm streams are opened and cancelled at once. One JSON line reports "
+      "per-call latency and errors, the "
+      "server's memory at the start and the end, and \"pass\"; the exit status is 2 when it "
+      "did not pass. --scene, --width, --height, --photons and --device apply to it (default: "
+      "the bundled Cornell box at 64x64 with 1000 photons on a cpu server)."};
   app.add_option(
       "--mesh", options.mesh,
       "triangle mesh (.ply, .ply.gz, .obj, .gltf, .glb) for the structure and ray benchmarks");
@@ -79,10 +90,64 @@ int main(int argc, char** argv) {
       "--ray-queues", options.ray_queues,
       "photon and frame benchmarks: trace through the ray queues (batches of closest and "
       "any hits) even for structures that answer single rays, as batch-only ones always do");
+  bool soak_mode = false;
+  CLI::Option* soak_flag = app.add_flag("--soak", soak_mode, "run the soak test (see above)");
+  app.add_option("--clients", soak.clients, "soak: concurrent clients")
+      ->check(CLI::Range(1, 1024))
+      ->needs(soak_flag)
+      ->capture_default_str();
+  app.add_option("--minutes", soak.minutes,
+                 "soak: minutes of measured cycling after the warm-up (fractions allowed)")
+      ->check(CLI::NonNegativeNumber)
+      ->needs(soak_flag)
+      ->capture_default_str();
+  app.add_option("--warmup-minutes", soak.warmup_minutes,
+                 "soak: minutes of unmeasured cycling first (at least one cycle per client), so "
+                 "that the start's memory is the server's steady state")
+      ->check(CLI::NonNegativeNumber)
+      ->needs(soak_flag)
+      ->capture_default_str();
+  app.add_option("--storm", soak.storm,
+                 "soak: streams opened and cancelled at once at the end (0: no storm)")
+      ->check(CLI::Range(0, 4096))
+      ->needs(soak_flag)
+      ->capture_default_str();
+  CLI::Option* server =
+      app.add_option(
+             "--server", soak.server,
+             "soak: host:port of a running server to soak instead of starting one (it needs "
+             "--max-scenes of at least --clients + 2 free)")
+          ->needs(soak_flag);
+  app.add_option("--server-pid", soak.server_pid,
+                 "soak: the process id of the --server, whose resident memory is then reported")
+      ->check(CLI::PositiveNumber)
+      ->needs(server);
+  app.add_option("--data-dir", soak.data_dir,
+                 "soak: the started server keeps scenes in this directory (--data-dir), so the "
+                 "soak covers storing them too; default: none")
+      ->needs(soak_flag)
+      ->excludes(server);
+  app.add_option("--deadline", soak.deadline_s, "soak: seconds every call may take")
+      ->check(CLI::PositiveNumber)
+      ->needs(soak_flag)
+      ->capture_default_str();
   bool print_camera = false;
   app.add_flag("--print-camera", print_camera,
                "print the ray benchmarks' camera for --mesh (position look_at up fov) and exit");
   CLI11_PARSE(app, argc, argv);
+  if (soak_mode) {
+    soak.scene = options.photon_scene;
+    soak.device = options.device;
+    if (app.count("--width")) soak.width = options.width;
+    if (app.count("--height")) soak.height = options.height;
+    if (app.count("--photons")) soak.photons = options.photons;
+    absl::StatusOr<bool> passed = caustica::run_soak(soak, std::cout);
+    if (!passed.ok()) {
+      std::cerr << "caustica-bench: soak: " << passed.status().message() << "\n";
+      return 1;
+    }
+    return *passed ? 0 : 2;
+  }
   if (!structures.empty()) {
     options.structures.clear();
     for (const std::string& name : structures) {

@@ -1,12 +1,16 @@
 // Starting, waiting for and stopping the embedded caustica-server (see embedded_server.h).
 #include "client/embedded_server.h"
 
+#include <fcntl.h>
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
+#include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 #include <thread>
 
@@ -67,6 +71,33 @@ absl::StatusOr<std::filesystem::path> find_server_binary() {
       " to start one was not found next to ", dir.string(), " (set CAUSTICA_SERVER_BIN)"));
 }
 
+std::optional<std::filesystem::path> default_data_dir() {
+  if (const char* dir = std::getenv("CAUSTICA_DATA_DIR")) {
+    if (*dir == '\0') return std::nullopt;
+    return std::filesystem::path(dir);
+  }
+  if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state == '/') {
+    return std::filesystem::path(state) / "caustica";
+  }
+  if (const char* home = std::getenv("HOME"); home != nullptr && *home == '/') {
+    return std::filesystem::path(home) / ".local" / "state" / "caustica";
+  }
+  return std::nullopt;
+}
+
+namespace {
+
+// Whether a running caustica-server holds `dir` (its lock file is locked).
+bool data_dir_in_use(const std::filesystem::path& dir) {
+  const int fd = ::open((dir / "lock").c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool locked = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // releases the lock if this took it
+  return locked;
+}
+
+}  // namespace
+
 absl::StatusOr<std::unique_ptr<EmbeddedServer>> EmbeddedServer::start(
     const EmbeddedServerOptions& options) {
   std::filesystem::path binary = options.binary;
@@ -80,6 +111,16 @@ absl::StatusOr<std::unique_ptr<EmbeddedServer>> EmbeddedServer::start(
   const std::filesystem::path port_file = *dir / "port";
   std::vector<std::string> argv = {binary.string(), "--listen", "127.0.0.1:0", "--port-file",
                                    port_file.string()};
+  std::filesystem::path data_dir = options.data_dir.value_or(default_data_dir().value_or(""));
+  if (!data_dir.empty() && data_dir_in_use(data_dir)) {
+    std::cerr << "caustica: note: another command's server is using " << data_dir.string()
+              << "; this command's scenes are not kept\n";
+    data_dir.clear();
+  }
+  if (!data_dir.empty()) {
+    argv.push_back("--data-dir");
+    argv.push_back(data_dir.string());
+  }
   argv.insert(argv.end(), options.extra_args.begin(), options.extra_args.end());
   absl::StatusOr<pid_t> pid = spawn_process(argv, *dir / "server.log");
   if (!pid.ok()) {
@@ -88,6 +129,7 @@ absl::StatusOr<std::unique_ptr<EmbeddedServer>> EmbeddedServer::start(
   }
   // From here the destructor stops the process and removes the directory on every error path.
   std::unique_ptr<EmbeddedServer> server(new EmbeddedServer(*pid, *dir));
+  server->data_dir_ = data_dir;
 
   const auto give_up = std::chrono::steady_clock::now() + options.startup_timeout;
   std::optional<int> port;

@@ -1,6 +1,8 @@
 // The embedded default: without --server, and with nothing serving on localhost:50051, the CLI
 // starts its own caustica-server on a free loopback port for the length of one command, so that
-// `caustica render scene.json -o out.png` works on a laptop with nothing set up.
+// `caustica render scene.json -o out.png` works on a laptop with nothing set up. It keeps scenes
+// in a data directory (default_data_dir), so that a scene uploaded by one command is there for
+// the next.
 #pragma once
 
 #include <sys/types.h>
@@ -8,6 +10,7 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,8 +22,16 @@ namespace caustica::client {
 // install), else ../server/ beside it (the build tree, where client/ and server/ are siblings).
 absl::StatusOr<std::filesystem::path> find_server_binary();
 
+// $CAUSTICA_DATA_DIR (set but empty: none), else $XDG_STATE_HOME/caustica, else
+// ~/.local/state/caustica; none without a home directory.
+std::optional<std::filesystem::path> default_data_dir();
+
 struct EmbeddedServerOptions {
-  std::filesystem::path binary = {};    // empty: find_server_binary()
+  std::filesystem::path binary = {};  // empty: find_server_binary()
+  // The server's --data-dir: nullopt takes default_data_dir(), an empty path keeps none. When
+  // another embedded server holds it (another command running now), this one keeps none and says
+  // so on stderr.
+  std::optional<std::filesystem::path> data_dir = std::nullopt;
   std::vector<std::string> extra_args;  // appended to --listen and --port-file
   std::chrono::seconds startup_timeout{60};
 };
@@ -39,6 +50,8 @@ class EmbeddedServer {
 
   const std::string& address() const { return address_; }  // "127.0.0.1:PORT"
   pid_t pid() const { return pid_; }
+  // Where its scenes are kept; empty: nowhere (they go with the command).
+  const std::filesystem::path& data_dir() const { return data_dir_; }
 
  private:
   EmbeddedServer(pid_t pid, std::filesystem::path dir) : pid_(pid), dir_(std::move(dir)) {}
@@ -48,6 +61,7 @@ class EmbeddedServer {
   pid_t pid_;
   std::filesystem::path dir_;  // temporary: port file and server log
   std::string address_;
+  std::filesystem::path data_dir_;
 };
 
 }  // namespace caustica::client

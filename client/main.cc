@@ -84,6 +84,35 @@ int main(int argc, char** argv) {
   app.add_option("--max-message-mb", global.connect.max_message_mb,
                  "largest message accepted from the server")
       ->check(CLI::PositiveNumber);
+  app.add_option("--token", global.connect.token,
+                 "bearer token for a server started with --tokens, sent as 'authorization: "
+                 "Bearer TOKEN' with every call; prefer $CAUSTICA_TOKEN, since other users can "
+                 "see command lines")
+      ->envname("CAUSTICA_TOKEN")
+      ->type_name("TOKEN");
+  app.add_option("--tls-ca", global.connect.tls_ca,
+                 "connect with TLS, verifying the server's certificate against these PEM CA "
+                 "certificates")
+      ->check(CLI::ExistingFile.description(""))
+      ->type_name("FILE");
+  CLI::Option* tls_cert =
+      app.add_option("--tls-cert", global.connect.tls_cert,
+                     "PEM client certificate for a server that requires one (mutual TLS; with "
+                     "--tls-key); connects with TLS, against gRPC's default roots without --tls-ca")
+          ->check(CLI::ExistingFile.description(""))
+          ->type_name("FILE");
+  CLI::Option* tls_key =
+      app.add_option("--tls-key", global.connect.tls_key, "PEM private key of --tls-cert")
+          ->check(CLI::ExistingFile.description(""))
+          ->type_name("FILE");
+  tls_cert->needs(tls_key);
+  tls_key->needs(tls_cert);
+  std::optional<std::string> data_dir;
+  app.add_option("--data-dir", data_dir,
+                 "where the embedded server (no --server) keeps scenes between commands; '' "
+                 "keeps none. Default: $CAUSTICA_DATA_DIR, else $XDG_STATE_HOME/caustica, else "
+                 "~/.local/state/caustica")
+      ->type_name("DIR");
   app.add_flag("--json", global.json, "print each result as one JSON object");
 
   // Every subcommand's callback stores what to run; it runs after parsing succeeded.
@@ -186,6 +215,7 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   global.progress = stderr_is_terminal();
+  if (data_dir) global.connect.embedded.data_dir = std::filesystem::path(*data_dir);
   if (exit_code_action) return exit_code_action();
   if (const absl::Status status = action(); !status.ok()) {
     std::cerr << error_line(command_name, status) << "\n";

@@ -41,8 +41,15 @@ absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOpti
       upload_scene_file(**connection, options.file, options.name, overrides, global.progress);
   if (!uploaded.ok()) return uploaded.status();
   if ((*connection)->embedded()) {
-    std::cerr << "caustica: scene upload: note: the scene lived on an embedded server that stops "
-                 "with this command; start caustica-server and pass --server to keep scenes\n";
+    const std::filesystem::path kept = (*connection)->embedded_data_dir();
+    if (kept.empty()) {
+      std::cerr << "caustica: scene upload: note: the scene lived on an embedded server that "
+                   "stops with this command, without a data directory (--data-dir); start "
+                   "caustica-server and pass --server to keep scenes\n";
+    } else {
+      std::cerr << "caustica: scene upload: kept in " << kept.string()
+                << "; later commands without --server find it there\n";
+    }
   }
   if (global.json) {
     print_json(out, to_json(uploaded->info));

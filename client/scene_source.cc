@@ -116,6 +116,7 @@ SceneSource::~SceneSource() {
   // behind, and the delete may wait on the server for the cancelled render's current pass.
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + kCleanupTimeout);
+  connection_.authorize(context);
   v1::DeleteSceneResponse response;
   connection_.stub().DeleteScene(&context, request, &response);
 }

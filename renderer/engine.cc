@@ -401,6 +401,7 @@ std::span<const Rgba8> Engine::image_srgb8(float exposure_stops) {
 }
 const Scene& Engine::scene() const { return state_->scene; }
 const Epochs& Engine::epochs() const { return state_->epochs; }
+void Engine::restore_epochs(const Epochs& epochs) { state_->epochs = epochs; }
 uint32_t Engine::film_passes() const { return state_->film ? state_->film->passes() : 0; }
 DeviceInfo Engine::device_info() const { return state_->backend->info(); }
 Backend& Engine::backend() { return *state_->backend; }

@@ -131,6 +131,9 @@ class Engine {
 
   const Scene& scene() const;
   const Epochs& epochs() const;
+  // Continues the change counters of a scene restored from storage, so that clients see the
+  // epochs they were last told; call right after load().
+  void restore_epochs(const Epochs& epochs);
   // Passes in the film since the last change (0 without a scene).
   uint32_t film_passes() const;
   SceneStats scene_stats() const;

@@ -33,14 +33,14 @@ absl::StatusOr<DeviceQueue::Lease> DeviceQueue::acquire(const StopCheck& stop) {
   const auto start = std::chrono::steady_clock::now();
   std::unique_lock<std::mutex> lock(mutex_);
   if (shut_down_) return absl::UnavailableError("the server is shutting down");
-  const uint64_t ticket = next_ticket_++;
-  line_.push_back(ticket);
+  Waiter me;
+  line_.push_back(&me);
   auto leave_line = [&] {
-    line_.erase(std::find(line_.begin(), line_.end(), ticket));
-    // The next waiter may now be at the front.
-    changed_.notify_all();
+    const bool was_front = line_.front() == &me;
+    line_.erase(std::find(line_.begin(), line_.end(), &me));
+    if (was_front) wake_front_locked();
   };
-  while (busy_ || line_.front() != ticket) {
+  while (busy_ || line_.front() != &me) {
     if (shut_down_) {
       leave_line();
       return absl::UnavailableError("the server is shutting down");
@@ -54,7 +54,7 @@ absl::StatusOr<DeviceQueue::Lease> DeviceQueue::acquire(const StopCheck& stop) {
         return status;
       }
     }
-    changed_.wait_for(lock, kStopPollInterval);
+    me.wake.wait_for(lock, kStopPollInterval);
   }
   line_.pop_front();
   busy_ = true;
@@ -63,20 +63,22 @@ absl::StatusOr<DeviceQueue::Lease> DeviceQueue::acquire(const StopCheck& stop) {
   return Lease(this, waited);
 }
 
+void DeviceQueue::wake_front_locked() {
+  // Only the front can take the device; waking the others too would have every waiter of a long
+  // line contend for the mutex at every release.
+  if (!busy_ && !line_.empty()) line_.front()->wake.notify_one();
+}
+
 void DeviceQueue::release_device() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    busy_ = false;
-  }
-  changed_.notify_all();
+  std::lock_guard<std::mutex> lock(mutex_);
+  busy_ = false;
+  wake_front_locked();
 }
 
 void DeviceQueue::shut_down() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    shut_down_ = true;
-  }
-  changed_.notify_all();
+  std::lock_guard<std::mutex> lock(mutex_);
+  shut_down_ = true;
+  for (Waiter* waiter : line_) waiter->wake.notify_one();
 }
 
 size_t DeviceQueue::waiting() const {

@@ -50,12 +50,15 @@ class DeviceQueue {
   size_t waiting() const;
 
  private:
+  // One waiter in line, on its own stack; woken alone when it reaches the front.
+  struct Waiter {
+    std::condition_variable wake;
+  };
   void release_device();
+  void wake_front_locked();
 
   mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<uint64_t> line_;  // tickets of the waiters, in arrival order
-  uint64_t next_ticket_ = 0;
+  std::deque<Waiter*> line_;  // in arrival order
   bool busy_ = false;
   bool shut_down_ = false;
 };

@@ -37,6 +37,53 @@ int main(int argc, char** argv) {
   app.add_option("--metrics-listen", options.metrics_listen,
                  "host:port to serve Prometheus metrics on (/metrics); port 0 picks a free port; "
                  "off by default");
+  app.add_option("--data-dir", options.data_dir,
+                 "keep scenes in this directory (created if missing) and restore them at start; "
+                 "without it scenes live only as long as the process");
+  CLI::Option* tls_cert =
+      app.add_option("--tls-cert", options.tls_cert,
+                     "PEM certificate chain to serve TLS with on --listen (with --tls-key)")
+          ->type_name("FILE");
+  CLI::Option* tls_key = app.add_option("--tls-key", options.tls_key,
+                                        "PEM private key of --tls-cert (not passphrase-protected)")
+                             ->type_name("FILE");
+  tls_cert->needs(tls_key);
+  tls_key->needs(tls_cert);
+  app.add_option("--tls-client-ca", options.tls_client_ca,
+                 "PEM CA certificates: clients must present a certificate signed by one of them "
+                 "(mutual TLS; needs --tls-cert)")
+      ->type_name("FILE")
+      ->needs(tls_cert);
+  app.add_option("--tokens", options.tokens_file,
+                 "token file, one 'token,tenant' line per client token (# comments); callers "
+                 "then need 'authorization: Bearer <token>', except for health checks. Without "
+                 "it every caller is the single default tenant")
+      ->type_name("FILE");
+  app.add_flag("--insecure", options.insecure,
+               "allow plaintext (no --tls-cert) on a --listen address that is not loopback "
+               "(127.0.0.0/8, ::1, localhost)");
+  app.add_option("--health-listen", options.health_listen,
+                 "host:port of an extra plaintext port that serves only gRPC health checks, for "
+                 "probes while --listen needs TLS or tokens; port 0 picks a free port; off by "
+                 "default");
+  app.add_option("--tenant-max-scenes", options.max_tenant_scenes,
+                 "most scenes one tenant may hold, uploads included; 0: up to --max-scenes")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--tenant-memory-share", options.tenant_memory_share,
+                 "the share of --memory-budget one tenant's scenes may hold, in (0, 1]")
+      ->check(CLI::Range(0.0, 1.0) & CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--tenant-max-streams", options.max_tenant_streams,
+                 "most frame streams (StreamFrames, PlayAnimation) one tenant may have open; 0: "
+                 "no limit")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--scene-idle-ttl", options.scene_idle_ttl_s,
+                 "delete a scene no call has used for this many seconds; 0: keep scenes until "
+                 "deleted")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   absl::StatusOr<size_t> budget = caustica::server::parse_byte_size(memory_budget);

@@ -1,14 +1,18 @@
 #include "server/render_service.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <limits>
 #include <span>
+#include <thread>
 #include <utility>
 
+#include "absl/cleanup/cleanup.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "proto/wire/api_version.h"
 #include "proto/wire/scene_wire.h"
+#include "server/auth.h"
 #include "server/engine_wire.h"
 #include "server/log.h"
 
@@ -52,25 +56,119 @@ RenderService::RenderService(std::shared_ptr<Backend> backend, const ServiceOpti
     : backend_(std::move(backend)),
       options_(options),
       device_info_(backend_->info()),
-      registry_(options.max_scenes),
+      registry_(options.max_scenes, options.max_tenant_scenes),
       metrics_([this] {
         return ServerReadings{backend_->bytes_in_use(), backend_->peak_bytes(), backend_->budget(),
                               registry_.size(),         registry_.max_scenes(), active_streams_,
                               calls_in_flight_};
-      }) {}
+      }) {
+  restoring_ = options_.store != nullptr;
+  if (options_.scene_idle_ttl_s > 0) reaper_ = std::thread([this] { reap_idle_scenes(); });
+}
+
+RenderService::~RenderService() {
+  begin_shutdown();
+  if (reaper_.joinable()) reaper_.join();
+}
 
 void RenderService::begin_shutdown() {
-  shutting_down_ = true;
+  {
+    std::lock_guard<std::mutex> lock(reaper_mutex_);
+    shutting_down_ = true;
+  }
+  reaper_wake_.notify_all();
   queue_.shut_down();
+}
+
+void RenderService::reap_idle_scenes() {
+  const auto ttl = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(options_.scene_idle_ttl_s));
+  // Looks often enough that a scene outlives its TTL by at most a quarter of it (or a second).
+  const auto period = std::min<Clock::duration>(ttl / 4, std::chrono::seconds(1));
+  std::unique_lock<std::mutex> lock(reaper_mutex_);
+  while (!reaper_wake_.wait_for(lock, period, [this] { return shutting_down_.load(); })) {
+    lock.unlock();
+    const auto now = Clock::now();
+    for (const std::shared_ptr<SceneEntry>& entry : registry_.list_all()) {
+      if (now - entry->last_used() < ttl) continue;
+      absl::StatusOr<size_t> freed = forget(*entry);
+      if (freed.ok()) {
+        log_line(LogLevel::kInfo,
+                 absl::StrFormat("scene %s (tenant '%s') idle for %.0f s, deleted "
+                                 "(--scene-idle-ttl); %d bytes freed",
+                                 entry->id(), entry->tenant(),
+                                 std::chrono::duration<double>(now - entry->last_used()).count(),
+                                 *freed));
+      }
+    }
+    lock.lock();
+  }
+}
+
+class RenderService::StreamSlot {
+ public:
+  StreamSlot(RenderService& service, std::string tenant)
+      : service_(service), tenant_(std::move(tenant)) {}
+  ~StreamSlot() {
+    std::lock_guard<std::mutex> lock(service_.streams_mutex_);
+    --service_.tenant_streams_[tenant_];
+  }
+
+ private:
+  RenderService& service_;
+  const std::string tenant_;
+};
+
+absl::StatusOr<std::unique_ptr<RenderService::StreamSlot>> RenderService::open_stream(
+    const std::string& tenant) {
+  std::lock_guard<std::mutex> lock(streams_mutex_);
+  uint32_t& open = tenant_streams_[tenant];
+  if (options_.max_tenant_streams > 0 && open >= options_.max_tenant_streams) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "tenant '%s' has its maximum of %d frame streams open (--tenant-max-streams); end one "
+        "first",
+        tenant, options_.max_tenant_streams));
+  }
+  ++open;
+  return std::make_unique<StreamSlot>(*this, tenant);
+}
+
+uint32_t RenderService::tenant_streams(const std::string& tenant) const {
+  std::lock_guard<std::mutex> lock(streams_mutex_);
+  auto it = tenant_streams_.find(tenant);
+  return it == tenant_streams_.end() ? 0 : it->second;
+}
+
+size_t RenderService::tenant_bytes(const std::string& tenant) const {
+  size_t bytes = 0;
+  for (const auto& entry : registry_.list(tenant)) bytes += entry->info().device_bytes();
+  return bytes;
+}
+
+size_t RenderService::tenant_memory_limit() const {
+  return static_cast<size_t>(static_cast<double>(backend_->budget()) *
+                             std::clamp(options_.tenant_memory_share, 0.0, 1.0));
 }
 
 grpc::Status RenderService::serve(grpc::ServerContext* context, const char* method,
                                   const std::string& scene_id,
-                                  const std::function<absl::Status()>& work) {
+                                  const std::function<absl::Status(const std::string&)>& work) {
   ScopedCount running(calls_in_flight_);
   const auto start = Clock::now();
-  absl::Status status =
-      shutting_down_ ? absl::UnavailableError("the server is shutting down") : work();
+  absl::Status status;
+  absl::StatusOr<std::string> tenant = caller_tenant(*context);
+  if (!tenant.ok()) {
+    status = tenant.status();
+  } else if (shutting_down_) {
+    status = absl::UnavailableError("the server is shutting down");
+  } else if (restoring_ && std::string_view(method) != "GetVersion" &&
+             std::string_view(method) != "GetStats") {
+    status = absl::UnavailableError(absl::StrFormat(
+        "the server is restoring its scenes from --data-dir (%d of %d done); retry shortly",
+        restore_done_.load(), restore_total_.load()));
+  } else {
+    status = work(*tenant);
+  }
   const double ms = ms_since(start);
   latencies_.record(absl::StrCat("rpc/", method), ms);
   metrics_.record_call(method, status.code(), ms);
@@ -78,9 +176,10 @@ grpc::Status RenderService::serve(grpc::ServerContext* context, const char* meth
   const LogLevel level = status.ok() || absl::IsCancelled(status) || absl::IsNotFound(status)
                              ? LogLevel::kInfo
                              : LogLevel::kWarning;
-  log_line(level, absl::StrFormat("%s scene=%s peer=%s %.2f ms %s", method,
-                                  scene_id.empty() ? "-" : scene_id, context->peer(), ms,
-                                  status.ok() ? "OK" : status.ToString()));
+  log_line(level, absl::StrFormat("%s scene=%s tenant=%s peer=%s %.2f ms %s", method,
+                                  scene_id.empty() ? "-" : scene_id,
+                                  tenant.ok() && !tenant->empty() ? *tenant : "-", context->peer(),
+                                  ms, status.ok() ? "OK" : status.ToString()));
   return to_grpc(status);
 }
 
@@ -106,6 +205,7 @@ absl::StatusOr<DeviceQueue::Lease> RenderService::acquire(grpc::ServerContext* c
   if (!entry.engine) {
     return absl::NotFoundError(absl::StrCat("scene_id: scene '", entry.id(), "' was deleted"));
   }
+  entry.touch();  // a long stream keeps its scene from --scene-idle-ttl
   return lease;
 }
 
@@ -135,6 +235,7 @@ absl::StatusOr<v1::RebuildReport> RenderService::rebuild(
   if (!lease.ok()) return lease.status();
   absl::StatusOr<RebuildReport> report = change(*entry.engine);
   if (!report.ok()) return report.status();
+  if (absl::Status stored = persist(entry); !stored.ok()) return stored;
   record_stages(report->timings);
   v1::RebuildReport out = encode_rebuild(*report);
   out.mutable_timings()->set_queue_ms(queue_ms);
@@ -236,8 +337,8 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
                                         grpc::ServerReader<v1::SceneChunk>* reader,
                                         v1::SceneInfo* response) {
   std::string scene_id;
-  return serve(context, "UploadScene", scene_id, [&]() -> absl::Status {
-    absl::StatusOr<SceneRegistry::Slot> slot = registry_.reserve();
+  return serve(context, "UploadScene", scene_id, [&](const std::string& tenant) -> absl::Status {
+    absl::StatusOr<SceneRegistry::Slot> slot = registry_.reserve(tenant);
     if (!slot.ok()) return slot.status();
     const auto start = Clock::now();
     wire::SceneAssembler assembler;
@@ -258,6 +359,16 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
               " of mesh data, but only ", mib(free_bytes), " of the device's ", mib(budget),
               " budget are free (--memory-budget)"));
         }
+        if (options_.tenant_memory_share < 1) {
+          const size_t limit = tenant_memory_limit();
+          const size_t held = tenant_bytes(tenant);
+          if (held + assembler.bytes_declared() > limit) {
+            return absl::ResourceExhaustedError(absl::StrCat(
+                "scene '", assembler.name(), "' declares ", mib(assembler.bytes_declared()),
+                " of mesh data, but tenant '", tenant, "' already holds ", mib(held), " of its ",
+                mib(limit), " share of the budget (--tenant-memory-share)"));
+          }
+        }
       }
       if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
     }
@@ -265,6 +376,17 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
     absl::StatusOr<Scene> scene = assembler.finish();
     if (!scene.ok()) return scene.status();
+    // The geometry goes to disk before the device is taken: writing it need not hold up others.
+    std::string blob;
+    if (options_.store) {
+      absl::StatusOr<std::string> written = options_.store->write_blob(*scene, assembler.name());
+      if (!written.ok()) return written.status();
+      blob = *std::move(written);
+    }
+    // A failed upload leaves no blob behind (one another scene shares stays).
+    absl::Cleanup discard_blob = [&] {
+      if (!blob.empty()) options_.store->discard_blob(blob);
+    };
 
     absl::StatusOr<DeviceQueue::Lease> lease =
         queue_.acquire([this, context] { return stop_status(context); });
@@ -272,6 +394,18 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
     if (!engine.ok()) return engine.status();
     absl::StatusOr<RebuildReport> built = (*engine)->load(*scene);
+    if (built.ok() && options_.tenant_memory_share < 1) {
+      // The built structure and film count too, which the declared mesh bytes did not show.
+      const size_t limit = tenant_memory_limit();
+      const size_t held = tenant_bytes(tenant);
+      const size_t bytes = (*engine)->scene_stats().device_bytes;
+      if (held + bytes > limit) {
+        built = absl::ResourceExhaustedError(
+            absl::StrCat("scene '", assembler.name(), "' needs ", mib(bytes),
+                         " on the device, but tenant '", tenant, "' already holds ", mib(held),
+                         " of its ", mib(limit), " share of the budget (--tenant-memory-share)"));
+      }
+    }
     // A scene the client can no longer learn the id of would be unreachable; drop it.
     absl::Status stop = stop_status(context);
     if (!built.ok() || !stop.ok()) {
@@ -283,11 +417,30 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     info.set_upload_bytes(assembler.bytes_received());
     info.set_upload_ms(ms_since(start));
     describe_geometry(*scene, &info);
+    scene_id = registry_.new_id();
+    if (options_.store) {
+      // Stored before it is acknowledged: once the client has the id, a restart keeps the scene.
+      absl::Status stored = options_.store->add({.id = scene_id,
+                                                 .tenant = tenant,
+                                                 .name = assembler.name(),
+                                                 .blob = blob,
+                                                 .lights = scene->lights,
+                                                 .camera = scene->camera,
+                                                 .settings = scene->settings,
+                                                 .epochs = built->epochs,
+                                                 .upload_bytes = assembler.bytes_received(),
+                                                 .upload_ms = info.upload_ms()});
+      if (!stored.ok()) {
+        engine->reset();
+        return stored;
+      }
+      std::move(discard_blob).Cancel();
+    }
     v1::RebuildReport report = encode_rebuild(*built);
     report.mutable_timings()->set_queue_ms(lease->waited_ms());
     record_stages(built->timings);
-    scene_id = registry_.new_id();
-    auto entry = std::make_shared<SceneEntry>(scene_id, *std::move(engine), std::move(info));
+    auto entry =
+        std::make_shared<SceneEntry>(scene_id, tenant, *std::move(engine), std::move(info));
     entry->refresh(&report);
     lease->release();
     *response = entry->info();
@@ -296,41 +449,127 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
   });
 }
 
+absl::Status RenderService::persist(const SceneEntry& entry) {
+  if (!options_.store) return absl::OkStatus();
+  absl::Status stored =
+      options_.store->update(entry.id(), entry.engine->scene(), entry.engine->epochs());
+  if (stored.ok()) return stored;
+  return absl::InternalError(absl::StrCat(
+      "the change was applied but could not be stored in --data-dir, so a restart would undo "
+      "it: ",
+      stored.message()));
+}
+
+size_t RenderService::restore_scenes() {
+  if (!options_.store) return 0;
+  const auto start = Clock::now();
+  size_t restored = 0;
+  absl::StatusOr<std::vector<StoredScene>> stored = options_.store->list();
+  if (!stored.ok()) {
+    log_line(LogLevel::kError,
+             absl::StrCat("--data-dir: cannot read the scene index: ", stored.status().message()));
+  } else {
+    restore_total_ = stored->size();
+    const char* delay = std::getenv(kRestoreDelayVariable);
+    for (const StoredScene& scene : *stored) {
+      if (delay != nullptr)
+        std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(delay)));
+      if (shutting_down_) break;
+      if (absl::Status status = restore_scene(scene); status.ok()) {
+        ++restored;
+      } else {
+        registry_.keep_id(scene.id);
+        log_line(LogLevel::kError, absl::StrFormat("--data-dir: scene %s ('%s') not restored: %s",
+                                                   scene.id, scene.name, status.ToString()));
+      }
+      ++restore_done_;
+    }
+  }
+  log_line(LogLevel::kInfo, absl::StrFormat("--data-dir %s: restored %d of %d scenes in %.1f ms",
+                                            options_.store->dir().string(), restored,
+                                            restore_total_.load(), ms_since(start)));
+  restoring_ = false;
+  return restored;
+}
+
+absl::Status RenderService::restore_scene(const StoredScene& stored) {
+  absl::StatusOr<Scene> geometry = options_.store->read_blob(stored.blob);
+  if (!geometry.ok()) return geometry.status();
+  const Scene scene = restored_scene(*std::move(geometry), stored);
+  absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
+  if (!lease.ok()) return lease.status();
+  absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
+  if (!engine.ok()) return engine.status();
+  absl::StatusOr<RebuildReport> built = (*engine)->load(scene);
+  if (!built.ok()) return built.status();
+  (*engine)->restore_epochs(stored.epochs);
+  built->epochs = stored.epochs;
+  record_stages(built->timings);
+  v1::SceneInfo info;
+  info.set_name(stored.name);
+  info.set_upload_bytes(stored.upload_bytes);
+  info.set_upload_ms(stored.upload_ms);
+  describe_geometry(scene, &info);
+  const v1::RebuildReport report = encode_rebuild(*built);
+  auto entry =
+      std::make_shared<SceneEntry>(stored.id, stored.tenant, *std::move(engine), std::move(info));
+  entry->refresh(&report);
+  registry_.add_restored(std::move(entry));
+  return absl::OkStatus();
+}
+
 grpc::Status RenderService::ListScenes(grpc::ServerContext* context,
                                        const v1::ListScenesRequest* request,
                                        v1::ListScenesResponse* response) {
-  return serve(context, "ListScenes", "", [&]() -> absl::Status {
-    for (const auto& entry : registry_.list()) *response->add_scenes() = entry->info();
+  return serve(context, "ListScenes", "", [&](const std::string& tenant) -> absl::Status {
+    for (const auto& entry : registry_.list(tenant)) *response->add_scenes() = entry->info();
     return absl::OkStatus();
   });
 }
 
 grpc::Status RenderService::GetScene(grpc::ServerContext* context,
                                      const v1::GetSceneRequest* request, v1::SceneInfo* response) {
-  return serve(context, "GetScene", request->scene_id(), [&]() -> absl::Status {
-    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(request->scene_id());
-    if (!entry.ok()) return entry.status();
-    *response = (*entry)->info();
-    return absl::OkStatus();
-  });
+  return serve(context, "GetScene", request->scene_id(),
+               [&](const std::string& tenant) -> absl::Status {
+                 absl::StatusOr<std::shared_ptr<SceneEntry>> entry =
+                     registry_.find(request->scene_id(), tenant);
+                 if (!entry.ok()) return entry.status();
+                 *response = (*entry)->info();
+                 return absl::OkStatus();
+               });
 }
 
 grpc::Status RenderService::DeleteScene(grpc::ServerContext* context,
                                         const v1::DeleteSceneRequest* request,
                                         v1::DeleteSceneResponse* response) {
-  return serve(context, "DeleteScene", request->scene_id(), [&]() -> absl::Status {
-    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.remove(request->scene_id());
-    if (!entry.ok()) return entry.status();
-    // Not cancellable: the scene is already gone from the registry and its memory must be freed
-    // under the device lease. Only shutdown ends the wait (the process frees everything then).
-    absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
-    if (!lease.ok()) return lease.status();
-    const size_t before = backend_->bytes_in_use();
-    (*entry)->engine.reset();
-    const size_t after = backend_->bytes_in_use();
-    response->set_bytes_freed(before > after ? before - after : 0);
-    return absl::OkStatus();
-  });
+  return serve(context, "DeleteScene", request->scene_id(),
+               [&](const std::string& tenant) -> absl::Status {
+                 absl::StatusOr<std::shared_ptr<SceneEntry>> entry =
+                     registry_.find(request->scene_id(), tenant);
+                 if (!entry.ok()) return entry.status();
+                 absl::StatusOr<size_t> freed = forget(**entry);
+                 if (!freed.ok()) return freed.status();
+                 response->set_bytes_freed(*freed);
+                 return absl::OkStatus();
+               });
+}
+
+absl::StatusOr<size_t> RenderService::forget(SceneEntry& entry) {
+  // Forgotten on disk first: a delete that could not be stored leaves the scene in place.
+  if (options_.store) {
+    if (absl::Status removed = options_.store->remove(entry.id()); !removed.ok()) return removed;
+  }
+  if (!registry_.remove(entry)) {
+    return absl::NotFoundError(absl::StrCat("scene_id: scene '", entry.id(), "' was deleted"));
+  }
+  // Not cancellable: the scene is already gone from the registry and its memory must be freed
+  // under the device lease. Only shutdown ends the wait (the process frees everything then).
+  absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
+  if (!lease.ok()) return lease.status();
+  const size_t before = backend_->bytes_in_use();
+  entry.engine.reset();
+  const size_t after = backend_->bytes_in_use();
+  return before > after ? before - after : 0;
 }
 
 // --- updates ---
@@ -339,8 +578,8 @@ grpc::Status RenderService::serve_update(
     grpc::ServerContext* context, const char* method, const std::string& scene_id,
     v1::RebuildReport* response,
     const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change) {
-  return serve(context, method, scene_id, [&]() -> absl::Status {
-    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id);
+  return serve(context, method, scene_id, [&](const std::string& tenant) -> absl::Status {
+    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id, tenant);
     if (!entry.ok()) return entry.status();
     absl::StatusOr<v1::RebuildReport> report = rebuild(context, **entry, change);
     if (!report.ok()) return report.status();
@@ -400,119 +639,136 @@ grpc::Status RenderService::UpdateSettings(grpc::ServerContext* context,
 
 // --- frames ---
 
-absl::StatusOr<RenderService::FrameCall> RenderService::start_frames(
-    const std::string& scene_id, const v1::FrameFormat& format) {
-  absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id);
+absl::StatusOr<RenderService::FrameCall> RenderService::start_frames(const std::string& tenant,
+                                                                     const std::string& scene_id,
+                                                                     const v1::FrameFormat& format,
+                                                                     bool stream) {
+  absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id, tenant);
   if (!entry.ok()) return entry.status();
   absl::StatusOr<FrameSpec> spec = parse_frame_format(format, "format");
   if (!spec.ok()) return spec.status();
-  return FrameCall{*std::move(entry), *spec};
+  FrameCall call{*std::move(entry), *spec};
+  if (stream) {
+    absl::StatusOr<std::unique_ptr<StreamSlot>> slot = open_stream(tenant);
+    if (!slot.ok()) return slot.status();
+    call.stream = *std::move(slot);
+  }
+  return call;
 }
 
 grpc::Status RenderService::RenderFrame(grpc::ServerContext* context,
                                         const v1::RenderFrameRequest* request,
                                         v1::Frame* response) {
-  return serve(context, "RenderFrame", request->scene_id(), [&]() -> absl::Status {
-    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
-    if (!call.ok()) return call.status();
-    SceneEntry& entry = *call->entry;
-    const FrameSpec& spec = call->spec;
-    absl::StatusOr<EncodedFrame> frame =
-        produce_frame(context, entry, request->target_passes(), kAllPasses, spec);
-    if (!frame.ok()) return frame.status();
-    if (frame->data.size() + kFrameHeaderRoom > options_.max_message_bytes) {
-      return absl::ResourceExhaustedError(absl::StrFormat(
-          "the frame is %s, over the server's message limit of %s (--max-message-mb); use "
-          "StreamFrames, which splits frames",
-          mib(frame->data.size()), mib(options_.max_message_bytes)));
-    }
-    *response = std::move(frame->header);
-    response->set_data_size(frame->data.size());
-    response->set_last_chunk(true);
-    response->set_data(std::move(frame->data));
-    ++frames_served_;
-    return absl::OkStatus();
-  });
+  return serve(
+      context, "RenderFrame", request->scene_id(), [&](const std::string& tenant) -> absl::Status {
+        absl::StatusOr<FrameCall> call =
+            start_frames(tenant, request->scene_id(), request->format(), /*stream=*/false);
+        if (!call.ok()) return call.status();
+        SceneEntry& entry = *call->entry;
+        const FrameSpec& spec = call->spec;
+        absl::StatusOr<EncodedFrame> frame =
+            produce_frame(context, entry, request->target_passes(), kAllPasses, spec);
+        if (!frame.ok()) return frame.status();
+        if (frame->data.size() + kFrameHeaderRoom > options_.max_message_bytes) {
+          return absl::ResourceExhaustedError(absl::StrFormat(
+              "the frame is %s, over the server's message limit of %s (--max-message-mb); use "
+              "StreamFrames, which splits frames",
+              mib(frame->data.size()), mib(options_.max_message_bytes)));
+        }
+        *response = std::move(frame->header);
+        response->set_data_size(frame->data.size());
+        response->set_last_chunk(true);
+        response->set_data(std::move(frame->data));
+        ++frames_served_;
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
                                          const v1::StreamFramesRequest* request,
                                          grpc::ServerWriter<v1::Frame>* writer) {
   ScopedCount streaming(active_streams_);
-  return serve(context, "StreamFrames", request->scene_id(), [&]() -> absl::Status {
-    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
-    if (!call.ok()) return call.status();
-    SceneEntry& entry = *call->entry;
-    const FrameSpec& spec = call->spec;
-    const uint32_t target = std::max(request->target_passes(), 1u);
-    const size_t chunk = chunk_bytes(request->max_chunk_bytes());
-    if (request->repeat_frames() > 0) {
-      // Delivery alone: one resolve, then the same bytes again and again.
-      absl::StatusOr<EncodedFrame> frame = produce_frame(context, entry, target, kAllPasses, spec);
-      if (!frame.ok()) return frame.status();
-      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
-      for (uint32_t i = 0; i < request->repeat_frames(); ++i) {
-        if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
-        if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
-      }
-      return absl::OkStatus();
-    }
-    const uint32_t passes_per_frame = std::max(request->passes_per_frame(), 1u);
-    // A change by another call empties the film, so this runs until a frame shows `target`
-    // passes of one unchanged scene state.
-    for (uint64_t frame_number = 0;; ++frame_number) {
-      absl::StatusOr<EncodedFrame> frame =
-          produce_frame(context, entry, target, passes_per_frame, spec);
-      if (!frame.ok()) return frame.status();
-      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
-      if (absl::Status sent = send_frame(writer, pieces, frame_number); !sent.ok()) return sent;
-      if (frame->header.passes() >= target) return absl::OkStatus();
-    }
-  });
+  return serve(
+      context, "StreamFrames", request->scene_id(), [&](const std::string& tenant) -> absl::Status {
+        absl::StatusOr<FrameCall> call =
+            start_frames(tenant, request->scene_id(), request->format(), /*stream=*/true);
+        if (!call.ok()) return call.status();
+        SceneEntry& entry = *call->entry;
+        const FrameSpec& spec = call->spec;
+        const uint32_t target = std::max(request->target_passes(), 1u);
+        const size_t chunk = chunk_bytes(request->max_chunk_bytes());
+        if (request->repeat_frames() > 0) {
+          // Delivery alone: one resolve, then the same bytes again and again.
+          absl::StatusOr<EncodedFrame> frame =
+              produce_frame(context, entry, target, kAllPasses, spec);
+          if (!frame.ok()) return frame.status();
+          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
+          for (uint32_t i = 0; i < request->repeat_frames(); ++i) {
+            if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+            if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+          }
+          return absl::OkStatus();
+        }
+        const uint32_t passes_per_frame = std::max(request->passes_per_frame(), 1u);
+        // A change by another call empties the film, so this runs until a frame shows `target`
+        // passes of one unchanged scene state.
+        for (uint64_t frame_number = 0;; ++frame_number) {
+          absl::StatusOr<EncodedFrame> frame =
+              produce_frame(context, entry, target, passes_per_frame, spec);
+          if (!frame.ok()) return frame.status();
+          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
+          if (absl::Status sent = send_frame(writer, pieces, frame_number); !sent.ok()) return sent;
+          if (frame->header.passes() >= target) return absl::OkStatus();
+        }
+      });
 }
 
 grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
                                           const v1::PlayAnimationRequest* request,
                                           grpc::ServerWriter<v1::Frame>* writer) {
   ScopedCount streaming(active_streams_);
-  return serve(context, "PlayAnimation", request->scene_id(), [&]() -> absl::Status {
-    absl::StatusOr<FrameCall> call = start_frames(request->scene_id(), request->format());
-    if (!call.ok()) return call.status();
-    SceneEntry& entry = *call->entry;
-    const FrameSpec& spec = call->spec;
-    // Every keyframe is decoded before the first one plays: a bad script changes nothing.
-    std::vector<std::vector<Light>> keyframes;
-    for (int i = 0; i < request->keyframes_size(); ++i) {
-      absl::StatusOr<std::vector<Light>> lights = wire::decode_lights(
-          request->keyframes(i).lights(), absl::StrCat("keyframes[", i, "].lights"));
-      if (!lights.ok()) return lights.status();
-      keyframes.push_back(*std::move(lights));
-    }
-    const size_t chunk = chunk_bytes(request->max_chunk_bytes());
-    for (size_t i = 0; i < keyframes.size(); ++i) {
-      absl::StatusOr<v1::RebuildReport> report =
-          rebuild(context, entry, [&](Engine& engine) { return engine.set_lights(keyframes[i]); });
-      if (!report.ok()) return report.status();
-      const uint32_t passes = std::max(request->keyframes(static_cast<int>(i)).passes(), 1u);
-      absl::StatusOr<EncodedFrame> frame = produce_frame(context, entry, passes, kAllPasses, spec);
-      if (!frame.ok()) return frame.status();
-      // The frame's cost includes its keyframe's light rebuild.
-      add_timings(report->timings(), frame->header.mutable_timings());
-      frame->header.set_photons_emitted(frame->header.photons_emitted() +
-                                        report->photons_emitted());
-      frame->header.set_keyframe(static_cast<uint32_t>(i));
-      std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
-      if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
-    }
-    return absl::OkStatus();
-  });
+  return serve(
+      context, "PlayAnimation", request->scene_id(),
+      [&](const std::string& tenant) -> absl::Status {
+        absl::StatusOr<FrameCall> call =
+            start_frames(tenant, request->scene_id(), request->format(), /*stream=*/true);
+        if (!call.ok()) return call.status();
+        SceneEntry& entry = *call->entry;
+        const FrameSpec& spec = call->spec;
+        // Every keyframe is decoded before the first one plays: a bad script changes nothing.
+        std::vector<std::vector<Light>> keyframes;
+        for (int i = 0; i < request->keyframes_size(); ++i) {
+          absl::StatusOr<std::vector<Light>> lights = wire::decode_lights(
+              request->keyframes(i).lights(), absl::StrCat("keyframes[", i, "].lights"));
+          if (!lights.ok()) return lights.status();
+          keyframes.push_back(*std::move(lights));
+        }
+        const size_t chunk = chunk_bytes(request->max_chunk_bytes());
+        for (size_t i = 0; i < keyframes.size(); ++i) {
+          absl::StatusOr<v1::RebuildReport> report = rebuild(
+              context, entry, [&](Engine& engine) { return engine.set_lights(keyframes[i]); });
+          if (!report.ok()) return report.status();
+          const uint32_t passes = std::max(request->keyframes(static_cast<int>(i)).passes(), 1u);
+          absl::StatusOr<EncodedFrame> frame =
+              produce_frame(context, entry, passes, kAllPasses, spec);
+          if (!frame.ok()) return frame.status();
+          // The frame's cost includes its keyframe's light rebuild.
+          add_timings(report->timings(), frame->header.mutable_timings());
+          frame->header.set_photons_emitted(frame->header.photons_emitted() +
+                                            report->photons_emitted());
+          frame->header.set_keyframe(static_cast<uint32_t>(i));
+          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
+          if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+        }
+        return absl::OkStatus();
+      });
 }
 
 // --- stats ---
 
 grpc::Status RenderService::GetVersion(grpc::ServerContext* context, const v1::GetVersionRequest*,
                                        v1::VersionInfo* response) {
-  return serve(context, "GetVersion", "", [&] {
+  return serve(context, "GetVersion", "", [&](const std::string&) {
     *response = wire::own_version();
     return absl::OkStatus();
   });
@@ -520,41 +776,51 @@ grpc::Status RenderService::GetVersion(grpc::ServerContext* context, const v1::G
 
 grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                                      const v1::GetStatsRequest* request, v1::Stats* response) {
-  return serve(context, "GetStats", request->scene_id(), [&]() -> absl::Status {
-    std::vector<std::shared_ptr<SceneEntry>> scenes;
-    if (request->scene_id().empty()) {
-      scenes = registry_.list();
-    } else {
-      absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(request->scene_id());
-      if (!entry.ok()) return entry.status();
-      scenes.push_back(*std::move(entry));
-    }
-    response->set_uptime_s(ms_since(started_) / 1000.0);
-    v1::DeviceInfo* device = response->mutable_device();
-    device->set_kind(device_kind_name(backend_->kind()));
-    device->set_name(device_info_.name);
-    device->set_compute_units(static_cast<uint32_t>(device_info_.compute_units));
-    device->set_memory_bytes(device_info_.memory_bytes);
-    response->set_memory_used_bytes(backend_->bytes_in_use());
-    response->set_memory_budget_bytes(backend_->budget());
-    response->set_memory_peak_bytes(backend_->peak_bytes());
-    response->set_scenes(static_cast<uint32_t>(registry_.size()));
-    response->set_max_scenes(static_cast<uint32_t>(registry_.max_scenes()));
-    response->set_frames_served(frames_served_);
-    response->set_requests_served(requests_served_);
-    response->set_active_streams(active_streams_);
-    for (const LatencySummary& s : latencies_.summaries()) {
-      v1::LatencySummary* out = response->add_latencies();
-      out->set_stage(s.name);
-      out->set_count(s.count);
-      out->set_p50_ms(s.p50_ms);
-      out->set_p90_ms(s.p90_ms);
-      out->set_p99_ms(s.p99_ms);
-      out->set_max_ms(s.max_ms);
-    }
-    for (const auto& entry : scenes) *response->add_scene_stats() = entry->info();
-    return absl::OkStatus();
-  });
+  return serve(context, "GetStats", request->scene_id(),
+               [&](const std::string& tenant) -> absl::Status {
+                 std::vector<std::shared_ptr<SceneEntry>> scenes;
+                 if (request->scene_id().empty()) {
+                   scenes = registry_.list(tenant);
+                 } else {
+                   absl::StatusOr<std::shared_ptr<SceneEntry>> entry =
+                       registry_.find(request->scene_id(), tenant);
+                   if (!entry.ok()) return entry.status();
+                   scenes.push_back(*std::move(entry));
+                 }
+                 response->set_uptime_s(ms_since(started_) / 1000.0);
+                 v1::DeviceInfo* device = response->mutable_device();
+                 device->set_kind(device_kind_name(backend_->kind()));
+                 device->set_name(device_info_.name);
+                 device->set_compute_units(static_cast<uint32_t>(device_info_.compute_units));
+                 device->set_memory_bytes(device_info_.memory_bytes);
+                 response->set_memory_used_bytes(backend_->bytes_in_use());
+                 response->set_memory_budget_bytes(backend_->budget());
+                 response->set_memory_peak_bytes(backend_->peak_bytes());
+                 response->set_scenes(static_cast<uint32_t>(registry_.size(tenant)));
+                 response->set_max_scenes(static_cast<uint32_t>(registry_.max_scenes()));
+                 response->set_frames_served(frames_served_);
+                 response->set_requests_served(requests_served_);
+                 response->set_active_streams(active_streams_);
+                 for (const LatencySummary& s : latencies_.summaries()) {
+                   v1::LatencySummary* out = response->add_latencies();
+                   out->set_stage(s.name);
+                   out->set_count(s.count);
+                   out->set_p50_ms(s.p50_ms);
+                   out->set_p90_ms(s.p90_ms);
+                   out->set_p99_ms(s.p99_ms);
+                   out->set_max_ms(s.max_ms);
+                 }
+                 for (const auto& entry : scenes) *response->add_scene_stats() = entry->info();
+                 v1::TenantStats* own = response->mutable_tenant();
+                 own->set_name(tenant);
+                 own->set_scenes(static_cast<uint32_t>(registry_.size(tenant)));
+                 own->set_max_scenes(static_cast<uint32_t>(options_.max_tenant_scenes));
+                 own->set_memory_bytes(tenant_bytes(tenant));
+                 own->set_memory_limit_bytes(tenant_memory_limit());
+                 own->set_active_streams(tenant_streams(tenant));
+                 own->set_max_streams(static_cast<uint32_t>(options_.max_tenant_streams));
+                 return absl::OkStatus();
+               });
 }
 
 }  // namespace caustica::server

@@ -9,10 +9,14 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.grpc.pb.h"
@@ -22,20 +26,43 @@
 #include "server/latency_stats.h"
 #include "server/metrics.h"
 #include "server/scene_registry.h"
+#include "server/scene_store.h"
 
 namespace caustica::server {
+
+// For tests: milliseconds to pause before restoring each stored scene, so that a test can watch
+// the server while it restores.
+inline constexpr char kRestoreDelayVariable[] = "CAUSTICA_RESTORE_DELAY_MS";
 
 struct ServiceOptions {
   size_t max_scenes = 16;
   size_t max_message_bytes = size_t{64} << 20;
+  // --data-dir: every acknowledged upload, update and delete is stored first. Null: scenes live
+  // only in the process.
+  std::shared_ptr<SceneStore> store;
+  // Per tenant (0: no limit beyond the server's): scenes, uploads included; the share of the
+  // memory budget its scenes may hold, in (0, 1]; frame streams open at once.
+  size_t max_tenant_scenes = 0;
+  double tenant_memory_share = 1.0;
+  size_t max_tenant_streams = 0;
+  // A scene no call has touched for this long is deleted, as if its tenant had deleted it.
+  // 0: never.
+  double scene_idle_ttl_s = 0;
 };
 
 class RenderService final : public v1::RenderService::Service {
  public:
   RenderService(std::shared_ptr<Backend> backend, const ServiceOptions& options);
+  ~RenderService() override;
 
   // New calls and running streams end with UNAVAILABLE; waiters for the device give up.
   void begin_shutdown();
+  // Rebuilds every scene of the store, with its id, state and epochs. Until it returns, calls
+  // other than GetVersion and GetStats are UNAVAILABLE. A scene that cannot be restored (its blob
+  // damaged, or beyond the memory budget) is logged and left in the store. Returns how many were
+  // restored.
+  size_t restore_scenes();
+  bool restoring() const { return restoring_; }
   // Handlers running now.
   uint32_t calls_in_flight() const { return calls_in_flight_; }
   // What the calls and stages recorded, for /metrics.
@@ -74,23 +101,41 @@ class RenderService final : public v1::RenderService::Service {
     std::string data;
   };
 
-  // A frame call's scene and checked format.
+  class StreamSlot;
+  // A frame call's scene and checked format, and for a stream its place among the tenant's.
   struct FrameCall {
     std::shared_ptr<SceneEntry> entry;
     FrameSpec spec;
+    std::unique_ptr<StreamSlot> stream;
   };
 
-  // Logs, records and converts; `scene_id` is read after `work` ran (uploads learn it late).
+  // Authenticates (auth.h), logs, records and converts; `work` gets the caller's tenant.
+  // `scene_id` is read after `work` ran (uploads learn it late).
   grpc::Status serve(grpc::ServerContext* context, const char* method, const std::string& scene_id,
-                     const std::function<absl::Status()>& work);
+                     const std::function<absl::Status(const std::string& tenant)>& work);
   // serve() for the update calls: finds the scene, runs `change` through rebuild() and answers
   // with its report.
   grpc::Status serve_update(grpc::ServerContext* context, const char* method,
                             const std::string& scene_id, v1::RebuildReport* response,
                             const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change);
-  // NOT_FOUND / INVALID_ARGUMENT before any frame work starts.
-  absl::StatusOr<FrameCall> start_frames(const std::string& scene_id,
-                                         const v1::FrameFormat& format);
+  // NOT_FOUND / INVALID_ARGUMENT, and for a `stream` RESOURCE_EXHAUSTED beyond
+  // --tenant-max-streams, before any frame work starts.
+  absl::StatusOr<FrameCall> start_frames(const std::string& tenant, const std::string& scene_id,
+                                         const v1::FrameFormat& format, bool stream);
+  // Removes a scene from the store and the registry and frees its device memory; the bytes freed.
+  absl::StatusOr<size_t> forget(SceneEntry& entry);
+  // The device memory a tenant's scenes hold, and the most they may.
+  size_t tenant_bytes(const std::string& tenant) const;
+  size_t tenant_memory_limit() const;
+  // One open frame stream of `tenant` while it lives; RESOURCE_EXHAUSTED beyond
+  // --tenant-max-streams.
+  absl::StatusOr<std::unique_ptr<StreamSlot>> open_stream(const std::string& tenant);
+  uint32_t tenant_streams(const std::string& tenant) const;
+  // Deletes scenes idle beyond --scene-idle-ttl until shutdown.
+  void reap_idle_scenes();
+  absl::Status restore_scene(const StoredScene& stored);
+  // Stores the engine's state after a change, before the change is acknowledged.
+  absl::Status persist(const SceneEntry& entry);
   // CANCELLED, DEADLINE_EXCEEDED or UNAVAILABLE when the call should stop now.
   absl::Status stop_status(grpc::ServerContext* context) const;
   // Waits for the device; NOT_FOUND when the scene was deleted meanwhile. Adds the wait to
@@ -124,10 +169,17 @@ class RenderService final : public v1::RenderService::Service {
   SceneRegistry registry_;
   LatencyStats latencies_;
   std::atomic<bool> shutting_down_{false};
+  std::atomic<bool> restoring_{false};
+  std::atomic<size_t> restore_done_{0}, restore_total_{0};
   std::atomic<uint64_t> frames_served_{0};
   std::atomic<uint64_t> requests_served_{0};
   std::atomic<uint32_t> active_streams_{0};
   std::atomic<uint32_t> calls_in_flight_{0};
+  mutable std::mutex streams_mutex_;
+  std::map<std::string, uint32_t, std::less<>> tenant_streams_;
+  std::mutex reaper_mutex_;
+  std::condition_variable reaper_wake_;
+  std::thread reaper_;
   ServerMetrics metrics_;  // last: its gauges read the members above
 };
 

@@ -8,8 +8,12 @@
 
 namespace caustica::server {
 
-SceneEntry::SceneEntry(std::string id, std::unique_ptr<Engine> engine_in, v1::SceneInfo info)
-    : engine(std::move(engine_in)), id_(std::move(id)), info_(std::move(info)) {
+SceneEntry::SceneEntry(std::string id, std::string tenant, std::unique_ptr<Engine> engine_in,
+                       v1::SceneInfo info)
+    : engine(std::move(engine_in)),
+      id_(std::move(id)),
+      tenant_(std::move(tenant)),
+      info_(std::move(info)) {
   info_.set_scene_id(id_);
 }
 
@@ -31,9 +35,17 @@ SceneRegistry::Slot::~Slot() {
   if (registry_ == nullptr) return;
   std::lock_guard<std::mutex> lock(registry_->mutex_);
   --registry_->uploads_in_progress_;
+  --registry_->tenant_uploads_[tenant_];
 }
 
-absl::StatusOr<SceneRegistry::Slot> SceneRegistry::reserve() {
+size_t SceneRegistry::tenant_count_locked(std::string_view tenant) const {
+  size_t count = 0;
+  for (const auto& [id, resident] : scenes_) count += resident.entry->tenant() == tenant;
+  auto uploading = tenant_uploads_.find(tenant);
+  return count + (uploading == tenant_uploads_.end() ? 0 : uploading->second);
+}
+
+absl::StatusOr<SceneRegistry::Slot> SceneRegistry::reserve(const std::string& tenant) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (scenes_.size() + uploads_in_progress_ >= max_scenes_) {
     return absl::ResourceExhaustedError(absl::StrFormat(
@@ -41,15 +53,22 @@ absl::StatusOr<SceneRegistry::Slot> SceneRegistry::reserve() {
         "delete one first",
         max_scenes_, scenes_.size(), uploads_in_progress_));
   }
+  if (max_tenant_scenes_ > 0 && tenant_count_locked(tenant) >= max_tenant_scenes_) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "tenant '%s' holds its maximum of %d scenes, uploads included (--tenant-max-scenes); "
+        "delete one first",
+        tenant, max_tenant_scenes_));
+  }
   ++uploads_in_progress_;
-  return Slot(this);
+  ++tenant_uploads_[tenant];
+  return Slot(this, tenant);
 }
 
 std::string SceneRegistry::new_id() {
   std::lock_guard<std::mutex> lock(mutex_);
   while (true) {
     std::string id = absl::StrFormat("s-%08x", static_cast<uint32_t>(random_()));
-    if (!scenes_.contains(id)) return id;
+    if (!scenes_.contains(id) && !kept_ids_.contains(id)) return id;
   }
 }
 
@@ -58,36 +77,48 @@ void SceneRegistry::add(Slot slot, std::shared_ptr<SceneEntry> entry) {
   // The slot's count moves into scenes_.
   slot.registry_ = nullptr;
   --uploads_in_progress_;
+  --tenant_uploads_[slot.tenant_];
+  entry->touch();
   const std::string id = entry->id();
   scenes_.emplace(id, Resident{next_sequence_++, std::move(entry)});
 }
 
-absl::Status SceneRegistry::check_known_locked(std::string_view id, std::string_view field) const {
-  if (id.empty()) return absl::InvalidArgumentError(absl::StrCat(std::string(field), ": is empty"));
-  if (!scenes_.contains(id)) {
-    return absl::NotFoundError(
-        absl::StrCat(std::string(field), ": no scene '", std::string(id), "' on this server"));
-  }
-  return absl::OkStatus();
+void SceneRegistry::add_restored(std::shared_ptr<SceneEntry> entry) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  entry->touch();
+  const std::string id = entry->id();
+  scenes_.emplace(id, Resident{next_sequence_++, std::move(entry)});
+}
+
+void SceneRegistry::keep_id(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  kept_ids_.insert(id);
 }
 
 absl::StatusOr<std::shared_ptr<SceneEntry>> SceneRegistry::find(std::string_view id,
+                                                                std::string_view tenant,
                                                                 std::string_view field) const {
+  if (id.empty()) return absl::InvalidArgumentError(absl::StrCat(std::string(field), ": is empty"));
   std::lock_guard<std::mutex> lock(mutex_);
-  if (absl::Status known = check_known_locked(id, field); !known.ok()) return known;
-  return scenes_.find(id)->second.entry;
-}
-
-absl::StatusOr<std::shared_ptr<SceneEntry>> SceneRegistry::remove(std::string_view id) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (absl::Status known = check_known_locked(id, "scene_id"); !known.ok()) return known;
   auto it = scenes_.find(id);
-  std::shared_ptr<SceneEntry> removed = std::move(it->second.entry);
-  scenes_.erase(it);
-  return removed;
+  // Another tenant's scene gets the same answer as an unknown id: its existence is not revealed.
+  if (it == scenes_.end() || it->second.entry->tenant() != tenant) {
+    return absl::NotFoundError(
+        absl::StrCat(std::string(field), ": no scene '", std::string(id), "' on this server"));
+  }
+  it->second.entry->touch();
+  return it->second.entry;
 }
 
-std::vector<std::shared_ptr<SceneEntry>> SceneRegistry::list() const {
+bool SceneRegistry::remove(const SceneEntry& entry) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = scenes_.find(entry.id());
+  if (it == scenes_.end() || it->second.entry.get() != &entry) return false;
+  scenes_.erase(it);
+  return true;
+}
+
+std::vector<std::shared_ptr<SceneEntry>> SceneRegistry::list_all() const {
   std::vector<const Resident*> ordered;
   std::lock_guard<std::mutex> lock(mutex_);
   for (const auto& [id, resident] : scenes_) ordered.push_back(&resident);
@@ -98,9 +129,22 @@ std::vector<std::shared_ptr<SceneEntry>> SceneRegistry::list() const {
   return out;
 }
 
+std::vector<std::shared_ptr<SceneEntry>> SceneRegistry::list(std::string_view tenant) const {
+  std::vector<std::shared_ptr<SceneEntry>> out = list_all();
+  std::erase_if(out, [&](const auto& entry) { return entry->tenant() != tenant; });
+  return out;
+}
+
 size_t SceneRegistry::size() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return scenes_.size();
+}
+
+size_t SceneRegistry::size(std::string_view tenant) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  size_t count = 0;
+  for (const auto& [id, resident] : scenes_) count += resident.entry->tenant() == tenant;
+  return count;
 }
 
 }  // namespace caustica::server

@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "proto/wire/api_version.h"
+#include "server/auth.h"
 #include "server/log.h"
 
 namespace caustica::server {
@@ -90,6 +91,30 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   if (options.max_message_mb == 0 || options.max_message_mb > 2047) {
     return absl::InvalidArgumentError("--max-message-mb: must be in [1, 2047]");
   }
+  if (!(options.tenant_memory_share > 0 && options.tenant_memory_share <= 1)) {
+    return absl::InvalidArgumentError("--tenant-memory-share: must be in (0, 1]");
+  }
+  if (!(options.scene_idle_ttl_s >= 0) || !std::isfinite(options.scene_idle_ttl_s)) {
+    return absl::InvalidArgumentError("--scene-idle-ttl: must be a number of seconds >= 0");
+  }
+  absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = listen_credentials(
+      options.listen, TlsFiles{options.tls_cert, options.tls_key, options.tls_client_ca},
+      options.insecure);
+  if (!credentials.ok()) return credentials.status();
+  auto authenticator = std::make_shared<const Authenticator>();
+  if (!options.tokens_file.empty()) {
+    absl::StatusOr<TokenTable> tokens = TokenTable::load(options.tokens_file);
+    if (!tokens.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("--tokens: ", tokens.status().message()));
+    }
+    authenticator = std::make_shared<const Authenticator>(*std::move(tokens));
+  }
+  std::shared_ptr<SceneStore> store;
+  if (!options.data_dir.empty()) {
+    absl::StatusOr<std::unique_ptr<SceneStore>> opened = SceneStore::open(options.data_dir);
+    if (!opened.ok()) return opened.status();
+    store = *std::move(opened);
+  }
   absl::StatusOr<std::shared_ptr<Backend>> backend =
       make_backend(*device, options.memory_budget_bytes);
   if (!backend.ok()) return backend.status();
@@ -98,18 +123,51 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   server->options_ = options;
   const size_t max_message_bytes = options.max_message_mb << 20;
   server->service_ = std::make_unique<RenderService>(
-      *backend, ServiceOptions{options.max_scenes, max_message_bytes});
+      *backend, ServiceOptions{.max_scenes = options.max_scenes,
+                               .max_message_bytes = max_message_bytes,
+                               .store = store,
+                               .max_tenant_scenes = options.max_tenant_scenes,
+                               .tenant_memory_share = options.tenant_memory_share,
+                               .max_tenant_streams = options.max_tenant_streams,
+                               .scene_idle_ttl_s = options.scene_idle_ttl_s});
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.listen, grpc::InsecureServerCredentials(), &server->port_);
+  builder.AddListeningPort(options.listen, *credentials, &server->port_);
   builder.RegisterService(server->service_.get());
+  // Installed without a token file too, so that handlers always find a verdict (the default
+  // tenant then).
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors;
+  interceptors.push_back(std::make_unique<AuthInterceptorFactory>(authenticator));
+  builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.SetMaxReceiveMessageSize(static_cast<int>(max_message_bytes));
   builder.SetMaxSendMessageSize(static_cast<int>(max_message_bytes));
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || server->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen));
+  }
+  server->health_.track(*server->server_);
+  if (!options.health_listen.empty()) {
+    absl::StatusOr<std::unique_ptr<HealthServer>> health =
+        HealthServer::start(options.health_listen);
+    if (!health.ok()) {
+      server->shutdown();
+      return health.status();
+    }
+    server->health_server_ = *std::move(health);
+    server->health_.track(server->health_server_->server());
+    log_line(LogLevel::kInfo, absl::StrFormat("caustica-server: health on port %d (%s), plaintext",
+                                              server->health_port(), options.health_listen));
+  }
+  if (store) {
+    // Ready only once every stored scene is back; calls meanwhile are UNAVAILABLE.
+    // Both ports' health follows, so the health port is tracked before the thread starts.
+    server->set_serving(false);
+    server->restore_thread_ = std::thread([running = server.get()] {
+      running->service_->restore_scenes();
+      running->set_serving(true);  // ignored once shutdown has begun
+    });
   }
   // Metrics listen before the port file appears, so whoever waits for it can scrape at once.
   if (!options.metrics_listen.empty()) {
@@ -127,6 +185,22 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
       return written;
     }
   }
+  const bool serves_tls = !options.tls_cert.empty();
+  if (!serves_tls && !is_loopback_listen_address(options.listen)) {
+    log_line(LogLevel::kWarning,
+             absl::StrCat("caustica-server: plaintext on ", options.listen,
+                          " (--insecure): anyone on the network can read and alter the calls",
+                          authenticator->requires_tokens() ? ", tokens included" : ""));
+  }
+  log_line(LogLevel::kInfo,
+           absl::StrCat("caustica-server: ",
+                        !serves_tls                     ? "plaintext"
+                        : options.tls_client_ca.empty() ? "TLS"
+                                                        : "TLS with client certificates",
+                        "; ",
+                        authenticator->requires_tokens()
+                            ? absl::StrCat("bearer tokens from ", options.tokens_file)
+                            : std::string("no --tokens: every caller is the default tenant")));
   const DeviceInfo info = (*backend)->info();
   log_line(LogLevel::kInfo,
            absl::StrFormat("caustica-server %s (API %s) listening on port %d (%s); device %s: %s, "
@@ -141,9 +215,7 @@ void Server::shutdown() {
   if (stopped_) return;
   stopped_ = true;
   service_->begin_shutdown();
-  if (grpc::HealthCheckServiceInterface* health = server_->GetHealthCheckService()) {
-    health->Shutdown();  // health checks answer NOT_SERVING from now on
-  }
+  health_.shutdown();  // health checks answer NOT_SERVING from now on, on both ports
   // gRPC's own shutdown also waits for clients to close their connections, which idle clients
   // never do before the deadline; so wait for our calls here and then give gRPC only a moment to
   // flush their last messages before it closes every connection.
@@ -155,6 +227,9 @@ void Server::shutdown() {
   }
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
   server_->Wait();
+  if (restore_thread_.joinable()) restore_thread_.join();
+  // Last, so that probes see NOT_SERVING rather than a refused connection while calls finish.
+  if (health_server_) health_server_->shutdown();
 }
 
 Server::~Server() { shutdown(); }

@@ -9,8 +9,10 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <thread>
 
 #include "absl/status/statusor.h"
+#include "server/health_status.h"
 #include "server/render_service.h"
 
 namespace caustica::server {
@@ -23,8 +25,21 @@ struct ServerOptions {
   size_t memory_budget_bytes = size_t{8} << 30;
   size_t max_message_mb = 64;
   std::string log_level = "info";
-  double shutdown_grace_s = 5;  // how long running calls may finish before they are cancelled
-  std::string metrics_listen;   // host:port for Prometheus' /metrics; empty: none
+  double shutdown_grace_s = 5;     // how long running calls may finish before they are cancelled
+  std::string metrics_listen;      // host:port for Prometheus' /metrics; empty: none
+  std::string data_dir;            // durable scenes (scene_store.h); empty: none
+  size_t max_tenant_scenes = 0;    // per tenant; 0: up to max_scenes
+  double tenant_memory_share = 1;  // of memory_budget_bytes, per tenant
+  size_t max_tenant_streams = 0;   // per tenant; 0: no limit
+  double scene_idle_ttl_s = 0;     // 0: scenes stay until deleted
+  // TLS on --listen: PEM certificate chain and key; empty: plaintext, which needs a loopback
+  // --listen or `insecure`. With tls_client_ca, clients must present a certificate it signed.
+  std::string tls_cert;
+  std::string tls_key;
+  std::string tls_client_ca;
+  std::string tokens_file;    // `token,tenant` lines; empty: every caller is the default tenant
+  bool insecure = false;      // allow plaintext on an address other machines can reach
+  std::string health_listen;  // host:port of a plaintext, health-only server; empty: none
 };
 
 // "8G", "512M", "64k", "1.5G" (binary units, case-insensitive, optional trailing B or iB) or a
@@ -37,6 +52,10 @@ class Server {
   ~Server();
 
   int port() const { return port_; }
+  // 0 without --health-listen.
+  int health_port() const { return health_server_ ? health_server_->port() : 0; }
+  // SERVING or NOT_SERVING on the health services of both ports; it starts SERVING.
+  void set_serving(bool serving) { health_.set_serving(serving); }
   // Stops accepting calls, ends streams between passes (UNAVAILABLE) and waits for running calls
   // at most the grace period before cancelling them. Returns once every handler has returned.
   void shutdown();
@@ -46,8 +65,12 @@ class Server {
   ServerOptions options_;
   std::unique_ptr<RenderService> service_;
   std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<HealthServer> health_server_;  // --health-listen
+  HealthStatus health_;
   int port_ = 0;
   bool stopped_ = false;
+  // Restores --data-dir's scenes while the server already answers (NOT_SERVING meanwhile).
+  std::thread restore_thread_;
 };
 
 // Serves until SIGTERM/SIGINT. Returns the process exit code (0 after a signal, 1 when the server

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/wait.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -40,12 +42,16 @@ std::filesystem::path make_temp_dir(const std::string& prefix) {
   return std::filesystem::path(name.data());
 }
 
-std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::string>& extra_args) {
+std::unique_ptr<ServerProcess> ServerProcess::start(
+    const std::vector<std::string>& extra_args,
+    std::shared_ptr<grpc::ChannelCredentials> credentials) {
   std::unique_ptr<ServerProcess> server(new ServerProcess());
   server->dir_ = make_temp_dir("caustica-server-test");
   const std::filesystem::path port_file = server->dir_ / "port";
-  std::vector<std::string> args = {CAUSTICA_SERVER_BIN, "--listen", "127.0.0.1:0", "--port-file",
-                                   port_file.string()};
+  std::vector<std::string> args = {CAUSTICA_SERVER_BIN, "--port-file", port_file.string()};
+  if (std::find(extra_args.begin(), extra_args.end(), "--listen") == extra_args.end()) {
+    args.insert(args.end(), {"--listen", "127.0.0.1:0"});
+  }
   args.insert(args.end(), extra_args.begin(), extra_args.end());
   // CAUSTICA_TEST_DEVICE=cuda runs the whole suite against a server on the GPU.
   if (const char* device = std::getenv("CAUSTICA_TEST_DEVICE");
@@ -73,9 +79,52 @@ std::unique_ptr<ServerProcess> ServerProcess::start(const std::vector<std::strin
   }
   grpc::ChannelArguments channel_args;
   channel_args.SetMaxReceiveMessageSize(256 << 20);
-  server->channel_ = grpc::CreateCustomChannel(server->address(),
-                                               grpc::InsecureChannelCredentials(), channel_args);
+  if (credentials == nullptr) credentials = grpc::InsecureChannelCredentials();
+  server->channel_ = grpc::CreateCustomChannel(server->address(), credentials, channel_args);
   return server;
+}
+
+std::string read_text_file(const std::filesystem::path& path) { return read_file(path); }
+
+std::optional<TestCertificates> make_test_certificates(const std::filesystem::path& dir) {
+  // One configuration for the CA and the extensions of the two leaf certificates; gRPC checks
+  // the server certificate's subjectAltName against the address the client dials.
+  {
+    std::ofstream config(dir / "openssl.cnf");
+    config << "[req]\ndistinguished_name = dn\nprompt = no\n"
+              "[dn]\nCN = caustica test CA\n"
+              "[ca]\nbasicConstraints = critical,CA:TRUE\n"
+              "keyUsage = critical,keyCertSign,cRLSign\nsubjectKeyIdentifier = hash\n"
+              "[server]\nbasicConstraints = CA:FALSE\nextendedKeyUsage = serverAuth\n"
+              "subjectAltName = IP:127.0.0.1,DNS:localhost\n"
+              "[client]\nbasicConstraints = CA:FALSE\nextendedKeyUsage = clientAuth\n";
+  }
+  const std::string new_key = "-newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes";
+  const auto leaf = [&](const std::string& name, const std::string& subject, int serial) {
+    return absl::StrCat("openssl req -new ", new_key, " -keyout ", name, ".key -out ", name,
+                        ".csr -subj ", subject, " && openssl x509 -req -in ", name,
+                        ".csr -CA ca.pem -CAkey ca.key -set_serial ", serial,
+                        " -days 2 -extfile openssl.cnf -extensions ", name, " -out ", name, ".pem");
+  };
+  const std::string command = absl::StrCat(
+      "{ cd '", dir.string(), "' && openssl req -x509 -config openssl.cnf -extensions ca ", new_key,
+      " -keyout ca.key -out ca.pem -days 2 && ", leaf("server", "/CN=localhost", 2), " && ",
+      leaf("client", "/CN=caustica-test-client", 3), "; } 2>&1");
+  std::string output;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) {
+    ADD_FAILURE() << "cannot run openssl";
+    return std::nullopt;
+  }
+  char buffer[4096];
+  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) output.append(buffer, n);
+  const int status = pclose(pipe);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    ADD_FAILURE() << "openssl failed making test certificates:\n" << output;
+    return std::nullopt;
+  }
+  return TestCertificates{dir / "ca.pem", dir / "server.pem", dir / "server.key",
+                          dir / "client.pem", dir / "client.key"};
 }
 
 ServerProcess::~ServerProcess() {
@@ -118,6 +167,12 @@ int ServerProcess::terminate(double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return exit_code_;
+}
+
+void ServerProcess::kill_now() {
+  if (!running()) return;
+  kill(pid_, SIGKILL);
+  while (running()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
 }
 
 std::string ServerProcess::log() const { return read_file(dir_ / "server.log"); }
@@ -273,6 +328,48 @@ grpc::Status play_animation(v1::RenderService::Stub& stub, const v1::PlayAnimati
   return read_whole_stream(
       request, [&](grpc::ClientContext* c, const auto& r) { return stub.PlayAnimation(c, r); },
       frames);
+}
+
+grpc::Status get_scene_status(v1::RenderService::Stub& stub, const std::string& scene_id) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::GetSceneRequest request;
+  request.set_scene_id(scene_id);
+  v1::SceneInfo info;
+  return stub.GetScene(&context, request, &info);
+}
+
+std::vector<v1::SceneInfo> list_scenes(v1::RenderService::Stub& stub) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::ListScenesResponse response;
+  const grpc::Status status = stub.ListScenes(&context, {}, &response);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return {response.scenes().begin(), response.scenes().end()};
+}
+
+v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string& scene_id,
+                                float intensity) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::UpdateLightsRequest request;
+  request.set_scene_id(scene_id);
+  *request.add_lights() = point_light(intensity);
+  v1::RebuildReport report;
+  const grpc::Status status = stub.UpdateLights(&context, request, &report);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return report;
+}
+
+CommandRun run_command(const std::string& command) {
+  CommandRun run;
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return run;
+  char buffer[4096];
+  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) run.output.append(buffer, n);
+  const int status = pclose(pipe);
+  if (WIFEXITED(status)) run.exit_code = WEXITSTATUS(status);
+  return run;
 }
 
 v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_id) {

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,8 +23,12 @@ namespace caustica::testing {
 class ServerProcess {
  public:
   // Starts the server with `--listen 127.0.0.1:0 --port-file ...` and `extra_args`, and waits
-  // until it listens. Fails the test (returns null) when it does not.
-  static std::unique_ptr<ServerProcess> start(const std::vector<std::string>& extra_args = {});
+  // until it listens. Fails the test (returns null) when it does not. A --listen in `extra_args`
+  // replaces the loopback one (the address() and channel() stay on 127.0.0.1). channel()
+  // connects with `credentials`; null: plaintext.
+  static std::unique_ptr<ServerProcess> start(
+      const std::vector<std::string>& extra_args = {},
+      std::shared_ptr<grpc::ChannelCredentials> credentials = nullptr);
   ~ServerProcess();
 
   int port() const { return port_; }
@@ -35,6 +40,8 @@ class ServerProcess {
   // Sends SIGTERM and waits (at most `timeout_s`); the exit code (128 + signal when a signal
   // ended it), or -1 when it did not exit in time (it is then killed).
   int terminate(double timeout_s = 20);
+  // SIGKILL, as a crash or the OOM killer would end it, and waits for it to be gone.
+  void kill_now();
   bool running();
   // What the server wrote to stderr so far.
   std::string log() const;
@@ -112,6 +119,20 @@ grpc::Status play_animation(v1::RenderService::Stub& stub, const v1::PlayAnimati
                             std::vector<StreamedFrame>* frames);
 // GetScene of a scene that must exist.
 v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_id);
+// GetScene's status alone.
+grpc::Status get_scene_status(v1::RenderService::Stub& stub, const std::string& scene_id);
+// ListScenes, which must succeed.
+std::vector<v1::SceneInfo> list_scenes(v1::RenderService::Stub& stub);
+// UpdateLights to one point_light(intensity), which must succeed; its report.
+v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string& scene_id,
+                                float intensity);
+
+// A shell command's exit code (-1 when it did not exit) and its stdout and stderr together.
+struct CommandRun {
+  int exit_code = -1;
+  std::string output;
+};
+CommandRun run_command(const std::string& command);
 
 // grpc.health.v1.Health/Check of the whole server.
 bool health_serving(const std::shared_ptr<grpc::Channel>& channel);
@@ -128,5 +149,18 @@ PfmImage read_pfm(const std::filesystem::path& path);
 // Path of a fresh temporary directory, removed by the OS's tmp cleaning (tests keep it for
 // inspection on failure).
 std::filesystem::path make_temp_dir(const std::string& prefix);
+
+// PEM files for TLS tests: a CA, a server certificate for 127.0.0.1 and localhost, and a client
+// certificate, both signed by the CA, each with its key.
+struct TestCertificates {
+  std::filesystem::path ca;
+  std::filesystem::path server_cert, server_key;
+  std::filesystem::path client_cert, client_key;
+};
+// Makes them in `dir` with the openssl command-line tool, valid for two days from now. Fails the
+// test (returns nullopt) when openssl fails.
+std::optional<TestCertificates> make_test_certificates(const std::filesystem::path& dir);
+// A file's contents ("" when it cannot be read).
+std::string read_text_file(const std::filesystem::path& path);
 
 }  // namespace caustica::testing

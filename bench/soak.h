@@ -1,0 +1,41 @@
+// The soak test (caustica-bench --soak): many clients cycle through a scene's whole life on one
+// caustica-server over loopback for a fixed time, then a storm of streams is opened and cancelled
+// at once. It reports per-call latency and errors, the server's resident and device memory at the
+// start and the end, and whether the server stayed healthy, as one JSON line.
+#pragma once
+
+#include <sys/types.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <ostream>
+#include <string>
+
+#include "absl/status/statusor.h"
+
+namespace caustica {
+
+struct SoakOptions {
+  int clients = 64;
+  double minutes = 10;  // of cycling after the warm-up; fractions allowed
+  // Of unmeasured cycling first (at least one cycle a client), until the server's memory settled.
+  double warmup_minutes = 2;
+  int storm = 256;  // streams opened and cancelled at once afterwards; 0 skips the storm
+  std::filesystem::path scene;  // empty: the bundled Cornell box
+  // Small, with few photons, so that a CPU server keeps up with every client.
+  int width = 64, height = 64;
+  uint32_t photons = 1000;
+  std::string server;          // host:port of a running server; empty: start one
+  pid_t server_pid = 0;        // with `server`: the process whose resident memory is read
+  std::string device = "cpu";  // the started server's --device
+  // The started server's --data-dir, so that every upload, change and delete is also stored;
+  // empty: none.
+  std::filesystem::path data_dir;
+  double deadline_s = 60;  // of every call
+};
+
+// Runs the soak and writes its report. Returns whether it passed (no errors, memory flat, the
+// server healthy after the storm), or an error when it could not run at all.
+absl::StatusOr<bool> run_soak(const SoakOptions& options, std::ostream& out);
+
+}  // namespace caustica

@@ -1,0 +1,87 @@
+// Durable scenes under --data-dir (docs/server.md, "Durable scenes"). An uploaded scene's
+// geometry is a content-addressed blob, blobs/<sha256>.scene, written to a temporary file,
+// fsynced and renamed into place; an SQLite index in WAL mode (index.db) holds each scene's id,
+// tenant, blob and its current lights, camera, settings and epochs. Every write is committed
+// (synchronous=FULL) before the call that caused it is acknowledged, so a killed server restores
+// exactly what clients were told. One server owns a directory at a time (an flock on its lock
+// file).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "renderer/engine.h"
+#include "renderer/scene/scene.h"
+
+struct sqlite3;
+
+namespace caustica::server {
+
+// One index row: what restores a scene.
+struct StoredScene {
+  std::string id;
+  std::string tenant;
+  std::string name;
+  std::string blob;  // the geometry's SHA-256, hex
+  // The state that updates change; it overrides what the blob's header says.
+  std::vector<Light> lights;
+  Camera camera;
+  RenderSettings settings;
+  Epochs epochs;
+  uint64_t upload_bytes = 0;
+  double upload_ms = 0;
+};
+
+class SceneStore {
+ public:
+  // Creates the directory and index when missing, takes the lock, and removes temporary files a
+  // killed server left behind and blobs no scene references.
+  static absl::StatusOr<std::unique_ptr<SceneStore>> open(const std::filesystem::path& dir);
+  ~SceneStore();
+  SceneStore(const SceneStore&) = delete;
+  SceneStore& operator=(const SceneStore&) = delete;
+
+  const std::filesystem::path& dir() const { return dir_; }
+
+  // Writes `scene`'s upload stream (header and chunks) as a blob and returns its digest. An
+  // identical blob already stored is kept as it is.
+  absl::StatusOr<std::string> write_blob(const Scene& scene, const std::string& name);
+  // The scene a blob holds, its digest checked (DATA_LOSS when the file does not match it).
+  absl::StatusOr<Scene> read_blob(const std::string& digest) const;
+  // Removes the blob unless an index row references it (for an upload that failed after its
+  // blob was written).
+  void discard_blob(const std::string& digest);
+
+  // Each commits before it returns.
+  absl::Status add(const StoredScene& scene);
+  // Stores `state`'s lights, camera and settings and `epochs` as scene `id`'s current state.
+  absl::Status update(const std::string& id, const Scene& state, const Epochs& epochs);
+  // Removes the row, then its blob once no row references it. A missing id is not an error.
+  absl::Status remove(const std::string& id);
+  // Every stored scene in upload order.
+  absl::StatusOr<std::vector<StoredScene>> list() const;
+
+ private:
+  SceneStore() = default;
+  absl::Status exec(const char* sql) const;
+  // Blobs in blobs/ that no row references are removed; so are leftovers in tmp/.
+  void collect_garbage();
+  bool blob_referenced(const std::string& digest) const;
+  std::filesystem::path blob_path(const std::string& digest) const;
+
+  std::filesystem::path dir_;
+  int lock_fd_ = -1;
+  sqlite3* db_ = nullptr;
+  mutable std::mutex mutex_;  // one connection, used by one call at a time
+};
+
+// A scene's stored state applied to the geometry of its blob.
+Scene restored_scene(Scene geometry, const StoredScene& stored);
+
+}  // namespace caustica::server
