@@ -3,6 +3,7 @@
 // DIR/frame_NNNN.<format>, and ffmpeg, when on PATH, joins them into a video.
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/animate_fleet.h"
 #include "client/frame_session.h"
 #include "client/light_json.h"
 #include "client/result_output.h"
@@ -41,6 +42,12 @@ absl::Status run_animate(const GlobalOptions& global, const AnimateOptions& opti
     return absl::FailedPreconditionError(
         "--video needs ffmpeg on PATH, and there is none (install ffmpeg, or leave out --video "
         "to get the frames alone)");
+  }
+
+  if (!options.servers.empty()) {
+    return run_animate_fleet(
+        global, options, *std::move(keyframes),
+        [&] { return ffmpeg ? encode_video(*ffmpeg, options) : absl::OkStatus(); }, out);
   }
 
   absl::StatusOr<std::unique_ptr<FrameSession>> session = FrameSession::open(global, options.job);

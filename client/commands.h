@@ -91,6 +91,10 @@ struct AnimateOptions {
   std::filesystem::path script;
   std::filesystem::path video;  // empty: no video
   int fps = 12;
+  // --servers: replicas ("host:port") that share the keyframes, instead of the one --server. The
+  // scene (a file) goes to each; a replica down at the start, or lost on the way, is probed until
+  // it answers and then takes keyframes again.
+  std::vector<std::string> servers;
 };
 absl::Status run_animate(const GlobalOptions& global, const AnimateOptions& options,
                          std::ostream& out);

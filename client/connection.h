@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.grpc.pb.h"
@@ -23,7 +24,8 @@ inline constexpr char kDefaultServerAddress[] = "localhost:50051";
 
 struct ConnectOptions {
   // "host:port". Empty: kDefaultServerAddress when a server there reports SERVING, else an
-  // embedded caustica-server that lives as long as the Connection.
+  // embedded caustica-server that lives as long as the Connection. Replicas of one service:
+  // "host:port,host:port,..." or "dns:///name:port" (every address the name resolves to).
   std::string server;
   double timeout_s = 0;     // deadline of every call; 0 = none
   int max_message_mb = 64;  // largest message received (a frame in one piece) or sent
@@ -37,6 +39,9 @@ struct ConnectOptions {
   std::filesystem::path tls_cert;
   std::filesystem::path tls_key;
   EmbeddedServerOptions embedded;
+  // The longest wait between attempts to reconnect to a server that is down; 0: gRPC's default,
+  // which grows to minutes. Commands that wait for replicas to come back keep it short.
+  int max_reconnect_backoff_ms = 0;
 };
 
 // The channel credentials `options` ask for: TLS with the PEM files read (errors name the flag
@@ -55,7 +60,22 @@ class Connection {
   // Adds the token to a context made elsewhere, e.g. one with a deadline of its own. gRPC's
   // AccessTokenCredentials would refuse to send it over plaintext, which development servers use.
   void authorize(grpc::ClientContext& context) const;
+  // The replica a scene-bound call went to once pinned, else what --server named.
   const std::string& address() const { return address_; }
+
+  // With several replicas (see ConnectOptions::server), stateless calls go round-robin over
+  // those that pass gRPC's health checks, retried on UNAVAILABLE; a scene lives on one replica,
+  // so calls about it must be pinned there first. Both pins are no-ops with one server.
+  bool replicated() const { return !replicas_.empty(); }
+  const std::vector<std::string>& replicas() const { return replicas_; }
+  // Points stub() at the replica that holds `scene_id`, asking each with GetScene. NOT_FOUND
+  // naming the replicas asked when none has it; UNAVAILABLE naming the unreachable ones when
+  // none of the others has it, since one of those may have held it.
+  absl::Status pin_to_scene(const std::string& scene_id);
+  // Points stub() at one replica that reports SERVING, for an upload and the calls on its scene.
+  absl::Status pin_any();
+  // A channel to one replica alone (from replicas()).
+  std::shared_ptr<grpc::Channel> replica_channel(const std::string& replica) const;
 
   // One unary call with the deadline of --timeout, e.g. call(&Stub::GetScene, request).
   template <typename Request, typename Response>
@@ -85,13 +105,28 @@ class Connection {
   std::string token_;  // empty: none sent
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::RenderService::Stub> stub_;
+  std::vector<std::string> replicas_;  // gRPC targets of the single replicas; empty: one server
+  std::shared_ptr<grpc::ChannelCredentials> credentials_;
+  int max_message_bytes_ = 0;
+  int max_reconnect_backoff_ms_ = 0;
+  std::string server_arg_;  // --server as given
 };
+
+// The replicas `server` names: the entries of "A,B,C", or every address of "dns:///name:port",
+// each as a gRPC target of that one replica ("ipv4:10.0.0.1:50051"); empty for a single server.
+absl::StatusOr<std::vector<std::string>> replica_targets(const std::string& server);
+// The gRPC target of the channel that spreads calls over `server`'s replicas.
+absl::StatusOr<std::string> balanced_target(const std::string& server);
+// The service config of that channel: round_robin over healthy replicas, and retries on
+// UNAVAILABLE for the calls that do not concern one scene.
+extern const char kReplicatedServiceConfig[];
 
 // A channel to `address` that accepts messages up to `max_message_bytes` both ways: plaintext, or
 // with `credentials`.
 std::shared_ptr<grpc::Channel> make_channel(const std::string& address, int max_message_bytes);
 std::shared_ptr<grpc::Channel> make_channel(
     const std::string& address, int max_message_bytes,
-    const std::shared_ptr<grpc::ChannelCredentials>& credentials);
+    const std::shared_ptr<grpc::ChannelCredentials>& credentials, int max_reconnect_backoff_ms = 0,
+    const std::string& service_config = "");
 
 }  // namespace caustica::client

@@ -99,6 +99,7 @@ absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& o
 
   absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
   if (!connection.ok()) return connection.status();
+  if (absl::Status pinned = (*connection)->pin_to_scene(options.scene); !pinned.ok()) return pinned;
   absl::StatusOr<v1::RebuildReport> report =
       (*connection)->call(&v1::RenderService::Stub::UpdateLights, request);
   if (!report.ok()) return report.status();

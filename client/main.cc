@@ -78,7 +78,10 @@ int main(int argc, char** argv) {
   app.option_defaults()->always_capture_default();  // --help shows the defaults
   app.fallthrough();                                // global flags may follow the subcommand
   GlobalOptions global;
-  app.add_option("--server", global.connect.server, "server address HOST:PORT");
+  app.add_option("--server", global.connect.server,
+                 "server address HOST:PORT; replicas as HOST:PORT,HOST:PORT,... or "
+                 "dns:///NAME:PORT (stateless calls round-robin, scene calls go to the replica "
+                 "that holds the scene)");
   app.add_option("--timeout", global.connect.timeout_s, "deadline of every call in seconds")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--max-message-mb", global.connect.max_message_mb,
@@ -197,6 +200,13 @@ int main(int argc, char** argv) {
       ->required();
   animate_cmd->add_option("--video", animate.video, "also join the frames into a video (ffmpeg)");
   animate_cmd->add_option("--fps", animate.fps, "video frame rate")->check(CLI::PositiveNumber);
+  animate_cmd
+      ->add_option("--servers", animate.servers,
+                   "replicas HOST:PORT,... that share the keyframes (instead of --server): the "
+                   "scene file goes to each, a failed replica's keyframe goes to another, and one "
+                   "that is down is retried until it answers")
+      ->delimiter(',')
+      ->type_name("LIST");
   on(animate_cmd, "animate", [&] { return run_animate(global, animate, std::cout); });
 
   std::string stats_scene;

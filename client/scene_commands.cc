@@ -4,6 +4,7 @@
 
 #include "client/commands.h"
 #include "client/result_output.h"
+#include "client/rpc_status.h"
 
 namespace caustica::client {
 namespace {
@@ -16,9 +17,14 @@ absl::Status unary_command(const GlobalOptions& global,
                            grpc::Status (Stub::*method)(grpc::ClientContext*, const Request&,
                                                         Response*),
                            const Request& request, std::ostream& out,
-                           const std::function<void(const Response&)>& print_text) {
+                           const std::function<void(const Response&)>& print_text,
+                           const std::string& scene_id = "") {
   absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
   if (!connection.ok()) return connection.status();
+  // A call about one scene goes to the replica that holds it.
+  if (!scene_id.empty()) {
+    if (absl::Status pinned = (*connection)->pin_to_scene(scene_id); !pinned.ok()) return pinned;
+  }
   absl::StatusOr<Response> response = (*connection)->call(method, request);
   if (!response.ok()) return response.status();
   if (global.json) {
@@ -29,12 +35,50 @@ absl::Status unary_command(const GlobalOptions& global,
   return absl::OkStatus();
 }
 
+bool is_replicated_server(const std::string& server) {
+  return server.starts_with("dns:") || server.find(',') != std::string::npos;
+}
+
+// scene list over replicas: every replica's scenes in one table, since round-robin would show
+// one replica's alone. Replicas that do not answer are named on stderr.
+absl::Status list_replicas(const GlobalOptions& global, std::ostream& out) {
+  absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
+  if (!connection.ok()) return connection.status();
+  v1::ListScenesResponse all;
+  int answered = 0;
+  absl::Status last_error;
+  for (const std::string& replica : (*connection)->replicas()) {
+    std::unique_ptr<v1::RenderService::Stub> stub =
+        v1::RenderService::NewStub((*connection)->replica_channel(replica));
+    std::unique_ptr<grpc::ClientContext> context = (*connection)->new_context();
+    v1::ListScenesResponse response;
+    const grpc::Status status = stub->ListScenes(context.get(), {}, &response);
+    if (!status.ok()) {
+      last_error = to_absl(status);
+      std::cerr << "caustica: scene list: " << replica << ": " << status.error_message() << "\n";
+      continue;
+    }
+    ++answered;
+    for (v1::SceneInfo& info : *response.mutable_scenes()) *all.add_scenes() = std::move(info);
+  }
+  if (answered == 0) return last_error;
+  if (global.json) {
+    print_json(out, to_json(all));
+  } else {
+    print_scene_table(out, all.scenes());
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOptions& options,
                               std::ostream& out) {
   absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
   if (!connection.ok()) return connection.status();
+  // With replicas: one picked at random among those serving, so that one-shot commands, each
+  // with a channel of its own, still spread their scenes.
+  if (absl::Status pinned = (*connection)->pin_any(); !pinned.ok()) return pinned;
   SceneOverrides overrides;
   overrides.structure = options.structure;
   absl::StatusOr<UploadedFile> uploaded =
@@ -60,6 +104,7 @@ absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOpti
 }
 
 absl::Status run_scene_list(const GlobalOptions& global, std::ostream& out) {
+  if (is_replicated_server(global.connect.server)) return list_replicas(global, out);
   return unary_command<v1::ListScenesRequest, v1::ListScenesResponse>(
       global, &Stub::ListScenes, {}, out,
       [&](const v1::ListScenesResponse& list) { print_scene_table(out, list.scenes()); });
@@ -71,7 +116,7 @@ absl::Status run_scene_info(const GlobalOptions& global, const std::string& scen
   request.set_scene_id(scene_id);
   return unary_command<v1::GetSceneRequest, v1::SceneInfo>(
       global, &Stub::GetScene, request, out,
-      [&](const v1::SceneInfo& info) { print_scene_info(out, info); });
+      [&](const v1::SceneInfo& info) { print_scene_info(out, info); }, scene_id);
 }
 
 absl::Status run_scene_delete(const GlobalOptions& global, const std::string& scene_id,
@@ -79,9 +124,11 @@ absl::Status run_scene_delete(const GlobalOptions& global, const std::string& sc
   v1::DeleteSceneRequest request;
   request.set_scene_id(scene_id);
   return unary_command<v1::DeleteSceneRequest, v1::DeleteSceneResponse>(
-      global, &Stub::DeleteScene, request, out, [&](const v1::DeleteSceneResponse& response) {
+      global, &Stub::DeleteScene, request, out,
+      [&](const v1::DeleteSceneResponse& response) {
         out << "deleted " << scene_id << ", freed " << mib_text(response.bytes_freed()) << "\n";
-      });
+      },
+      scene_id);
 }
 
 absl::Status run_stats(const GlobalOptions& global, const std::string& scene_id,
@@ -90,7 +137,7 @@ absl::Status run_stats(const GlobalOptions& global, const std::string& scene_id,
   request.set_scene_id(scene_id);
   return unary_command<v1::GetStatsRequest, v1::Stats>(
       global, &Stub::GetStats, request, out,
-      [&](const v1::Stats& stats) { print_stats(out, stats); });
+      [&](const v1::Stats& stats) { print_stats(out, stats); }, scene_id);
 }
 
 }  // namespace caustica::client

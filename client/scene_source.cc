@@ -86,6 +86,12 @@ absl::StatusOr<std::unique_ptr<SceneSource>> SceneSource::open(Connection& conne
                                                                const SceneOverrides& overrides,
                                                                bool keep, bool progress) {
   std::unique_ptr<SceneSource> source(new SceneSource(connection));
+  // With replicas, the upload and every later call about the scene go to one of them.
+  if (absl::Status pinned =
+          is_scene_file(arg) ? connection.pin_any() : connection.pin_to_scene(arg);
+      !pinned.ok()) {
+    return pinned;
+  }
   if (is_scene_file(arg)) {
     absl::StatusOr<UploadedFile> uploaded =
         upload_scene_file(connection, arg, "", overrides, progress);

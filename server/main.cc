@@ -34,6 +34,15 @@ int main(int argc, char** argv) {
                  "seconds running calls may take to finish after SIGTERM/SIGINT")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--max-connection-age", options.max_connection_age_s,
+                 "seconds after which a client connection is asked to reconnect (GOAWAY), so "
+                 "that clients of a fleet find new replicas; 0: never")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--max-connection-age-grace", options.max_connection_age_grace_s,
+                 "seconds the calls of such a connection may still run before it is closed")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--metrics-listen", options.metrics_listen,
                  "host:port to serve Prometheus metrics on (/metrics); port 0 picks a free port; "
                  "off by default");

@@ -5,9 +5,11 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -94,6 +96,14 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   if (!(options.tenant_memory_share > 0 && options.tenant_memory_share <= 1)) {
     return absl::InvalidArgumentError("--tenant-memory-share: must be in (0, 1]");
   }
+  if (!(options.max_connection_age_s >= 0) || !std::isfinite(options.max_connection_age_s)) {
+    return absl::InvalidArgumentError("--max-connection-age: must be a number of seconds >= 0");
+  }
+  if (!(options.max_connection_age_grace_s >= 0) ||
+      !std::isfinite(options.max_connection_age_grace_s)) {
+    return absl::InvalidArgumentError(
+        "--max-connection-age-grace: must be a number of seconds >= 0");
+  }
   if (!(options.scene_idle_ttl_s >= 0) || !std::isfinite(options.scene_idle_ttl_s)) {
     return absl::InvalidArgumentError("--scene-idle-ttl: must be a number of seconds >= 0");
   }
@@ -143,6 +153,14 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.SetMaxReceiveMessageSize(static_cast<int>(max_message_bytes));
   builder.SetMaxSendMessageSize(static_cast<int>(max_message_bytes));
+  if (options.max_connection_age_s > 0) {
+    const auto ms = [](double seconds) {
+      return static_cast<int>(std::min(seconds * 1000, double{INT_MAX}));
+    };
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_MS, ms(options.max_connection_age_s));
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_AGE_GRACE_MS,
+                               ms(options.max_connection_age_grace_s));
+  }
   server->server_ = builder.BuildAndStart();
   if (!server->server_ || server->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen));

@@ -25,7 +25,12 @@ struct ServerOptions {
   size_t memory_budget_bytes = size_t{8} << 30;
   size_t max_message_mb = 64;
   std::string log_level = "info";
-  double shutdown_grace_s = 5;     // how long running calls may finish before they are cancelled
+  double shutdown_grace_s = 5;  // how long running calls may finish before they are cancelled
+  // Connections older than this are asked to go away (GOAWAY), so that clients behind a load
+  // balancer or a DNS name spread onto replicas added since; running calls get
+  // max_connection_age_grace_s to finish. 0: connections live as long as their clients.
+  double max_connection_age_s = 0;
+  double max_connection_age_grace_s = 30;
   std::string metrics_listen;      // host:port for Prometheus' /metrics; empty: none
   std::string data_dir;            // durable scenes (scene_store.h); empty: none
   size_t max_tenant_scenes = 0;    // per tenant; 0: up to max_scenes
