@@ -145,6 +145,17 @@ size_t RenderService::tenant_bytes(const std::string& tenant) const {
   return bytes;
 }
 
+absl::Status RenderService::check_tenant_share(const std::string& tenant, size_t bytes,
+                                               const std::string& what) const {
+  if (options_.tenant_memory_share >= 1) return absl::OkStatus();  // the budget alone rules
+  const size_t limit = tenant_memory_limit();
+  const size_t held = tenant_bytes(tenant);
+  if (held + bytes <= limit) return absl::OkStatus();
+  return absl::ResourceExhaustedError(
+      absl::StrCat(what, ", but tenant '", tenant, "' already holds ", mib(held), " of its ",
+                   mib(limit), " share of the budget (--tenant-memory-share)"));
+}
+
 size_t RenderService::tenant_memory_limit() const {
   return static_cast<size_t>(static_cast<double>(backend_->budget()) *
                              std::clamp(options_.tenant_memory_share, 0.0, 1.0));
@@ -359,15 +370,12 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
               " of mesh data, but only ", mib(free_bytes), " of the device's ", mib(budget),
               " budget are free (--memory-budget)"));
         }
-        if (options_.tenant_memory_share < 1) {
-          const size_t limit = tenant_memory_limit();
-          const size_t held = tenant_bytes(tenant);
-          if (held + assembler.bytes_declared() > limit) {
-            return absl::ResourceExhaustedError(absl::StrCat(
-                "scene '", assembler.name(), "' declares ", mib(assembler.bytes_declared()),
-                " of mesh data, but tenant '", tenant, "' already holds ", mib(held), " of its ",
-                mib(limit), " share of the budget (--tenant-memory-share)"));
-          }
+        if (absl::Status fits =
+                check_tenant_share(tenant, assembler.bytes_declared(),
+                                   absl::StrCat("scene '", assembler.name(), "' declares ",
+                                                mib(assembler.bytes_declared()), " of mesh data"));
+            !fits.ok()) {
+          return fits;
         }
       }
       if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
@@ -394,16 +402,14 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
     if (!engine.ok()) return engine.status();
     absl::StatusOr<RebuildReport> built = (*engine)->load(*scene);
-    if (built.ok() && options_.tenant_memory_share < 1) {
+    if (built.ok()) {
       // The built structure and film count too, which the declared mesh bytes did not show.
-      const size_t limit = tenant_memory_limit();
-      const size_t held = tenant_bytes(tenant);
       const size_t bytes = (*engine)->scene_stats().device_bytes;
-      if (held + bytes > limit) {
-        built = absl::ResourceExhaustedError(
-            absl::StrCat("scene '", assembler.name(), "' needs ", mib(bytes),
-                         " on the device, but tenant '", tenant, "' already holds ", mib(held),
-                         " of its ", mib(limit), " share of the budget (--tenant-memory-share)"));
+      if (absl::Status fits = check_tenant_share(
+              tenant, bytes,
+              absl::StrCat("scene '", assembler.name(), "' needs ", mib(bytes), " on the device"));
+          !fits.ok()) {
+        built = fits;
       }
     }
     // A scene the client can no longer learn the id of would be unreachable; drop it.

@@ -127,6 +127,10 @@ class RenderService final : public v1::RenderService::Service {
   // The device memory a tenant's scenes hold, and the most they may.
   size_t tenant_bytes(const std::string& tenant) const;
   size_t tenant_memory_limit() const;
+  // RESOURCE_EXHAUSTED, led by `what`, when `bytes` more would take the tenant past its
+  // --tenant-memory-share.
+  absl::Status check_tenant_share(const std::string& tenant, size_t bytes,
+                                  const std::string& what) const;
   // One open frame stream of `tenant` while it lives; RESOURCE_EXHAUSTED beyond
   // --tenant-max-streams.
   absl::StatusOr<std::unique_ptr<StreamSlot>> open_stream(const std::string& tenant);

@@ -38,11 +38,16 @@ SceneRegistry::Slot::~Slot() {
   --registry_->tenant_uploads_[tenant_];
 }
 
-size_t SceneRegistry::tenant_count_locked(std::string_view tenant) const {
+size_t SceneRegistry::resident_count_locked(std::string_view tenant) const {
   size_t count = 0;
   for (const auto& [id, resident] : scenes_) count += resident.entry->tenant() == tenant;
-  auto uploading = tenant_uploads_.find(tenant);
-  return count + (uploading == tenant_uploads_.end() ? 0 : uploading->second);
+  return count;
+}
+
+void SceneRegistry::insert_locked(std::shared_ptr<SceneEntry> entry) {
+  entry->touch();
+  const std::string id = entry->id();
+  scenes_.emplace(id, Resident{next_sequence_++, std::move(entry)});
 }
 
 absl::StatusOr<SceneRegistry::Slot> SceneRegistry::reserve(const std::string& tenant) {
@@ -53,7 +58,10 @@ absl::StatusOr<SceneRegistry::Slot> SceneRegistry::reserve(const std::string& te
         "delete one first",
         max_scenes_, scenes_.size(), uploads_in_progress_));
   }
-  if (max_tenant_scenes_ > 0 && tenant_count_locked(tenant) >= max_tenant_scenes_) {
+  auto uploading = tenant_uploads_.find(tenant);
+  const size_t held =
+      resident_count_locked(tenant) + (uploading == tenant_uploads_.end() ? 0 : uploading->second);
+  if (max_tenant_scenes_ > 0 && held >= max_tenant_scenes_) {
     return absl::ResourceExhaustedError(absl::StrFormat(
         "tenant '%s' holds its maximum of %d scenes, uploads included (--tenant-max-scenes); "
         "delete one first",
@@ -78,16 +86,12 @@ void SceneRegistry::add(Slot slot, std::shared_ptr<SceneEntry> entry) {
   slot.registry_ = nullptr;
   --uploads_in_progress_;
   --tenant_uploads_[slot.tenant_];
-  entry->touch();
-  const std::string id = entry->id();
-  scenes_.emplace(id, Resident{next_sequence_++, std::move(entry)});
+  insert_locked(std::move(entry));
 }
 
 void SceneRegistry::add_restored(std::shared_ptr<SceneEntry> entry) {
   std::lock_guard<std::mutex> lock(mutex_);
-  entry->touch();
-  const std::string id = entry->id();
-  scenes_.emplace(id, Resident{next_sequence_++, std::move(entry)});
+  insert_locked(std::move(entry));
 }
 
 void SceneRegistry::keep_id(const std::string& id) {
@@ -142,9 +146,7 @@ size_t SceneRegistry::size() const {
 
 size_t SceneRegistry::size(std::string_view tenant) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  size_t count = 0;
-  for (const auto& [id, resident] : scenes_) count += resident.entry->tenant() == tenant;
-  return count;
+  return resident_count_locked(tenant);
 }
 
 }  // namespace caustica::server

@@ -109,7 +109,9 @@ class SceneRegistry {
   size_t max_scenes() const { return max_scenes_; }
 
  private:
-  size_t tenant_count_locked(std::string_view tenant) const;
+  size_t resident_count_locked(std::string_view tenant) const;
+  // Adds a scene, marked used, after every scene already in.
+  void insert_locked(std::shared_ptr<SceneEntry> entry);
 
   struct Resident {
     uint64_t sequence;

@@ -119,11 +119,12 @@ class Statement {
 };
 
 // Lights, camera and settings as a SceneHeader holding only those fields.
-std::string encode_state(const Scene& scene) {
+std::string encode_state(const std::vector<Light>& lights, const Camera& camera,
+                         const RenderSettings& settings) {
   v1::SceneHeader header;
-  for (const Light& light : scene.lights) *header.add_lights() = wire::encode_light(light);
-  *header.mutable_camera() = wire::encode_camera(scene.camera);
-  *header.mutable_settings() = wire::encode_settings(scene.settings);
+  for (const Light& light : lights) *header.add_lights() = wire::encode_light(light);
+  *header.mutable_camera() = wire::encode_camera(camera);
+  *header.mutable_settings() = wire::encode_settings(settings);
   return header.SerializeAsString();
 }
 
@@ -340,15 +341,11 @@ absl::Status SceneStore::add(const StoredScene& scene) {
                    "epoch_lights, epoch_camera, epoch_settings, upload_bytes, upload_ms) "
                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
   if (!insert.ok()) return insert.error("cannot prepare an insert");
-  Scene state;
-  state.lights = scene.lights;
-  state.camera = scene.camera;
-  state.settings = scene.settings;
   insert.bind_text(1, scene.id);
   insert.bind_text(2, scene.tenant);
   insert.bind_text(3, scene.name);
   insert.bind_text(4, scene.blob);
-  insert.bind(5, encode_state(state));
+  insert.bind(5, encode_state(scene.lights, scene.camera, scene.settings));
   insert.bind(6, static_cast<int64_t>(scene.epochs.geometry));
   insert.bind(7, static_cast<int64_t>(scene.epochs.lights));
   insert.bind(8, static_cast<int64_t>(scene.epochs.camera));
@@ -366,7 +363,7 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
                    "UPDATE scenes SET state = ?, epoch_geometry = ?, epoch_lights = ?, "
                    "epoch_camera = ?, epoch_settings = ? WHERE id = ?");
   if (!update.ok()) return update.error("cannot prepare an update");
-  update.bind(1, encode_state(state));
+  update.bind(1, encode_state(state.lights, state.camera, state.settings));
   update.bind(2, static_cast<int64_t>(epochs.geometry));
   update.bind(3, static_cast<int64_t>(epochs.lights));
   update.bind(4, static_cast<int64_t>(epochs.camera));
