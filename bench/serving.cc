@@ -1,10 +1,12 @@
 #include "bench/serving.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "bench/measure.h"
+#include "bench/viewer_drag.h"
 #include "client/connection.h"
 #include "client/frame_stream.h"
 #include "client/rpc_status.h"
@@ -218,15 +220,18 @@ absl::Status animation_benchmark(const BenchOptions& o, client::Connection& conn
 }
 
 // UpdateLights (photons re-traced, maps rebuilt), then RenderFrame of one pass, as a client
-// animating a light sees it. Rebuild and render come from the server's own stage timings; the
-// rest of the client's wall time is transport (RPCs, tone mapping excluded, bytes on the wire).
+// animating a light sees it, with the frame RAW (`update_to_frame`) or as a JPEG or PNG file
+// (`update_to_frame_jpeg`, `update_to_frame_png`: what a viewer shows). Rebuild, render and
+// encode come from the server's own stage timings; the rest of the client's wall time is
+// transport (RPCs, tone mapping excluded, bytes on the wire).
 absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection& connection,
+                                       const std::string& benchmark, v1::Encoding encoding,
                                        Reporter& report) {
   absl::StatusOr<std::pair<Scene, std::string>> uploaded =
       upload_photon_scene(o, connection, "latency benchmark");
   if (!uploaded.ok()) return uploaded.status();
   const auto& [scene, id] = *uploaded;
-  std::vector<double> total, rebuild, render, transport;
+  std::vector<double> total, rebuild, render, encode, transport, bytes;
   for (int i = 0; i < o.warmup + o.runs; ++i) {
     v1::UpdateLightsRequest update;
     update.set_scene_id(id);
@@ -235,6 +240,7 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     render_request.set_scene_id(id);
     render_request.set_target_passes(1);
     render_request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
+    render_request.mutable_format()->set_encoding(encoding);
 
     const Clock::time_point start = Clock::now();
     absl::StatusOr<v1::RebuildReport> rebuilt =
@@ -253,28 +259,55 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     const double rebuild_ms = r.photon_trace_ms() + r.photon_map_build_ms() +
                               r.structure_build_ms() + f.photon_trace_ms() +
                               f.photon_map_build_ms();
-    const double render_ms = f.render_ms() + f.resolve_ms();
+    const double render_ms = f.render_ms() + f.resolve_ms() - f.encode_ms();
     total.push_back(ms);
     rebuild.push_back(rebuild_ms);
     render.push_back(render_ms);
-    transport.push_back(ms - rebuild_ms - render_ms);
+    encode.push_back(f.encode_ms());
+    transport.push_back(ms - rebuild_ms - render_ms - f.encode_ms());
+    bytes.push_back(static_cast<double>(frame->data().size()));
   }
   const std::string name = photon_scene_label(o);
   Measurement m = summarize(total);
-  report.line("update_to_frame", name, m.median, "ms", &m, o.runs);
-  report.line("update_to_frame_rebuild", name, summarize(rebuild).median, "ms");
-  report.line("update_to_frame_render", name, summarize(render).median, "ms");
-  report.line("update_to_frame_transport", name, summarize(transport).median, "ms");
+  report.line(benchmark, name, m.median, "ms", &m, o.runs);
+  report.line(benchmark + "_rebuild", name, summarize(rebuild).median, "ms");
+  report.line(benchmark + "_render", name, summarize(render).median, "ms");
+  if (encoding != v1::RAW) {
+    report.line(benchmark + "_encode", name, summarize(encode).median, "ms");
+  }
+  report.line(benchmark + "_transport", name, summarize(transport).median, "ms");
+  report.line(benchmark + "_bytes", name, summarize(bytes).median, "bytes");
   return delete_scene(connection, id);
 }
 
 }  // namespace
 
+absl::StatusOr<Reporter> server_device_reporter(client::Connection& connection,
+                                                const Reporter& report) {
+  absl::StatusOr<v1::Stats> stats =
+      connection.call(&v1::RenderService::Stub::GetStats, v1::GetStatsRequest());
+  if (!stats.ok()) return stats.status();
+  return report.for_device(absl::StrFormat("server %s: %s x%d", stats->device().kind(),
+                                           stats->device().name(),
+                                           stats->device().compute_units()));
+}
+
 std::vector<std::string> serving_benchmark_names() {
-  return {"stream_rgba8", "stream_rgba32f", "upload", "update_to_frame", "animation"};
+  return {"stream_rgba8",         "stream_rgba32f",      "upload",    "update_to_frame",
+          "update_to_frame_jpeg", "update_to_frame_png", "animation", kViewerDragBenchmark};
 }
 
 absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_report) {
+  // viewer_drag starts a server of its own, with the viewer; the rest share this one.
+  if (wanted(o, kViewerDragBenchmark)) {
+    if (absl::Status s = run_viewer_drag_benchmark(o, server_report); !s.ok()) return s;
+  }
+  const std::vector<std::string> names = serving_benchmark_names();
+  if (std::none_of(names.begin(), names.end(), [&](const std::string& n) {
+        return n != kViewerDragBenchmark && wanted(o, n);
+      })) {
+    return absl::OkStatus();
+  }
   client::ConnectOptions connect;
   // Always a server of our own: a figure must not depend on whatever else listens on 50051.
   absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> server = client::EmbeddedServer::start(
@@ -286,13 +319,9 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_repo
       client::Connection::open(connect);
   if (!connection.ok()) return connection.status();
 
-  // Figures are labelled with the device the server renders on, not the benchmark's own CPU.
-  absl::StatusOr<v1::Stats> stats =
-      (*connection)->call(&v1::RenderService::Stub::GetStats, v1::GetStatsRequest());
-  if (!stats.ok()) return stats.status();
-  Reporter report = server_report.for_device(
-      absl::StrFormat("server %s: %s x%d", stats->device().kind(), stats->device().name(),
-                      stats->device().compute_units()));
+  absl::StatusOr<Reporter> device_report = server_device_reporter(**connection, server_report);
+  if (!device_report.ok()) return device_report.status();
+  Reporter& report = *device_report;
 
   if (wanted(o, "stream_rgba8") || wanted(o, "stream_rgba32f")) {
     if (absl::Status s = stream_benchmarks(o, **connection, report); !s.ok()) return s;
@@ -305,8 +334,13 @@ absl::Status run_serving_benchmarks(const BenchOptions& o, Reporter& server_repo
         !s.ok())
       return s;
   }
-  if (wanted(o, "update_to_frame") && !o.photon_scene.empty()) {
-    if (absl::Status s = update_to_frame_benchmark(o, **connection, report); !s.ok()) return s;
+  for (const auto& [benchmark, encoding] :
+       {std::pair{"update_to_frame", v1::RAW}, std::pair{"update_to_frame_jpeg", v1::JPEG},
+        std::pair{"update_to_frame_png", v1::PNG}}) {
+    if (!wanted(o, benchmark) || o.photon_scene.empty()) continue;
+    if (absl::Status s = update_to_frame_benchmark(o, **connection, benchmark, encoding, report);
+        !s.ok())
+      return s;
   }
   if (wanted(o, "animation") && !o.photon_scene.empty()) {
     if (absl::Status s = animation_benchmark(o, **connection, report); !s.ok()) return s;

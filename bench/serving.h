@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "bench/benchmarks.h"
 
 namespace caustica {
@@ -16,6 +17,14 @@ namespace caustica {
 class Reporter;
 
 std::vector<std::string> serving_benchmark_names();
+
+namespace client {
+class Connection;
+}
+// `report` labelled with the device the connected server renders on (figures are the server's,
+// not the benchmark's own CPU's).
+absl::StatusOr<Reporter> server_device_reporter(client::Connection& connection,
+                                                const Reporter& report);
 
 // Starts a caustica-server on a free loopback port (found like the CLI's embedded default) on
 // options.device and runs the serving benchmarks selected by options.only.

@@ -56,7 +56,9 @@ absl::Status run_animate(const GlobalOptions& global, const AnimateOptions& opti
   v1::PlayAnimationRequest request;
   request.set_scene_id(s.source().id());
   for (v1::Keyframe& keyframe : *keyframes) *request.add_keyframes() = std::move(keyframe);
-  *request.mutable_format() = s.frame_format(absl::StrCat("frame.", options.format));
+  absl::StatusOr<v1::FrameFormat> format = s.frame_format(absl::StrCat("frame.", options.format));
+  if (!format.ok()) return format.status();
+  *request.mutable_format() = *std::move(format);
 
   s.report_start(out);
   const auto play = [&request](v1::RenderService::Stub& stub, grpc::ClientContext* context) {

@@ -76,15 +76,14 @@ struct Replica {
 
 class Fleet {
  public:
-  Fleet(const GlobalOptions& global, const AnimateOptions& options,
+  Fleet(const GlobalOptions& global, const AnimateOptions& options, v1::FrameFormat format,
         std::vector<v1::Keyframe> keyframes, Scene scene, std::string scene_name)
       : global_(global),
         options_(options),
         keyframes_(std::move(keyframes)),
         scene_(std::move(scene)),
         scene_name_(std::move(scene_name)),
-        format_(frame_format_for(std::filesystem::path("frame." + options.format),
-                                 options.job.exposure_stops)),
+        format_(std::move(format)),
         attempts_(keyframes_.size(), 0) {
     for (size_t i = 0; i < keyframes_.size(); ++i) queue_.push_back(static_cast<int>(i));
   }
@@ -385,10 +384,13 @@ absl::Status run_animate_fleet(const GlobalOptions& global, const AnimateOptions
         absl::StrCat("--servers needs a scene file, which goes to every replica; '",
                      options.job.scene, "' is a scene id, which only one server knows"));
   }
-  absl::StatusOr<Scene> scene = load_scene(options.job.scene);
+  absl::StatusOr<v1::FrameFormat> format = frame_format_for(
+      std::filesystem::path("frame." + options.format), options.job.exposure_stops);
+  if (!format.ok()) return format.status();
+  absl::StatusOr<Scene> scene = load_scene_file(options.job.scene);
   if (!scene.ok()) return scene.status();
   options.job.overrides.apply(*scene);
-  Fleet fleet(global, options, std::move(keyframes), *std::move(scene),
+  Fleet fleet(global, options, *std::move(format), std::move(keyframes), *std::move(scene),
               default_scene_name(options.job.scene));
   if (absl::Status opened = fleet.open_replicas(); !opened.ok()) return opened;
   if (absl::Status status = fleet.run(out); !status.ok()) return status;

@@ -50,6 +50,32 @@ struct LightSetOptions {
   std::string name;
   std::optional<uint64_t> expect_epoch;  // apply only if the lights epoch still equals this
 };
+// light emit SCENE MATERIAL: changes an emissive material's emission (its triangles are area
+// lights), keeping the other lights.
+struct LightEmitOptions {
+  std::string scene;
+  std::string material;
+  std::string radiance;  // "R,G,B" or one value; empty: unchanged
+  bool on = false, off = false;
+  std::optional<uint64_t> expect_epoch;
+};
+absl::StatusOr<v1::UpdateLightsRequest> emit_request(const LightEmitOptions& options);
+absl::Status run_light_emit(const GlobalOptions& global, const LightEmitOptions& options,
+                            std::ostream& out);
+
+// view SCENE: the scene (a file is uploaded) in the server's browser viewer; prints the URL and
+// opens it on a desktop. With the embedded server, serves until SIGINT or SIGTERM.
+struct ViewOptions {
+  std::string scene;
+  SceneOverrides overrides;
+  bool keep = false;  // keep a file uploaded to the embedded server after the command
+  bool open = true;   // start the desktop's browser (xdg-open) when there is a display
+};
+absl::Status run_view(const GlobalOptions& global, const ViewOptions& options, std::ostream& out);
+// The page's address: http://HOST:PORT/?scene=ID, with &token=TOKEN when one is given.
+std::string viewer_url(const std::string& host, uint32_t port, const std::string& scene_id,
+                       const std::string& token);
+
 // The light list `options` describe (flags, file or none), before any server is involved.
 absl::StatusOr<std::vector<v1::Light>> lights_from_options(const LightSetOptions& options);
 absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& options,
@@ -79,6 +105,7 @@ struct StreamOptions {
   std::string format = "png";  // file extension of the frames
   uint32_t passes = 8;
   uint32_t every = 1;  // passes between frames
+  std::string tev;     // HOST:PORT of a tev viewer that shows each frame; empty: none
 };
 absl::Status run_stream(const GlobalOptions& global, const StreamOptions& options,
                         std::ostream& out);

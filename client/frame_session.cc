@@ -60,7 +60,8 @@ absl::Status FrameSession::read_stream(const StreamStarter& start, const std::st
   return status;
 }
 
-v1::FrameFormat FrameSession::frame_format(const std::filesystem::path& output) const {
+absl::StatusOr<v1::FrameFormat> FrameSession::frame_format(
+    const std::filesystem::path& output) const {
   return frame_format_for(output, exposure_stops_);
 }
 

@@ -57,7 +57,7 @@ class FrameSession {
                   const std::string& text_tail) const;
   bool json() const { return json_; }
   // The format to request for frames that go to files like `output`, with the job's exposure.
-  v1::FrameFormat frame_format(const std::filesystem::path& output) const;
+  absl::StatusOr<v1::FrameFormat> frame_format(const std::filesystem::path& output) const;
 
  private:
   FrameSession(const GlobalOptions& global, float exposure_stops)

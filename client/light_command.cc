@@ -1,4 +1,5 @@
-// light set SCENE: replaces the scene's lights (UpdateLights) and prints the rebuild report.
+// light set SCENE: replaces the scene's lights (UpdateLights) and prints the rebuild report;
+// light emit SCENE MATERIAL changes an area light's emission the same way.
 #include <vector>
 
 #include "absl/strings/numbers.h"
@@ -88,18 +89,14 @@ absl::StatusOr<std::vector<v1::Light>> lights_from_options(const LightSetOptions
   return std::vector<v1::Light>{*std::move(light)};
 }
 
-absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& options,
-                           std::ostream& out) {
-  absl::StatusOr<std::vector<v1::Light>> lights = lights_from_options(options);
-  if (!lights.ok()) return lights.status();
-  v1::UpdateLightsRequest request;
-  request.set_scene_id(options.scene);
-  for (v1::Light& light : *lights) *request.add_lights() = std::move(light);
-  if (options.expect_epoch) request.set_expected_lights_epoch(*options.expect_epoch);
+namespace {
 
+absl::Status update_lights(const GlobalOptions& global, const v1::UpdateLightsRequest& request,
+                           std::ostream& out) {
+  const std::string& scene = request.scene_id();
   absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
   if (!connection.ok()) return connection.status();
-  if (absl::Status pinned = (*connection)->pin_to_scene(options.scene); !pinned.ok()) return pinned;
+  if (absl::Status pinned = (*connection)->pin_to_scene(scene); !pinned.ok()) return pinned;
   absl::StatusOr<v1::RebuildReport> report =
       (*connection)->call(&v1::RenderService::Stub::UpdateLights, request);
   if (!report.ok()) return report.status();
@@ -109,6 +106,46 @@ absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& o
     print_rebuild_report(out, *report);
   }
   return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& options,
+                           std::ostream& out) {
+  absl::StatusOr<std::vector<v1::Light>> lights = lights_from_options(options);
+  if (!lights.ok()) return lights.status();
+  v1::UpdateLightsRequest request;
+  request.set_scene_id(options.scene);
+  for (v1::Light& light : *lights) *request.add_lights() = std::move(light);
+  if (options.expect_epoch) request.set_expected_lights_epoch(*options.expect_epoch);
+  return update_lights(global, request, out);
+}
+
+absl::StatusOr<v1::UpdateLightsRequest> emit_request(const LightEmitOptions& options) {
+  if (options.on && options.off) return absl::InvalidArgumentError("give --on or --off, not both");
+  if (!options.on && !options.off && options.radiance.empty()) {
+    return absl::InvalidArgumentError("give --radiance, --on or --off: nothing would change");
+  }
+  v1::UpdateLightsRequest request;
+  request.set_scene_id(options.scene);
+  request.set_keep_lights(true);
+  v1::Emitter& emitter = *request.add_emitters();
+  emitter.set_material(options.material);
+  if (!options.radiance.empty()) {
+    absl::StatusOr<v1::Vec3> radiance = parse_vec3_flag("radiance", options.radiance, true);
+    if (!radiance.ok()) return radiance.status();
+    *emitter.mutable_radiance() = *radiance;
+  }
+  if (options.on || options.off) emitter.set_off(options.off);
+  if (options.expect_epoch) request.set_expected_lights_epoch(*options.expect_epoch);
+  return request;
+}
+
+absl::Status run_light_emit(const GlobalOptions& global, const LightEmitOptions& options,
+                            std::ostream& out) {
+  absl::StatusOr<v1::UpdateLightsRequest> request = emit_request(options);
+  if (!request.ok()) return request.status();
+  return update_lights(global, *request, out);
 }
 
 }  // namespace caustica::client

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "client/commands.h"
+#include "client/frame_image.h"
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
 #include "proto/wire/api_version.h"
@@ -29,13 +30,8 @@ void add_structure_option(CLI::App* command, std::optional<caustica::StructureKi
       ->transform(caustica::structure_names());
 }
 
-// SCENE, --keep, --exposure and the scene overrides of render, stream and animate.
-void add_frame_job(CLI::App* command, FrameJobOptions& job) {
-  command->add_option("scene", job.scene, "scene id, or a scene file to upload for this command")
-      ->required();
-  command->add_flag("--keep", job.keep, "keep a scene uploaded from a file on the server");
-  command->add_option("--exposure", job.exposure_stops, "exposure in stops (8-bit files)");
-  SceneOverrides& o = job.overrides;
+// The flags that change a scene: resolution, photons, structure and estimators.
+void add_scene_overrides(CLI::App* command, SceneOverrides& o) {
   command->add_option("--width", o.width, "image width in pixels (changes the scene)");
   command->add_option("--height", o.height, "image height in pixels (changes the scene)");
   command->add_option("--photons", o.photons, "photons emitted per pass (changes the scene)");
@@ -59,10 +55,31 @@ void add_frame_job(CLI::App* command, FrameJobOptions& job) {
       ->type_name("BOOL");
 }
 
+// SCENE, --keep, --exposure and the scene overrides of render, stream and animate.
+void add_frame_job(CLI::App* command, FrameJobOptions& job) {
+  command->add_option("scene", job.scene, "scene id, or a scene file to upload for this command")
+      ->required();
+  command->add_flag("--keep", job.keep, "keep a scene uploaded from a file on the server");
+  command->add_option("--exposure", job.exposure_stops, "exposure in stops (8-bit files)");
+  add_scene_overrides(command, job.overrides);
+}
+
+// Refuses an image file name the CLI cannot write before anything is uploaded; `prefix` turns a
+// --format value into a file name.
+CLI::Validator frame_file_check(const std::string& prefix) {
+  return CLI::Validator(
+      [prefix](std::string& value) -> std::string {
+        absl::StatusOr<caustica::v1::FrameFormat> format = frame_format_for(prefix + value, 0);
+        return format.ok() ? std::string() : std::string(format.status().message());
+      },
+      "", "FILE");
+}
+
 // -o DIR and --format of the commands that write numbered frames.
 void add_frame_files(CLI::App* command, std::filesystem::path& directory, std::string& format) {
   command->add_option("-o,--output", directory, "output directory")->required();
-  command->add_option("--format", format, "frame files: png, jpg, exr or pfm");
+  command->add_option("--format", format, "frame files: png, jpg, exr or pfm")
+      ->check(frame_file_check("frame."));
 }
 
 }  // namespace
@@ -169,13 +186,28 @@ int main(int argc, char** argv) {
                       "apply only if the scene's lights epoch is still N");
   on(set_cmd, "light set", [&] { return run_light_set(global, lights, std::cout); });
 
+  LightEmitOptions emit;
+  CLI::App* emit_cmd = light->add_subcommand(
+      "emit",
+      "change an emissive material's emission (its triangles are area lights); the other lights "
+      "stay");
+  emit_cmd->add_option("scene", emit.scene, "scene id")->required();
+  emit_cmd->add_option("material", emit.material, "the emissive material's name")->required();
+  emit_cmd->add_option("--radiance", emit.radiance, "R,G,B or one value: the new radiance");
+  emit_cmd->add_flag("--on", emit.on, "emit again (at the radiance it keeps)");
+  emit_cmd->add_flag("--off", emit.off, "emit nothing, keeping the radiance for --on");
+  emit_cmd->add_option("--expect-epoch", emit.expect_epoch,
+                       "apply only if the scene's lights epoch is still N");
+  on(emit_cmd, "light emit", [&] { return run_light_emit(global, emit, std::cout); });
+
   RenderOptions render;
   CLI::App* render_cmd = app.add_subcommand("render", "render one image");
   add_frame_job(render_cmd, render.job);
   render_cmd
       ->add_option("-o,--output", render.output,
                    "image: .png/.jpg (sRGB, exposed) or .exr/.pfm (linear)")
-      ->required();
+      ->required()
+      ->check(frame_file_check(""));
   render_cmd->add_option("--passes", render.passes, "passes (default: the scene file's, or 1)");
   on(render_cmd, "render", [&] { return run_render(global, render, std::cout); });
 
@@ -183,11 +215,28 @@ int main(int argc, char** argv) {
   CLI::App* stream_cmd =
       app.add_subcommand("stream", "write DIR/frame_0000.png ... as the image refines");
   add_frame_job(stream_cmd, stream.job);
-  add_frame_files(stream_cmd, stream.directory, stream.format);
+  stream_cmd->add_option("-o,--output", stream.directory, "output directory");
+  stream_cmd->add_option("--format", stream.format, "frame files: png, jpg, exr or pfm")
+      ->check(frame_file_check("frame."));
+  stream_cmd->add_option("--tev", stream.tev,
+                         "also show each frame in the tev viewer listening at HOST:PORT "
+                         "(127.0.0.1:14158 by default there)");
   stream_cmd->add_option("--passes", stream.passes, "passes in the last frame");
   stream_cmd->add_option("--every", stream.every, "passes between frames")
       ->check(CLI::PositiveNumber);
   on(stream_cmd, "stream", [&] { return run_stream(global, stream, std::cout); });
+
+  ViewOptions view;
+  CLI::App* view_cmd = app.add_subcommand(
+      "view",
+      "open the scene in the server's browser viewer (drag lights, orbit the camera); without "
+      "--server, a server started for the command serves it until Ctrl-C");
+  view_cmd->add_option("scene", view.scene, "scene id, or a scene file to upload")->required();
+  view_cmd->add_flag("--keep", view.keep,
+                     "keep a file uploaded to the command's own server (one on --server stays)");
+  view_cmd->add_flag("!--no-open", view.open, "print the URL only; do not start a browser");
+  add_scene_overrides(view_cmd, view.overrides);
+  on(view_cmd, "view", [&] { return run_view(global, view, std::cout); });
 
   AnimateOptions animate;
   CLI::App* animate_cmd =

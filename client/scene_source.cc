@@ -2,6 +2,7 @@
 #include "client/scene_source.h"
 
 #include <chrono>
+#include <iostream>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -59,11 +60,18 @@ std::string default_scene_name(const std::filesystem::path& file) {
   return absolute.stem().string();
 }
 
+absl::StatusOr<Scene> load_scene_file(const std::filesystem::path& file) {
+  std::vector<std::string> warnings;
+  absl::StatusOr<Scene> scene = load_scene(file, &warnings);
+  for (const std::string& warning : warnings) std::cerr << "caustica: warning: " << warning << "\n";
+  return scene;
+}
+
 absl::StatusOr<UploadedFile> upload_scene_file(Connection& connection,
                                                const std::filesystem::path& file,
                                                const std::string& name,
                                                const SceneOverrides& overrides, bool progress) {
-  absl::StatusOr<Scene> scene = load_scene(file);
+  absl::StatusOr<Scene> scene = load_scene_file(file);
   if (!scene.ok()) return scene.status();
   overrides.apply(*scene);
   UploadedFile uploaded;

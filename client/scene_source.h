@@ -45,6 +45,9 @@ struct UploadedFile {
   uint32_t passes = 1;  // the file's settings.passes (SceneInfo does not carry it)
 };
 
+// A scene file, or a bare model file framed as a scene, with the loader's warnings on stderr.
+absl::StatusOr<Scene> load_scene_file(const std::filesystem::path& file);
+
 // Loads `file`, applies `overrides`, and uploads it with a progress bar when `progress`.
 absl::StatusOr<UploadedFile> upload_scene_file(Connection& connection,
                                                const std::filesystem::path& file,

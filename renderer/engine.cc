@@ -15,6 +15,7 @@
 #include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
+#include "renderer/scene/emitters.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/validate.h"
 
@@ -241,14 +242,22 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   return report;
 }
 
-absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights) {
+absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights,
+                                                 const std::vector<EmitterChange>& emitters) {
   State& st = *state_;
   if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
   if (absl::Status s = validate_lights(lights, st.resident->view().area_light_count); !s.ok())
     return s;
+  absl::StatusOr<std::vector<Material>> materials =
+      apply_emitter_changes(st.scene.materials, emitters);
+  if (!materials.ok()) return materials.status();
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     st.estimator->drop_maps();
+    if (!emitters.empty()) {
+      st.resident->set_emission(*materials);
+      st.scene.materials = *std::move(materials);
+    }
     st.resident->set_lights(lights);
     st.scene.lights = lights;
     st.film->clear();

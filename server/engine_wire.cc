@@ -60,6 +60,13 @@ void describe_state(const Engine& engine, v1::SceneInfo* info) {
   const SceneStats stats = engine.scene_stats();
   info->set_triangles(stats.triangles);
   info->set_lights(static_cast<uint32_t>(scene.lights.size()));
+  info->clear_light_list();
+  for (const Light& light : scene.lights) *info->add_light_list() = wire::encode_light(light);
+  info->clear_emitters();
+  for (const Material& material : scene.materials) {
+    if (material.type == MaterialType::kEmissive)
+      *info->add_emitters() = wire::encode_emitter(material);
+  }
   *info->mutable_camera() = wire::encode_camera(scene.camera);
   *info->mutable_settings() = wire::encode_settings(scene.settings);
   *info->mutable_epochs() = encode_epochs(engine.epochs());

@@ -1,12 +1,5 @@
 #include "server/frame_encoding.h"
 
-#include <OpenEXR/ImfChannelList.h>
-#include <OpenEXR/ImfFrameBuffer.h>
-#include <OpenEXR/ImfHeader.h>
-#include <OpenEXR/ImfIO.h>
-#include <OpenEXR/ImfOutputFile.h>
-#include <png.h>
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -25,26 +18,6 @@ absl::Status invalid_format(std::string_view field, std::string_view member, std
   return absl::InvalidArgumentError(
       absl::StrCat(std::string(field), ".", std::string(member), ": ", std::string(why)));
 }
-
-// An OpenEXR output stream that grows a string: EXR files are built in memory and sent, never
-// written to disk.
-class StringOStream : public Imf::OStream {
- public:
-  StringOStream() : Imf::OStream("frame.exr") {}
-  void write(const char c[], int n) override {
-    const size_t end = position_ + static_cast<size_t>(n);
-    if (bytes_.size() < end) bytes_.resize(end);
-    std::memcpy(bytes_.data() + position_, c, static_cast<size_t>(n));
-    position_ = end;
-  }
-  uint64_t tellp() override { return position_; }
-  void seekp(uint64_t pos) override { position_ = pos; }
-  std::string take() { return std::move(bytes_); }
-
- private:
-  std::string bytes_;
-  size_t position_ = 0;
-};
 
 }  // namespace
 
@@ -70,6 +43,7 @@ absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format,
       spec.encoding = v1::RAW;
       break;
     case v1::PNG:
+    case v1::JPEG:
     case v1::EXR:
       spec.encoding = format.encoding();
       break;
@@ -77,11 +51,18 @@ absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format,
       return invalid_format(field, "encoding",
                             absl::StrCat("unknown encoding ", format.encoding()));
   }
-  if (spec.encoding == v1::PNG && spec.pixel_format != v1::RGBA8_SRGB) {
+  if ((spec.encoding == v1::PNG || spec.encoding == v1::JPEG) &&
+      spec.pixel_format != v1::RGBA8_SRGB) {
     return invalid_format(
         field, "encoding",
-        absl::StrCat("PNG holds RGBA8_SRGB only, not ", v1::PixelFormat_Name(spec.pixel_format)));
+        absl::StrCat(v1::Encoding_Name(spec.encoding), " holds RGBA8_SRGB only, not ",
+                     v1::PixelFormat_Name(spec.pixel_format)));
   }
+  if (format.jpeg_quality() > 100) {
+    return invalid_format(field, "jpeg_quality",
+                          absl::StrCat(format.jpeg_quality(), " is not in [1, 100] (0 = 90)"));
+  }
+  if (format.jpeg_quality() != 0) spec.jpeg_quality = static_cast<int>(format.jpeg_quality());
   if (spec.encoding == v1::EXR && spec.pixel_format == v1::RGBA8_SRGB) {
     return invalid_format(field, "encoding",
                           "EXR holds RGBA16F_LINEAR or RGBA32F_LINEAR only, not RGBA8_SRGB");
@@ -91,36 +72,6 @@ absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format,
   }
   spec.exposure_stops = format.exposure_stops();
   return spec;
-}
-
-uint16_t float_to_half(float value) {
-  const uint32_t bits = std::bit_cast<uint32_t>(value);
-  const uint16_t sign = static_cast<uint16_t>((bits >> 16) & 0x8000u);
-  const uint32_t magnitude = bits & 0x7fffffffu;
-  if (magnitude >= 0x7f800000u) {  // infinity, or NaN kept quiet with its top payload bits
-    const uint32_t nan = magnitude > 0x7f800000u ? 0x200u | ((magnitude >> 13) & 0x3ffu) : 0u;
-    return static_cast<uint16_t>(sign | 0x7c00u | nan);
-  }
-  if (magnitude >= 0x477ff000u) return sign | 0x7c00u;  // >= 65520 rounds past the largest half
-  if (magnitude < 0x38800000u) {
-    // Below 2^-14: a half subnormal counts units of 2^-24. The float is mantissa * 2^(e - 150)
-    // with the implicit bit, so it holds mantissa >> (126 - e) units plus a remainder.
-    if (magnitude < 0x33000000u) return sign;  // under half the smallest subnormal
-    const uint32_t exponent = magnitude >> 23;
-    const uint32_t mantissa = (magnitude & 0x7fffffu) | 0x800000u;
-    const uint32_t shift = 126 - exponent;  // 14..24
-    uint32_t units = mantissa >> shift;
-    const uint32_t remainder = mantissa & ((1u << shift) - 1);
-    const uint32_t halfway = 1u << (shift - 1);
-    if (remainder > halfway || (remainder == halfway && (units & 1u))) ++units;
-    return static_cast<uint16_t>(sign | units);  // 0x400 when rounding up to the smallest normal
-  }
-  // Normal: rebias the exponent (127 -> 15) and drop 13 mantissa bits; a carry out of the
-  // mantissa correctly bumps the exponent.
-  uint32_t half = (magnitude - 0x38000000u) >> 13;
-  const uint32_t remainder = magnitude & 0x1fffu;
-  if (remainder > 0x1000u || (remainder == 0x1000u && (half & 1u))) ++half;
-  return static_cast<uint16_t>(sign | half);
 }
 
 size_t bytes_per_pixel(v1::PixelFormat format) {
@@ -134,72 +85,17 @@ size_t bytes_per_pixel(v1::PixelFormat format) {
   }
 }
 
-absl::StatusOr<std::string> encode_png(int width, int height, std::span<const Rgba8> pixels) {
-  png_image image;
-  std::memset(&image, 0, sizeof(image));
-  image.version = PNG_IMAGE_VERSION;
-  image.width = static_cast<png_uint_32>(width);
-  image.height = static_cast<png_uint_32>(height);
-  image.format = PNG_FORMAT_RGBA;
-  png_alloc_size_t size = 0;
-  // The first call only measures.
-  if (!png_image_write_to_memory(&image, nullptr, &size, 0, pixels.data(), 0, nullptr)) {
-    return absl::InternalError(absl::StrCat("PNG encoding failed: ", image.message));
-  }
-  std::string png(size, '\0');
-  if (!png_image_write_to_memory(&image, png.data(), &size, 0, pixels.data(), 0, nullptr)) {
-    return absl::InternalError(absl::StrCat("PNG encoding failed: ", image.message));
-  }
-  png.resize(size);
-  return png;
-}
-
-absl::StatusOr<std::string> encode_exr(int width, int height, std::span<const float> rgba,
-                                       bool half) {
-  const size_t pixel_count = static_cast<size_t>(width) * height;
-  std::vector<uint16_t> halves;
-  const char* base = reinterpret_cast<const char*>(rgba.data());
-  size_t channel_stride = sizeof(float);
-  Imf::PixelType type = Imf::FLOAT;
-  if (half) {
-    // Converted here so EXR and RAW halves round identically.
-    halves.resize(pixel_count * 4);
-    for (size_t i = 0; i < halves.size(); ++i) halves[i] = float_to_half(rgba[i]);
-    base = reinterpret_cast<const char*>(halves.data());
-    channel_stride = sizeof(uint16_t);
-    type = Imf::HALF;
-  }
-  // OpenEXR reports errors by exceptions; none may leave this module.
-  try {
-    Imf::Header header(width, height);
-    header.compression() = Imf::ZIP_COMPRESSION;
-    Imf::FrameBuffer frame_buffer;
-    const char* names[4] = {"R", "G", "B", "A"};
-    for (int c = 0; c < 4; ++c) {
-      header.channels().insert(names[c], Imf::Channel(type));
-      frame_buffer.insert(names[c], Imf::Slice(type, const_cast<char*>(base + c * channel_stride),
-                                               4 * channel_stride,
-                                               4 * channel_stride * static_cast<size_t>(width)));
-    }
-    StringOStream stream;
-    {
-      Imf::OutputFile file(stream, header);
-      file.setFrameBuffer(frame_buffer);
-      file.writePixels(height);
-    }  // the destructor writes the line offset table
-    return stream.take();
-  } catch (const std::exception& e) {
-    return absl::InternalError(absl::StrCat("EXR encoding failed: ", e.what()));
-  }
-}
-
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
                                          std::span<const Rgba8> srgb8,
                                          std::span<const float> linear) {
   const bool half = spec.pixel_format == v1::RGBA16F_LINEAR;
+  const std::span<const uint8_t> srgb8_bytes(reinterpret_cast<const uint8_t*>(srgb8.data()),
+                                             srgb8.size_bytes());
   switch (spec.encoding) {
     case v1::PNG:
-      return encode_png(width, height, srgb8);
+      return encode_png(width, height, srgb8_bytes);
+    case v1::JPEG:
+      return encode_jpeg(width, height, srgb8_bytes, spec.jpeg_quality);
     case v1::EXR:
       return encode_exr(width, height, linear, half);
     default:

@@ -1,5 +1,6 @@
 // Frames on the wire: the pixel formats and encodings of caustica.v1.FrameFormat (8-bit sRGB,
-// IEEE half and float linear RGBA; raw, PNG through libpng, EXR through OpenEXR, all in memory)
+// IEEE half and float linear RGBA; raw, or PNG, JPEG and EXR files built in memory by imageio's
+// encoders)
 // and the splitting of one encoded frame into consecutive Frame messages (see `message Frame`).
 #pragma once
 
@@ -12,6 +13,7 @@
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.pb.h"
+#include "imageio/image_encoding.h"
 #include "renderer/render/film.h"
 
 namespace caustica::server {
@@ -21,20 +23,18 @@ struct FrameSpec {
   v1::PixelFormat pixel_format = v1::RGBA8_SRGB;
   v1::Encoding encoding = v1::RAW;
   float exposure_stops = 0;
+  int jpeg_quality = 90;
 
   // Whether the film is resolved to 8-bit sRGB (else to linear float).
   bool wants_srgb8() const { return pixel_format == v1::RGBA8_SRGB; }
-  // Whether the frame is the pixels themselves, not an image file (PNG, EXR).
+  // Whether the frame is the pixels themselves, not an image file (PNG, JPEG, EXR).
   bool raw() const { return encoding == v1::RAW; }
 };
 
 // INVALID_ARGUMENT naming `<field>.pixel_format`, `<field>.encoding` or `<field>.exposure_stops`
-// for unknown values and for combinations that do not exist (PNG of linear data, EXR of 8-bit).
+// for unknown values and for combinations that do not exist (PNG or JPEG of linear data, EXR of
+// 8-bit), and `<field>.jpeg_quality` above 100.
 absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format, std::string_view field);
-
-// IEEE 754 binary16 of `value`, rounded to nearest, ties to even; overflow gives infinity and NaN
-// stays NaN.
-uint16_t float_to_half(float value);
 
 // Bytes of one pixel in `format` (before any encoding).
 size_t bytes_per_pixel(v1::PixelFormat format);
@@ -44,10 +44,6 @@ size_t bytes_per_pixel(v1::PixelFormat format);
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
                                          std::span<const Rgba8> srgb8,
                                          std::span<const float> linear);
-
-absl::StatusOr<std::string> encode_png(int width, int height, std::span<const Rgba8> pixels);
-absl::StatusOr<std::string> encode_exr(int width, int height, std::span<const float> rgba,
-                                       bool half);
 
 // The messages that carry `data` under the header fields of `header`: pieces of at most
 // `max_chunk_bytes` (>= 1) of data, each with data_size, data_offset and last_chunk set. An empty

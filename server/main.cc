@@ -75,6 +75,11 @@ int main(int argc, char** argv) {
                  "host:port of an extra plaintext port that serves only gRPC health checks, for "
                  "probes while --listen needs TLS or tokens; port 0 picks a free port; off by "
                  "default");
+  app.add_option("--http-listen", options.http_listen,
+                 "host:port of the browser viewer (plaintext HTTP and WebSocket; docs/viewer.md); "
+                 "loopback unless --insecure; port 0 picks a free port; off by default");
+  app.add_option("--http-port-file", options.http_port_file,
+                 "write the bound port of --http-listen to this file");
   app.add_option("--tenant-max-scenes", options.max_tenant_scenes,
                  "most scenes one tenant may hold, uploads included; 0: up to --max-scenes")
       ->check(CLI::NonNegativeNumber)

@@ -263,8 +263,8 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   uint64_t photons = 0;
   uint32_t rendered = 0;
   // Raw pixels are copied straight from the film's host image into the frame, under the lease;
-  // an image file (PNG, EXR) is encoded from a copy after the lease is given back, so that other
-  // clients' passes need not wait for the encoder.
+  // an image file (PNG, JPEG, EXR) is encoded from a copy after the lease is given back, so that
+  // other clients' passes need not wait for the encoder.
   absl::StatusOr<std::string> data;
   std::vector<Rgba8> srgb8;
   std::vector<float> linear;
@@ -314,7 +314,9 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   if (!spec.raw()) data = encode_frame(spec, width, height, srgb8, linear);
   if (!data.ok()) return data.status();
   frame.data = *std::move(data);
-  timings->set_resolve_ms(resolve_ms + ms_since(encode_start));
+  const double encode_ms = spec.raw() ? 0.0 : ms_since(encode_start);
+  timings->set_encode_ms(encode_ms);
+  timings->set_resolve_ms(resolve_ms + encode_ms);
   timings->set_queue_ms(queue_ms);
   record_stage("resolve", timings->resolve_ms());
   frame.header.set_scene_id(entry.id());
@@ -603,6 +605,16 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
         absl::StatusOr<std::vector<Light>> lights =
             wire::decode_lights(request->lights(), "lights");
         if (!lights.ok()) return lights.status();
+        absl::StatusOr<std::vector<EmitterChange>> emitters =
+            wire::decode_emitters(request->emitters(), "emitters");
+        if (!emitters.ok()) return emitters.status();
+        if (request->keep_lights()) {
+          if (!lights->empty()) {
+            return absl::InvalidArgumentError(
+                "lights: must be empty with keep_lights, which keeps the scene's lights");
+          }
+          *lights = engine.scene().lights;
+        }
         // Checked under the lease so no other update can slip in between check and change.
         if (request->has_expected_lights_epoch() &&
             engine.epochs().lights != request->expected_lights_epoch()) {
@@ -611,7 +623,7 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
               "changed the lights)",
               engine.epochs().lights, request->expected_lights_epoch()));
         }
-        return engine.set_lights(*lights);
+        return engine.set_lights(*lights, *emitters);
       });
 }
 
@@ -807,6 +819,7 @@ grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                  response->set_frames_served(frames_served_);
                  response->set_requests_served(requests_served_);
                  response->set_active_streams(active_streams_);
+                 response->set_viewer_port(static_cast<uint32_t>(viewer_port_.load()));
                  for (const LatencySummary& s : latencies_.summaries()) {
                    v1::LatencySummary* out = response->add_latencies();
                    out->set_stage(s.name);

@@ -65,6 +65,8 @@ class RenderService final : public v1::RenderService::Service {
   bool restoring() const { return restoring_; }
   // Handlers running now.
   uint32_t calls_in_flight() const { return calls_in_flight_; }
+  // The browser viewer's bound port, which GetStats reports (0: none).
+  void set_viewer_port(int port) { viewer_port_ = port; }
   // What the calls and stages recorded, for /metrics.
   ServerMetrics& metrics() { return metrics_; }
 
@@ -179,6 +181,7 @@ class RenderService final : public v1::RenderService::Service {
   std::atomic<uint64_t> requests_served_{0};
   std::atomic<uint32_t> active_streams_{0};
   std::atomic<uint32_t> calls_in_flight_{0};
+  std::atomic<int> viewer_port_{0};
   mutable std::mutex streams_mutex_;
   std::map<std::string, uint32_t, std::less<>> tenant_streams_;
   std::mutex reaper_mutex_;

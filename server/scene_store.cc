@@ -118,11 +118,29 @@ class Statement {
   sqlite3_stmt* statement_ = nullptr;
 };
 
-// Lights, camera and settings as a SceneHeader holding only those fields.
-std::string encode_state(const std::vector<Light>& lights, const Camera& camera,
+// Each emissive material's emission, as the state keeps it.
+std::vector<EmitterChange> emission_of(const std::vector<Material>& materials) {
+  std::vector<EmitterChange> out;
+  for (const Material& m : materials) {
+    if (m.type == MaterialType::kEmissive) out.push_back({m.name, m.radiance, m.off});
+  }
+  return out;
+}
+
+// Lights, emission, camera and settings as a SceneHeader holding only those fields (emission as
+// EMISSIVE materials with their name, radiance and off).
+std::string encode_state(const std::vector<Light>& lights,
+                         const std::vector<EmitterChange>& emitters, const Camera& camera,
                          const RenderSettings& settings) {
   v1::SceneHeader header;
   for (const Light& light : lights) *header.add_lights() = wire::encode_light(light);
+  for (const EmitterChange& emitter : emitters) {
+    v1::Material& material = *header.add_materials();
+    material.set_name(emitter.material);
+    material.set_type(v1::Material::EMISSIVE);
+    *material.mutable_radiance() = wire::encode_vec3(emitter.radiance.value_or(Vec3f{0, 0, 0}));
+    material.set_off(emitter.off.value_or(false));
+  }
   *header.mutable_camera() = wire::encode_camera(camera);
   *header.mutable_settings() = wire::encode_settings(settings);
   return header.SerializeAsString();
@@ -142,6 +160,14 @@ absl::Status decode_state(const std::string& bytes, const std::string& id, Store
   absl::StatusOr<RenderSettings> settings =
       wire::apply_settings(header.settings(), RenderSettings{}, "settings");
   if (!settings.ok()) return damaged(settings.status());
+  out->emitters.clear();
+  for (int i = 0; i < header.materials_size(); ++i) {
+    const v1::Material& material = header.materials(i);
+    absl::StatusOr<Vec3f> radiance =
+        wire::decode_vec3(material.radiance(), absl::StrCat("materials[", i, "].radiance"));
+    if (!radiance.ok()) return damaged(radiance.status());
+    out->emitters.push_back({material.name(), *radiance, material.off()});
+  }
   out->lights = *std::move(lights);
   out->camera = *camera;
   out->settings = *settings;
@@ -345,7 +371,7 @@ absl::Status SceneStore::add(const StoredScene& scene) {
   insert.bind_text(2, scene.tenant);
   insert.bind_text(3, scene.name);
   insert.bind_text(4, scene.blob);
-  insert.bind(5, encode_state(scene.lights, scene.camera, scene.settings));
+  insert.bind(5, encode_state(scene.lights, scene.emitters, scene.camera, scene.settings));
   insert.bind(6, static_cast<int64_t>(scene.epochs.geometry));
   insert.bind(7, static_cast<int64_t>(scene.epochs.lights));
   insert.bind(8, static_cast<int64_t>(scene.epochs.camera));
@@ -363,7 +389,8 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
                    "UPDATE scenes SET state = ?, epoch_geometry = ?, epoch_lights = ?, "
                    "epoch_camera = ?, epoch_settings = ? WHERE id = ?");
   if (!update.ok()) return update.error("cannot prepare an update");
-  update.bind(1, encode_state(state.lights, state.camera, state.settings));
+  update.bind(
+      1, encode_state(state.lights, emission_of(state.materials), state.camera, state.settings));
   update.bind(2, static_cast<int64_t>(epochs.geometry));
   update.bind(3, static_cast<int64_t>(epochs.lights));
   update.bind(4, static_cast<int64_t>(epochs.camera));
@@ -445,6 +472,13 @@ void SceneStore::collect_garbage() {
 
 Scene restored_scene(Scene geometry, const StoredScene& stored) {
   geometry.lights = stored.lights;
+  for (const EmitterChange& emitter : stored.emitters) {
+    for (Material& material : geometry.materials) {
+      if (material.name != emitter.material || material.type != MaterialType::kEmissive) continue;
+      material.radiance = emitter.radiance.value_or(material.radiance);
+      material.off = emitter.off.value_or(material.off);
+    }
+  }
   geometry.camera = stored.camera;
   geometry.settings = stored.settings;
   return geometry;

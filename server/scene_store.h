@@ -31,6 +31,7 @@ struct StoredScene {
   std::string blob;  // the geometry's SHA-256, hex
   // The state that updates change; it overrides what the blob's header says.
   std::vector<Light> lights;
+  std::vector<EmitterChange> emitters;  // every emissive material's emission; empty: the blob's
   Camera camera;
   RenderSettings settings;
   Epochs epochs;
@@ -60,7 +61,8 @@ class SceneStore {
 
   // Each commits before it returns.
   absl::Status add(const StoredScene& scene);
-  // Stores `state`'s lights, camera and settings and `epochs` as scene `id`'s current state.
+  // Stores `state`'s lights, emission, camera and settings and `epochs` as scene `id`'s current
+  // state.
   absl::Status update(const std::string& id, const Scene& state, const Epochs& epochs);
   // Removes the row, then its blob once no row references it. A missing id is not an error.
   absl::Status remove(const std::string& id);

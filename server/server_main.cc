@@ -27,18 +27,21 @@ namespace caustica::server {
 namespace {
 
 // Written beside the target and renamed, so a reader never sees a half-written port.
-absl::Status write_port_file(const std::string& path, int port) {
+absl::Status write_port_file(const std::string& path, int port,
+                             std::string_view flag = "--port-file") {
   const std::string temporary = path + ".tmp";
   {
     std::ofstream out(temporary, std::ios::trunc);
     out << port << "\n";
-    if (!out) return absl::InternalError(absl::StrCat("--port-file: cannot write ", temporary));
+    if (!out) {
+      return absl::InternalError(absl::StrCat(std::string(flag), ": cannot write ", temporary));
+    }
   }
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
   if (error) {
     return absl::InternalError(
-        absl::StrCat("--port-file: cannot write ", path, ": ", error.message()));
+        absl::StrCat(std::string(flag), ": cannot write ", path, ": ", error.message()));
   }
   return absl::OkStatus();
 }
@@ -111,6 +114,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
       options.listen, TlsFiles{options.tls_cert, options.tls_key, options.tls_client_ca},
       options.insecure);
   if (!credentials.ok()) return credentials.status();
+  if (!options.http_listen.empty() && !options.insecure &&
+      !is_loopback_listen_address(options.http_listen)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--http-listen: ", options.http_listen,
+        " is not loopback and the viewer is plaintext HTTP; pass --insecure to serve it anyway"));
+  }
   auto authenticator = std::make_shared<const Authenticator>();
   if (!options.tokens_file.empty()) {
     absl::StatusOr<TokenTable> tokens = TokenTable::load(options.tokens_file);
@@ -197,6 +206,26 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
     log_line(LogLevel::kInfo, absl::StrFormat("caustica-server: metrics on port %d (%s), /metrics",
                                               *metrics_port, options.metrics_listen));
   }
+  if (!options.http_listen.empty()) {
+    absl::StatusOr<std::unique_ptr<viewer::ViewerHttpServer>> viewer =
+        viewer::ViewerHttpServer::start(options.http_listen, server->server_->InProcessChannel({}));
+    absl::Status written =
+        viewer.ok() && !options.http_port_file.empty()
+            ? write_port_file(options.http_port_file, (*viewer)->port(), "--http-port-file")
+            : viewer.status();
+    if (!written.ok()) {
+      server->shutdown();
+      return written;
+    }
+    server->viewer_ = *std::move(viewer);
+    server->service_->set_viewer_port(server->http_port());
+    log_line(is_loopback_listen_address(options.http_listen) ? LogLevel::kInfo : LogLevel::kWarning,
+             absl::StrFormat("caustica-server: viewer on port %d (%s), plaintext HTTP%s",
+                             server->http_port(), options.http_listen,
+                             is_loopback_listen_address(options.http_listen)
+                                 ? ""
+                                 : " (--insecure): anyone on the network can read the tokens"));
+  }
   if (!options.port_file.empty()) {
     if (absl::Status written = write_port_file(options.port_file, server->port_); !written.ok()) {
       server->shutdown();
@@ -232,6 +261,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
 void Server::shutdown() {
   if (stopped_) return;
   stopped_ = true;
+  if (viewer_) viewer_->stop();  // first: its sessions are clients of the service below
   service_->begin_shutdown();
   health_.shutdown();  // health checks answer NOT_SERVING from now on, on both ports
   // gRPC's own shutdown also waits for clients to close their connections, which idle clients

@@ -14,6 +14,7 @@
 #include "absl/status/statusor.h"
 #include "server/health_status.h"
 #include "server/render_service.h"
+#include "server/viewer/viewer_http.h"
 
 namespace caustica::server {
 
@@ -45,6 +46,10 @@ struct ServerOptions {
   std::string tokens_file;    // `token,tenant` lines; empty: every caller is the default tenant
   bool insecure = false;      // allow plaintext on an address other machines can reach
   std::string health_listen;  // host:port of a plaintext, health-only server; empty: none
+  // The browser viewer (docs/viewer.md): plaintext HTTP under the same loopback-or-insecure rule
+  // as --listen; empty: none. Its bound port is written to http_port_file when set.
+  std::string http_listen;
+  std::string http_port_file;
 };
 
 // "8G", "512M", "64k", "1.5G" (binary units, case-insensitive, optional trailing B or iB) or a
@@ -59,6 +64,8 @@ class Server {
   int port() const { return port_; }
   // 0 without --health-listen.
   int health_port() const { return health_server_ ? health_server_->port() : 0; }
+  // 0 without --http-listen.
+  int http_port() const { return viewer_ ? viewer_->port() : 0; }
   // SERVING or NOT_SERVING on the health services of both ports; it starts SERVING.
   void set_serving(bool serving) { health_.set_serving(serving); }
   // Stops accepting calls, ends streams between passes (UNAVAILABLE) and waits for running calls
@@ -70,7 +77,8 @@ class Server {
   ServerOptions options_;
   std::unique_ptr<RenderService> service_;
   std::unique_ptr<grpc::Server> server_;
-  std::unique_ptr<HealthServer> health_server_;  // --health-listen
+  std::unique_ptr<HealthServer> health_server_;       // --health-listen
+  std::unique_ptr<viewer::ViewerHttpServer> viewer_;  // --http-listen
   HealthStatus health_;
   int port_ = 0;
   bool stopped_ = false;

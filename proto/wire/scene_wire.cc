@@ -118,6 +118,39 @@ v1::Material encode_material(const Material& m) {
   *out.mutable_color() = encode_vec3(m.color);
   out.set_ior(m.ior);
   *out.mutable_radiance() = encode_vec3(m.radiance);
+  out.set_off(m.off);
+  return out;
+}
+
+v1::Emitter encode_emitter(const Material& m) {
+  v1::Emitter out;
+  out.set_material(m.name);
+  *out.mutable_radiance() = encode_vec3(m.radiance);
+  out.set_off(m.off);
+  return out;
+}
+
+absl::StatusOr<std::vector<EmitterChange>> decode_emitters(
+    const google::protobuf::RepeatedPtrField<v1::Emitter>& emitters, std::string_view field) {
+  std::vector<EmitterChange> out;
+  for (int i = 0; i < emitters.size(); ++i) {
+    const v1::Emitter& in = emitters[i];
+    const std::string at = absl::StrCat(std::string(field), "[", i, "]");
+    if (in.material().empty()) return invalid(join_field(at, "material"), "is empty");
+    EmitterChange change;
+    change.material = in.material();
+    if (in.has_radiance()) {
+      absl::StatusOr<Vec3f> radiance = decode_vec3(in.radiance(), join_field(at, "radiance"));
+      if (!radiance.ok()) return radiance.status();
+      change.radiance = *radiance;
+    }
+    if (in.has_off()) change.off = in.off();
+    if (!change.radiance && !change.off) {
+      return invalid(at, absl::StrCat("changes nothing of '", in.material(),
+                                      "' (give radiance, off or both)"));
+    }
+    out.push_back(std::move(change));
+  }
   return out;
 }
 
@@ -549,6 +582,7 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     if (!radiance.ok()) return radiance.status();
     m.color = *color;
     m.radiance = *radiance;
+    m.off = in.off();
     m.ior = in.ior();
     scene_.materials.push_back(std::move(m));
   }

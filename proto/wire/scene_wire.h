@@ -29,6 +29,12 @@ uint32_t chunk_crc32(std::string_view bytes);
 // --- scene model -> wire ---
 v1::Vec3 encode_vec3(const Vec3f& v);
 v1::Material encode_material(const Material& m);
+// An emissive material's emission as SceneInfo lists it.
+v1::Emitter encode_emitter(const Material& m);
+// UpdateLights' emitters: names non-empty, radiance (when given) finite and >= 0 per channel, and
+// each one changing something; whether the material exists is the engine's to check.
+absl::StatusOr<std::vector<EmitterChange>> decode_emitters(
+    const google::protobuf::RepeatedPtrField<v1::Emitter>& emitters, std::string_view field);
 v1::Light encode_light(const Light& light);
 v1::Camera encode_camera(const Camera& camera);
 v1::RenderSettings encode_settings(const RenderSettings& settings);  // every field set

@@ -58,6 +58,13 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
   });
 }
 
+std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materials) {
+  std::vector<DeviceMaterial> out;
+  out.reserve(materials.size());
+  for (const Material& m : materials) out.push_back({m.type, m.color, m.ior, emitted_radiance(m)});
+  return out;
+}
+
 }  // namespace
 
 DeviceMedium to_device_medium(const Medium& m, const uint8_t* grid) {
@@ -111,12 +118,13 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         Vec3f ng = cross(a.edge1, a.edge2);
         a.area = 0.5f * length(ng);
         a.direction = normalize(ng);
-        a.color = scene.materials[mat].radiance;
+        a.color = emitted_radiance(scene.materials[mat]);
         // Area lights follow the other lights in `lights` in this order, and so keep it among
         // themselves (rebuild_light_tables).
         if (a.area > 0) {
           area_light = uint32_t(r.area_lights_host_.size());
           r.area_lights_host_.push_back(a);
+          r.area_light_materials_.push_back(mat);
         }
       }
       triangle_area_light.push_back(area_light);
@@ -146,9 +154,7 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       triangle_medium.insert(triangle_medium.end(), m.triangle_count(), m.interior_medium);
   }
   r.scene_medium_ = media.empty() ? kVacuum : scene.medium;
-  std::vector<DeviceMaterial> materials;
-  for (const Material& m : scene.materials)
-    materials.push_back({m.type, m.color, m.ior, m.radiance});
+  std::vector<DeviceMaterial> materials = to_device_materials(scene.materials);
 
   r.triangles_.bind(backend);
   r.triangles_.upload(triangles);
@@ -194,6 +200,13 @@ void ResidentScene::set_lights(std::span<const Light> lights) {
   all.insert(all.end(), area_lights_host_.begin(), area_lights_host_.end());
   lights_.upload(all);
   rebuild_light_tables();
+}
+
+void ResidentScene::set_emission(std::span<const Material> materials) {
+  materials_.upload(to_device_materials(materials));
+  for (size_t i = 0; i < area_lights_host_.size(); ++i) {
+    area_lights_host_[i].color = emitted_radiance(materials[area_light_materials_[i]]);
+  }
 }
 
 void ResidentScene::rebuild_light_tables() {

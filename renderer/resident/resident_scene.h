@@ -143,6 +143,9 @@ class ResidentScene {
   void rebuild_structure(StructureKind kind);
   // Replaces the non-geometric lights (area lights follow the geometry and stay).
   void set_lights(std::span<const Light> lights);
+  // Takes the materials' emission (the same materials as at upload, emission changed): the
+  // surfaces show it at once, and the area lights after the next set_lights.
+  void set_emission(std::span<const Material> materials);
 
   ResidentSceneView view() const;
   const TriangleStructure& structure() const { return structure_; }
@@ -158,7 +161,8 @@ class ResidentScene {
   void rebuild_light_tables();
 
   Backend* backend_ = nullptr;
-  std::vector<DeviceLight> area_lights_host_;  // from emissive triangles, fixed with geometry
+  std::vector<DeviceLight> area_lights_host_;   // from emissive triangles, fixed with geometry
+  std::vector<uint32_t> area_light_materials_;  // each area light's material
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<uint32_t> material_ids_;

@@ -4,13 +4,17 @@
 
 #include "absl/strings/string_view.h"
 #include "renderer/scene/file_io.h"
+#include "renderer/scene/mesh_file.h"
+#include "renderer/scene/mesh_scene.h"
 #include "renderer/scene/scene_json.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/validate.h"
 
 namespace caustica {
 
-absl::StatusOr<Scene> load_scene(const std::filesystem::path& path) {
+absl::StatusOr<Scene> load_scene(const std::filesystem::path& path,
+                                 std::vector<std::string>* warnings) {
+  if (is_mesh_file_name(path)) return load_mesh_scene(path, warnings);
   SCENE_ASSIGN_OR_RETURN(const std::string text, read_file(path));
   return parse_scene(text, path.parent_path(), path.string());
 }

@@ -5,6 +5,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "renderer/scene/mesh_assimp.h"
 #include "renderer/scene/mesh_gltf.h"
 #include "renderer/scene/mesh_obj.h"
 #include "renderer/scene/mesh_ply.h"
@@ -30,9 +31,21 @@ absl::StatusOr<MeshFile> load_mesh_file(const std::filesystem::path& path) {
   }
   if (extension == ".obj") return load_obj(path);
   if (extension == ".gltf" || extension == ".glb") return load_gltf(path);
-  return absl::InvalidArgumentError(
-      absl::StrCat(path.string(), ": unsupported mesh format '", extension,
-                   "' (expected .obj, .ply, .ply.gz, .gltf or .glb)"));
+  // Scene JSON is never a mesh, whatever an importer might make of it.
+  if (extension != ".json" && assimp_reads_extension(extension)) return load_assimp(path);
+  return absl::InvalidArgumentError(absl::StrCat(
+      path.string(), ": unsupported mesh format '", extension,
+      "' (expected .obj, .ply, .ply.gz, .gltf, .glb or a format Assimp imports, such as .fbx, "
+      ".dae, .stl, .3mf, .off or .3ds)"));
+}
+
+bool is_mesh_file_name(const std::filesystem::path& path) {
+  std::string extension = absl::AsciiStrToLower(path.extension().string());
+  if (extension == ".gz") extension = absl::AsciiStrToLower(path.stem().extension().string());
+  if (extension == ".ply" || extension == ".obj" || extension == ".gltf" || extension == ".glb") {
+    return true;
+  }
+  return extension != ".json" && assimp_reads_extension(extension);
 }
 
 }  // namespace caustica

@@ -1,9 +1,11 @@
-// Mesh files (OBJ, PLY, glTF): what one file contributes to a scene, and the dispatch on its
-// extension. The scene reader places the result and merges its materials and lights.
+// Mesh files (OBJ, PLY, glTF, and the formats Assimp reads): what one file contributes to a scene,
+// and the dispatch on its extension. The scene reader places the result and merges its materials
+// and lights; a bare mesh file becomes a whole scene through mesh_scene.h.
 #pragma once
 
 #include <cstdint>
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -18,10 +20,20 @@ struct MeshFile {
   std::vector<Mesh> meshes;         // material_ids index `materials` or are kNoMaterial
   std::vector<Material> materials;  // empty for formats without materials (PLY)
   std::vector<Light> lights;        // glTF KHR_lights_punctual, already in file space
+  // Perspective cameras of the file (glTF), already in file space; a JSON scene ignores them, a
+  // bare mesh file renders through the first.
+  std::vector<Camera> cameras;
+  // What the loader skipped or approximated, one sentence each naming the file, for the user.
+  std::vector<std::string> warnings;
 };
 
-// Loads .obj (+ .mtl), .ply, .ply.gz, .gltf or .glb, chosen by the file name's extension
-// (case-insensitive). NotFoundError for a missing file; every error names the file.
+// Loads .obj (+ .mtl), .ply, .ply.gz, .gltf or .glb with the own loaders and every other extension
+// Assimp imports (.fbx, .dae, .stl, .3mf, .off, .3ds, ...) through mesh_assimp.h, chosen by the
+// file name's extension (case-insensitive). NotFoundError for a missing file; every error names
+// the file.
 absl::StatusOr<MeshFile> load_mesh_file(const std::filesystem::path& path);
+
+// Whether load_mesh_file reads files with this name's extension; false for .json and unknown ones.
+bool is_mesh_file_name(const std::filesystem::path& path);
 
 }  // namespace caustica

@@ -12,20 +12,26 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
+#include "renderer/scene/file_io.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/transform.h"
 
 namespace caustica {
 namespace {
+
+using Json = nlohmann::json;
 
 // glTF buffers are little-endian, and we read them with memcpy.
 static_assert(std::endian::native == std::endian::little);
@@ -100,6 +106,51 @@ absl::StatusOr<Light> convert_light(const tinygltf::Light& gltf, size_t index) {
         absl::StrCat("light ", index, " has unknown type '", gltf.type, "'"));
   }
   return light;
+}
+
+const char* mode_name(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS:
+      return "POINTS";
+    case TINYGLTF_MODE_LINE:
+      return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP:
+      return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP:
+      return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLES:
+      return "TRIANGLES";
+    case TINYGLTF_MODE_TRIANGLE_STRIP:
+      return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN:
+      return "TRIANGLE_FAN";
+    default:
+      return "unknown-mode";
+  }
+}
+
+// Triangle list of a strip or fan, as the glTF 2.0 specification (3.7.2.1) orders their corners:
+// strip triangle i is (v[i], v[i+1], v[i+2]) for even i and (v[i], v[i+2], v[i+1]) for odd i, so
+// that every triangle has the winding of the first; fan triangle i is (v[0], v[i+1], v[i+2]).
+// Triangles that repeat a vertex index are dropped: strips use them to stitch runs together and
+// they have no area. Triangles with distinct indices but coincident positions are kept, as in
+// TRIANGLES mode. The parity of a strip triangle counts the dropped ones, so windings stay right.
+std::vector<uint32_t> triangulate_strip_or_fan(const std::vector<uint32_t>& v, int mode) {
+  std::vector<uint32_t> triangles;
+  triangles.reserve(3 * (v.size() - 2));
+  for (size_t i = 0; i + 2 < v.size(); ++i) {
+    uint32_t a, b, c;
+    if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+      a = v[0], b = v[i + 1], c = v[i + 2];
+    } else if (i % 2 == 0) {
+      a = v[i], b = v[i + 1], c = v[i + 2];
+    } else {
+      a = v[i], b = v[i + 2], c = v[i + 1];
+    }
+    if (a == b || b == c || a == c) continue;
+    triangles.insert(triangles.end(), {a, b, c});
+  }
+  return triangles;
 }
 
 bool checked_add(size_t a, size_t b, size_t* sum) { return !__builtin_add_overflow(a, b, sum); }
@@ -225,6 +276,11 @@ class GltfReader {
     }
     node_seen_.assign(model_.nodes.size(), false);
     for (const int root : root_nodes()) SCENE_RETURN_IF_ERROR(visit_tree(root));
+    if (file_.meshes.empty() && skipped_primitives_ > 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("the default scene has only point and line primitives (",
+                       skipped_primitives_, " of them), no triangles to render"));
+    }
     return std::move(file_);
   }
 
@@ -288,6 +344,7 @@ class GltfReader {
       const Affine world = parent * local_transform(node);
       SCENE_RETURN_IF_ERROR(add_node_meshes(node, index, world));
       SCENE_RETURN_IF_ERROR(add_node_light(node, world));
+      SCENE_RETURN_IF_ERROR(add_node_camera(node, index, world));
       // Reversed onto the stack, so that meshes come out in document order.
       for (auto child = node.children.rbegin(); child != node.children.rend(); ++child) {
         pending.emplace_back(*child, world);
@@ -311,12 +368,21 @@ class GltfReader {
                        node.name.empty() ? absl::StrCat(node_index) : node.name, "'");
       // tinygltf leaves mode at -1 when the file omits it; glTF's default is TRIANGLES.
       const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
-      if (mode == TINYGLTF_MODE_TRIANGLE_STRIP || mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+      if (mode > TINYGLTF_MODE_TRIANGLE_FAN) {
         return absl::InvalidArgumentError(
-            absl::StrCat(name, ": triangle strips and fans are not supported"));
+            absl::StrCat(name, ": unknown primitive mode ", mode, " (glTF 2.0 defines 0 to 6)"));
       }
-      if (mode != TINYGLTF_MODE_TRIANGLES) continue;  // points and lines have no area
-      SCENE_ASSIGN_OR_RETURN(Mesh mesh, convert_primitive(primitive, name));
+      if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+          mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+        // Points and lines have no area to hit. Files often carry them as helpers (wireframes,
+        // markers) next to the surfaces, so they are skipped with a warning; a file with nothing
+        // else is an error in read().
+        ++skipped_primitives_;
+        file_.warnings.push_back(absl::StrCat(file_name_, ": ", name, ": skipped ", mode_name(mode),
+                                              " primitive (no surface to render)"));
+        continue;
+      }
+      SCENE_ASSIGN_OR_RETURN(Mesh mesh, convert_primitive(primitive, mode, name));
       mesh.name = absl::StrCat(file_name_, ": ", name);
       transform_mesh(world, &mesh);
       file_.meshes.push_back(std::move(mesh));
@@ -324,7 +390,7 @@ class GltfReader {
     return absl::OkStatus();
   }
 
-  absl::StatusOr<Mesh> convert_primitive(const tinygltf::Primitive& primitive,
+  absl::StatusOr<Mesh> convert_primitive(const tinygltf::Primitive& primitive, int mode,
                                          const std::string& name) const {
     constexpr int kFloat = TINYGLTF_COMPONENT_TYPE_FLOAT;
     constexpr int kUbyte = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
@@ -369,27 +435,39 @@ class GltfReader {
       }
     }
 
+    // The primitive's vertex sequence: its indices, or every vertex in order without them.
+    std::vector<uint32_t> sequence;
     if (primitive.indices >= 0) {
       SCENE_ASSIGN_OR_RETURN(
           const AccessorView indices,
           AccessorView::open(model_, primitive.indices, TINYGLTF_TYPE_SCALAR,
                              {kUbyte, kUshort, kUint}, absl::StrCat(name, ": indices")));
-      mesh.indices.resize(indices.count());
+      sequence.resize(indices.count());
       for (size_t i = 0; i < indices.count(); ++i) {
         const double index = indices.get(i, 0);
         if (index >= static_cast<double>(vertex_count)) {
           return absl::InvalidArgumentError(absl::StrCat(
               name, ": index ", i, " is ", index, ", out of range (", vertex_count, " vertices)"));
         }
-        mesh.indices[i] = static_cast<uint32_t>(index);
+        sequence[i] = static_cast<uint32_t>(index);
       }
     } else {
-      mesh.indices.resize(vertex_count);
-      for (size_t i = 0; i < vertex_count; ++i) mesh.indices[i] = static_cast<uint32_t>(i);
+      sequence.resize(vertex_count);
+      for (size_t i = 0; i < vertex_count; ++i) sequence[i] = static_cast<uint32_t>(i);
     }
-    if (mesh.indices.size() % 3 != 0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(name, ": ", mesh.indices.size(), " indices is not a multiple of 3"));
+    if (mode == TINYGLTF_MODE_TRIANGLES) {
+      if (sequence.size() % 3 != 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ": ", sequence.size(), " indices is not a multiple of 3"));
+      }
+      mesh.indices = std::move(sequence);
+    } else {
+      if (sequence.size() < 3) {
+        return absl::InvalidArgumentError(absl::StrCat(name, ": ", mode_name(mode), " of ",
+                                                       sequence.size(),
+                                                       " vertices has no triangle (needs 3)"));
+      }
+      mesh.indices = triangulate_strip_or_fan(sequence, mode);
     }
     if (mesh.triangle_count() > kMaxTrianglesPerMesh) {
       return absl::InvalidArgumentError(absl::StrCat(name, ": too many triangles"));
@@ -405,6 +483,49 @@ class GltfReader {
     }
     mesh.material_ids.assign(mesh.triangle_count(), material);
     return mesh;
+  }
+
+  // A glTF camera looks down its node's -z axis with +y up. Cameras matter only to a bare mesh
+  // file's scene (a JSON scene has its own), so one that cannot be used is skipped with a warning
+  // instead of failing the file; that includes orthographic ones, which a pinhole cannot match.
+  absl::Status add_node_camera(const tinygltf::Node& node, int node_index, const Affine& world) {
+    if (node.camera < 0) return absl::OkStatus();
+    const std::string where =
+        absl::StrCat(file_name_, ": camera ", node.camera, " at node '",
+                     node.name.empty() ? absl::StrCat(node_index) : node.name, "'");
+    if (static_cast<size_t>(node.camera) >= model_.cameras.size()) {
+      file_.warnings.push_back(absl::StrCat(where, " does not exist; skipped"));
+      return absl::OkStatus();
+    }
+    const tinygltf::Camera& gltf = model_.cameras[node.camera];
+    if (gltf.type != "perspective") {
+      file_.warnings.push_back(
+          absl::StrCat(where, " is ", gltf.type, "; only perspective cameras are used"));
+      return absl::OkStatus();
+    }
+    const double yfov_deg = gltf.perspective.yfov * kRadiansToDegrees;
+    const Vec3f forward = world.apply_to_vector(Vec3f(0, 0, -1));
+    const Vec3f up = world.apply_to_vector(Vec3f(0, 1, 0));
+    if (!(yfov_deg > 0 && yfov_deg < 180) || !(length_squared(forward) > 0) ||
+        !(length_squared(cross(forward, up)) > 0)) {
+      file_.warnings.push_back(absl::StrCat(where,
+                                            " has a yfov outside (0, pi) radians or a "
+                                            "degenerate node transform; skipped"));
+      return absl::OkStatus();
+    }
+    Camera camera;
+    camera.position = world.apply_to_point(Vec3f(0, 0, 0));
+    camera.look_at = camera.position + normalize(forward);
+    camera.up = normalize(up);
+    camera.vertical_fov_deg = static_cast<float>(yfov_deg);
+    // The image keeps the default height; a given aspect ratio sets the width.
+    const double aspect = gltf.perspective.aspectRatio;
+    if (aspect > 0 && aspect <= kMaxImageSide) {
+      camera.width = static_cast<int>(
+          std::clamp(std::lround(camera.height * aspect), 1L, static_cast<long>(kMaxImageSide)));
+    }
+    file_.cameras.push_back(camera);
+    return absl::OkStatus();
   }
 
   // KHR_lights_punctual puts {"light": index} into the node's extensions.
@@ -432,8 +553,64 @@ class GltfReader {
   const tinygltf::Model& model_;
   std::string file_name_;
   std::vector<bool> node_seen_;
+  size_t skipped_primitives_ = 0;
   MeshFile file_;
 };
+
+// Why a file is glTF 1.0, or empty when it is not. tinygltf reads such files as glTF 2.0 and fails
+// on whatever 1.0 spells differently (dictionaries instead of arrays), with a message that does
+// not say what is wrong; this looks first.
+// Binary containers say their version in the header; only that is read of a large .glb.
+std::string binary_gltf1_evidence(const std::filesystem::path& path) {
+  char header[8] = {};
+  std::ifstream in(path, std::ios::binary);
+  in.read(header, sizeof(header));
+  if (in.gcount() == sizeof(header) && std::memcmp(header, "glTF", 4) == 0) {
+    uint32_t version = 0;
+    std::memcpy(&version, header + 4, 4);
+    if (version == 1) return "binary glTF (KHR_binary_glTF) container version 1";
+  }
+  return "";
+}
+
+// JSON files are looked at again only when tinygltf failed or found no meshes, so that the common
+// case does not parse its JSON twice.
+std::string json_gltf1_evidence(const std::filesystem::path& path) {
+  absl::StatusOr<std::string> bytes = read_file(path);
+  if (!bytes.ok()) return "";  // tinygltf reports unreadable files
+  const Json json = Json::parse(*bytes, /*cb=*/nullptr, /*allow_exceptions=*/false);
+  if (!json.is_object()) return "";  // not JSON: tinygltf says so
+  const auto asset = json.find("asset");
+  if (asset != json.end() && asset->is_object()) {
+    const auto version = asset->find("version");
+    if (version != asset->end() && version->is_string()) {
+      const std::string v = version->get<std::string>();
+      if (v == "1" || absl::StartsWith(v, "1.")) return absl::StrCat("asset.version \"", v, "\"");
+    }
+    return "";
+  }
+  for (const char* key : {"techniques", "programs", "shaders"}) {
+    if (json.contains(key)) {
+      return absl::StrCat("no asset object and a top-level \"", key, "\" object");
+    }
+  }
+  for (const char* key : {"meshes", "accessors", "nodes"}) {
+    const auto it = json.find(key);
+    if (it != json.end() && it->is_object()) {
+      return absl::StrCat("no asset object and \"", key, "\" is a dictionary, not an array");
+    }
+  }
+  return "";
+}
+
+absl::Status reject_gltf1(const std::filesystem::path& path, const std::string& evidence) {
+  if (evidence.empty()) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(
+      path.string(), ": this is a glTF 1.0 file (", evidence,
+      "); only glTF 2.0 is supported. Convert it to glTF 2.0 with the Khronos/Cesium "
+      "glTF-Pipeline, which upgrades 1.0 files as it copies them: `npm install -g gltf-pipeline` "
+      "then `gltf-pipeline -i in.gltf -o out.gltf` (or `-o out.glb`)"));
+}
 
 }  // namespace
 
@@ -441,6 +618,7 @@ absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path)) {
     return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
   }
+  SCENE_RETURN_IF_ERROR(reject_gltf1(path, binary_gltf1_evidence(path)));
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&ignore_image, nullptr);
   tinygltf::Model model;
@@ -452,6 +630,9 @@ absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
                     : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
   } catch (const std::exception& e) {
     error = e.what();
+  }
+  if (!loaded || model.meshes.empty() || absl::StartsWith(model.asset.version, "1")) {
+    SCENE_RETURN_IF_ERROR(reject_gltf1(path, json_gltf1_evidence(path)));
   }
   if (!loaded) {
     return absl::InvalidArgumentError(

@@ -15,6 +15,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
 #include "renderer/scene/file_io.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
@@ -118,7 +119,10 @@ class HeaderParser {
 
   absl::StatusOr<PlyHeader> parse() {
     absl::string_view line;
-    if (!next_line(&line) || line != "ply") return error("not a PLY file (no 'ply' magic line)");
+    // Some writers pad header lines with blanks, the magic line included.
+    if (!next_line(&line) || absl::StripAsciiWhitespace(line) != "ply") {
+      return error("not a PLY file (no 'ply' magic line)");
+    }
     bool has_format = false;
     while (true) {
       if (!next_line(&line)) return error("header has no end_header line");
@@ -476,7 +480,9 @@ class BodyParser {
     const PlyElement* vertex = find_element(header_, "vertex");
     const PlyElement* face = find_element(header_, "face");
     if (vertex == nullptr) return header_error("no 'vertex' element");
-    if (face == nullptr) return header_error("no 'face' element");
+    if (face == nullptr) {
+      return header_error("no 'face' element: a point cloud has no surface to render");
+    }
     if (vertex->count > kMaxVerticesPerMesh) {
       return element_error(*vertex, absl::StrCat(vertex->count, " vertices exceed the limit of ",
                                                  kMaxVerticesPerMesh));

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,19 @@ struct Material {
   Vec3f color{0.8f, 0.8f, 0.8f};  // diffuse albedo or mirror reflectance (each channel in [0, 1])
   float ior = 1.5f;               // dielectric index of refraction (outside medium is vacuum)
   Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
+  bool off = false;               // emissive: emits nothing for now, `radiance` kept for later
+};
+
+// What an emissive material emits now.
+inline Vec3f emitted_radiance(const Material& m) {
+  return m.type == MaterialType::kEmissive && !m.off ? m.radiance : Vec3f{0, 0, 0};
+}
+
+// A change to an emissive material's emission (UpdateLights' emitters); unset fields keep theirs.
+struct EmitterChange {
+  std::string material;  // the material's name
+  std::optional<Vec3f> radiance;
+  std::optional<bool> off;
 };
 
 enum class MediumType : uint32_t { kHomogeneous = 0, kGrid = 1 };

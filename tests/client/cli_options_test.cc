@@ -7,28 +7,13 @@
 #include <string>
 
 #include "renderer/accel/structure_kind.h"
+#include "tests/client/client_run.h"
 
 namespace {
 
+using ::caustica::testing::ClientRun;
+using ::caustica::testing::run_client;
 using ::testing::HasSubstr;
-
-struct ClientRun {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr together
-};
-
-// Runs `caustica ARGS`; ARGS need no quoting.
-ClientRun run_client(const std::string& args) {
-  const std::string command = std::string("'") + CAUSTICA_CLIENT_BIN + "' " + args + " 2>&1";
-  ClientRun run;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[4096];
-  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) run.output.append(buffer, n);
-  const int status = pclose(pipe);
-  if (WIFEXITED(status)) run.exit_code = WEXITSTATUS(status);
-  return run;
-}
 
 TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
   for (const char* args :

@@ -212,7 +212,7 @@ TEST_F(ServerTest, PixelFormatsAndEncodingsAgree) {
   for (size_t i = 0; i < linear.size(); ++i) {
     uint16_t half;
     std::memcpy(&half, f16.data().data() + 2 * i, 2);
-    ASSERT_EQ(half, server::float_to_half(linear[i])) << i;
+    ASSERT_EQ(half, caustica::float_to_half(linear[i])) << i;
   }
   EXPECT_EQ(rgba8.data().size(), 20u * 12u * 4u);
   // sRGB of the linear value, to within one step of rounding.

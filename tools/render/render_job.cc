@@ -13,8 +13,10 @@ namespace caustica {
 absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream& log) {
   RenderSummary summary;
   auto t0 = std::chrono::steady_clock::now();
-  absl::StatusOr<Scene> scene = load_scene(job.scene);
+  std::vector<std::string> warnings;
+  absl::StatusOr<Scene> scene = load_scene(job.scene, &warnings);
   if (!scene.ok()) return scene.status();
+  for (const std::string& warning : warnings) log << "warning: " << warning << "\n";
   summary.load_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 

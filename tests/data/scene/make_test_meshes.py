@@ -10,6 +10,21 @@ The outputs are committed; this script documents how they were made and regenera
       index accessors of three component types and KHR_lights_punctual point/spot/directional.
   bad/*.ply, bad/*.gz
       broken PLY files, one per error class (see scene tests).
+  meshes/ply_variants/extras_ascii.ply, extras_le.ply
+      the quad_tri mesh with the header extras other exporters write: CRLF line ends, blank
+      lines, obj_info and comments between any lines, tabs and padding, sized type aliases,
+      colour and alpha vertex properties, extra face properties and an unknown element with data
+      between vertex and face. Both must load equal to quad_tri_ascii.ply.
+  meshes/strips_fans.gltf, bad/short_strip.gltf, bad/unknown_mode.gltf
+      TRIANGLE_STRIP and TRIANGLE_FAN primitives, indexed and not, with stitching (degenerate)
+      triangles, plus a LINES primitive to skip; a strip of two vertices; a mode glTF lacks.
+  meshes/camera_light.gltf
+      a quad with a perspective and an orthographic camera and two KHR_lights_punctual lights,
+      for the bare-mesh scene (mesh_scene.h).
+  bad/gltf1_no_asset.gltf, bad/garbage.fbx, bad/truncated.stl
+      a glTF 1.0 document recognisable only by its top-level objects, text that is no FBX, and a
+      binary STL that claims 1000 facets but holds one.
+Real files from other tools are in thirdparty/ (README.md there), copied, not generated.
 """
 
 import base64
@@ -284,8 +299,203 @@ def write_gltf():
           json.dumps(gltf_document(bytes(bad_buffer), views, bad_uri), indent=1) + "\n")
 
 
+# ------------------------------------------------------------------------------------------------
+# PLY header variants
+
+def ply_variant_header(fmt):
+    """Header lines as MeshLab, Assimp and scanners write them; joined with CRLF."""
+    return [
+        "ply  ",
+        f"format {fmt} 1.0",
+        "comment VCGLIB generated",
+        "obj_info num_cols 1",
+        "",
+        "obj_info num_rows 5",
+        f"element\tvertex   {len(VERTICES)}",
+        "property float32 x",
+        "comment between two properties",
+        "property float32  y",
+        "property float32\tz",
+        "property uint8 red",
+        "property uint8 green",
+        "property uint8 blue",
+        "property uint8 alpha",
+        "property float32 nx",
+        "property float32 ny",
+        "property float32 nz",
+        "property float32 texture_u",
+        "property float32 texture_v",
+        "   ",
+        "element material 2",
+        "property list uint8 float32 ambient",
+        "property int16 shininess",
+        "comment the faces come after an element that we do not read",
+        f"element face {len(FACES)}",
+        "property list uint8 int32 vertex_indices",
+        "property list uchar float texcoord",
+        "property uint16 flags",
+        "end_header",
+    ]
+
+
+def write_ply_variants():
+    folder = os.path.join(MESHES, "ply_variants")
+    os.makedirs(folder, exist_ok=True)
+    lines = ply_variant_header("ascii")
+    for p, n, uv in VERTICES:
+        values = [f"{x:g}" for x in p] + ["200", "100", "50", "255"]
+        values += [f"{x:g}" for x in (*n, *uv)]
+        lines.append("  ".join(values) + " ")
+    lines.append("3 0.1 0.2 0.3 10")
+    lines.append("0 0")
+    for face in FACES:
+        lines.append(" ".join(str(x) for x in [len(face), *face]) + "\t2 0.5 0.5 7")
+    write(os.path.join(folder, "extras_ascii.ply"), ("\r\n".join(lines) + "\r\n").encode())
+
+    header = ("\r\n".join(ply_variant_header("binary_little_endian")) + "\r\n").encode()
+    body = b""
+    for p, n, uv in VERTICES:
+        body += struct.pack("<3f4B3f2f", *p, 200, 100, 50, 255, *n, *uv)
+    body += struct.pack("<B3fh", 3, 0.1, 0.2, 0.3, 10)
+    body += struct.pack("<Bh", 0, 0)
+    for face in FACES:
+        body += struct.pack(f"<B{len(face)}iB2fH", len(face), *face, 2, 0.5, 0.5, 7)
+    write(os.path.join(folder, "extras_le.ply"), header + body)
+
+
+# ------------------------------------------------------------------------------------------------
+# glTF strips, fans, cameras
+
+def embedded(buffer):
+    return "data:application/octet-stream;base64," + base64.b64encode(buffer).decode("ascii")
+
+
+def pack_views(*blobs):
+    """One buffer of 4-byte aligned blobs, and a bufferView for each."""
+    data, views = b"", []
+    for blob in blobs:
+        views.append({"buffer": 0, "byteOffset": len(data), "byteLength": len(blob)})
+        data += blob + b"\0" * ((-len(blob)) % 4)
+    return data, views
+
+
+# A 2 x 4 grid of vertices in the z = 0 plane: v(2i) = (i, 0, 0), v(2i + 1) = (i, 1, 0).
+GRID = [(i, j, 0) for i in range(4) for j in range(2)]
+FAN = [(10, 0, 0), (11, 0, 0), (11, 1, 0), (10, 1, 0), (9, 1, 0)]
+# Two strip runs over the grid's first and last quads, stitched by repeating 3 and 4; all kept
+# triangles face +z.
+STRIP_INDICES = [0, 2, 1, 3, 3, 4, 4, 6, 5, 7]
+# A fan over FAN with a repeated corner: (0 1 2), (0 2 2) dropped, (0 2 3).
+FAN_INDICES = [0, 1, 2, 2, 3]
+
+
+def strips_fans_document(short_strip=False):
+    blob_grid = b"".join(struct.pack("<3f", *p) for p in GRID)
+    blob_fan = b"".join(struct.pack("<3f", *p) for p in FAN)
+    strip = [0, 2] if short_strip else STRIP_INDICES
+    buffer, views = pack_views(blob_grid, blob_fan,
+                               struct.pack(f"<{len(strip)}H", *strip),
+                               struct.pack(f"<{len(FAN_INDICES)}I", *FAN_INDICES))
+    accessors = [
+        {"bufferView": 0, "componentType": 5126, "count": len(GRID), "type": "VEC3",
+         "min": [0, 0, 0], "max": [3, 1, 0]},
+        {"bufferView": 1, "componentType": 5126, "count": len(FAN), "type": "VEC3",
+         "min": [9, 0, 0], "max": [11, 1, 0]},
+        {"bufferView": 2, "componentType": 5123, "count": len(strip), "type": "SCALAR"},
+        {"bufferView": 3, "componentType": 5125, "count": len(FAN_INDICES), "type": "SCALAR"},
+    ]
+    primitives = [
+        {"attributes": {"POSITION": 0}, "indices": 2, "mode": 5},  # indexed strip: 4 triangles
+        {"attributes": {"POSITION": 0}, "mode": 5},  # non-indexed strip: 6 triangles facing -z
+        {"attributes": {"POSITION": 1}, "mode": 6},  # non-indexed fan: 3 triangles
+        {"attributes": {"POSITION": 1}, "indices": 3, "mode": 6},  # indexed fan: 2 triangles
+        {"attributes": {"POSITION": 0}, "mode": 1},  # lines: skipped
+    ]
+    if short_strip:
+        primitives = primitives[:1]
+    return {
+        "asset": {"version": "2.0", "generator": "caustica make_test_meshes.py"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "Strips", "mesh": 0}],
+        "meshes": [{"name": "StripsFans", "primitives": primitives}],
+        "buffers": [{"byteLength": len(buffer), "uri": embedded(buffer)}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+
+
+def camera_light_document():
+    s = math.sqrt(0.5)
+    quad = [(-1, 0, -1), (-1, 0, 1), (1, 0, 1), (1, 0, -1)]
+    buffer, views = pack_views(b"".join(struct.pack("<3f", *p) for p in quad),
+                               struct.pack("<6H", 0, 1, 2, 0, 2, 3))
+    return {
+        "asset": {"version": "2.0", "generator": "caustica make_test_meshes.py"},
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [
+            {"name": "Spot", "type": "spot", "color": [1, 0.5, 0.25], "intensity": 20,
+             "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.6}},
+            {"name": "Sun", "type": "directional", "intensity": 2},
+        ]}},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3, 4]}],
+        "nodes": [
+            {"name": "Floor", "mesh": 0},
+            # Turned 90 degrees about +y: looks down -x.
+            {"name": "Eye", "camera": 0, "translation": [1, 2, 10], "rotation": [0, s, 0, s]},
+            {"name": "Plan", "camera": 1, "translation": [0, 10, 0]},
+            # Turned -90 degrees about +x: shines down -y.
+            {"name": "SpotNode", "translation": [0, 4, 0], "rotation": [-s, 0, 0, s],
+             "extensions": {"KHR_lights_punctual": {"light": 0}}},
+            {"name": "SunNode", "extensions": {"KHR_lights_punctual": {"light": 1}}},
+        ],
+        "cameras": [
+            {"type": "perspective",
+             "perspective": {"yfov": 0.6, "aspectRatio": 1.5, "znear": 0.1}},
+            {"type": "orthographic",
+             "orthographic": {"xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 100}},
+        ],
+        "meshes": [{"name": "Quad", "primitives": [
+            {"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{"byteLength": len(buffer), "uri": embedded(buffer)}],
+        "bufferViews": views,
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [-1, 0, -1], "max": [1, 0, 1]},
+            {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+    }
+
+
+def write_strips_and_cameras():
+    write(os.path.join(MESHES, "strips_fans.gltf"),
+          json.dumps(strips_fans_document(), indent=1) + "\n")
+    write(os.path.join(BAD, "short_strip.gltf"),
+          json.dumps(strips_fans_document(short_strip=True), indent=1) + "\n")
+    doc = strips_fans_document(short_strip=True)
+    doc["meshes"][0]["primitives"][0]["mode"] = 9
+    write(os.path.join(BAD, "unknown_mode.gltf"), json.dumps(doc, indent=1) + "\n")
+    write(os.path.join(MESHES, "camera_light.gltf"),
+          json.dumps(camera_light_document(), indent=1) + "\n")
+
+
+def write_other_bad_files():
+    write(os.path.join(BAD, "gltf1_no_asset.gltf"),
+          '{\n "meshes": {},\n "programs": {"program_0": {"attributes": ["a_position"], '
+          '"fragmentShader": "fs", "vertexShader": "vs"}},\n "shaders": {},\n "techniques": {}\n}\n')
+    write(os.path.join(BAD, "garbage.fbx"),
+          "This is not an FBX file, only text that a user renamed.\n")
+    header = b"binary STL cut short by a failed download".ljust(80, b" ")
+    facet = struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0)
+    write(os.path.join(BAD, "truncated.stl"), header + struct.pack("<I", 1000) + facet)
+
+
 if __name__ == "__main__":
     os.makedirs(MESHES, exist_ok=True)
     os.makedirs(BAD, exist_ok=True)
     write_plys()
     write_gltf()
+    write_ply_variants()
+    write_strips_and_cameras()
+    write_other_bad_files()

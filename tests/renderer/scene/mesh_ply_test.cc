@@ -11,27 +11,12 @@
 namespace caustica {
 namespace {
 
+using ::caustica::testing::expect_same_mesh;
 using ::caustica::testing::message_of;
 using ::caustica::testing::scene_data;
 using ::caustica::testing::Vec3Near;
 using ::testing::AllOf;
 using ::testing::HasSubstr;
-
-void expect_same_mesh(const Mesh& a, const Mesh& b) {
-  ASSERT_EQ(a.positions.size(), b.positions.size());
-  for (size_t i = 0; i < a.positions.size(); ++i) {
-    EXPECT_EQ(a.positions[i], b.positions[i]) << "vertex " << i;
-  }
-  ASSERT_EQ(a.normals.size(), b.normals.size());
-  for (size_t i = 0; i < a.normals.size(); ++i) EXPECT_EQ(a.normals[i], b.normals[i]);
-  ASSERT_EQ(a.uvs.size(), b.uvs.size());
-  for (size_t i = 0; i < a.uvs.size(); ++i) {
-    EXPECT_EQ(a.uvs[i].x, b.uvs[i].x);
-    EXPECT_EQ(a.uvs[i].y, b.uvs[i].y);
-  }
-  EXPECT_EQ(a.indices, b.indices);
-  EXPECT_EQ(a.material_ids, b.material_ids);
-}
 
 TEST(LoadPly, AsciiMeshHasItsValuesAndFanTriangulatedFaces) {
   const absl::StatusOr<Mesh> mesh = load_ply(scene_data("meshes/quad_tri_ascii.ply"));

@@ -245,8 +245,12 @@ std::vector<Edit> edits() {
        {add_shape(R"({"type": "mesh", "file": "../meshes/quad_tri_le.ply"})")},
        {"shapes[2].material: is required", "quad_tri_le.ply has triangles without a material"}},
       {"UnsupportedMeshFormat",
+       {add_shape(R"({"type": "mesh", "file": "model.notamesh", "material": "white"})")},
+       {"shapes[2].file", "model.notamesh", "unsupported mesh format '.notamesh'"}},
+      // .stl goes to Assimp, which is not asked to open a file that is not there.
+      {"MissingAssimpFile",
        {add_shape(R"({"type": "mesh", "file": "model.stl", "material": "white"})")},
-       {"shapes[2].file", "model.stl", "unsupported mesh format"}},
+       {"shapes[2].file", "model.stl: file not found"}},
       {"ZeroScale",
        {add_shape(
            R"({"type": "mesh", "file": "../meshes/quad_tri_le.ply", "material": "white", "transform": {"scale": [1, 0, 1]}})")},

@@ -35,6 +35,23 @@ MATCHER_P2(Vec3Near, expected, tolerance, "") {
   return std::fabs(d.x) <= tolerance && std::fabs(d.y) <= tolerance && std::fabs(d.z) <= tolerance;
 }
 
+// The same vertices, normals, texture coordinates, triangles and materials, exactly.
+inline void expect_same_mesh(const Mesh& a, const Mesh& b) {
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  for (size_t i = 0; i < a.positions.size(); ++i) {
+    EXPECT_EQ(a.positions[i], b.positions[i]) << "vertex " << i;
+  }
+  ASSERT_EQ(a.normals.size(), b.normals.size());
+  for (size_t i = 0; i < a.normals.size(); ++i) EXPECT_EQ(a.normals[i], b.normals[i]);
+  ASSERT_EQ(a.uvs.size(), b.uvs.size());
+  for (size_t i = 0; i < a.uvs.size(); ++i) {
+    EXPECT_EQ(a.uvs[i].x, b.uvs[i].x);
+    EXPECT_EQ(a.uvs[i].y, b.uvs[i].y);
+  }
+  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(a.material_ids, b.material_ids);
+}
+
 inline const Mesh* find_mesh(const Scene& scene, const std::string& name_part) {
   for (const Mesh& mesh : scene.meshes) {
     if (mesh.name.find(name_part) != std::string::npos) return &mesh;

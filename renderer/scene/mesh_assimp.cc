@@ -1,0 +1,265 @@
+#include "renderer/scene/mesh_assimp.h"
+
+#include <assimp/material.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <algorithm>
+#include <assimp/Importer.hpp>
+#include <cmath>
+#include <exception>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
+#include "renderer/scene/affine.h"
+#include "renderer/scene/scene_limits.h"
+#include "renderer/scene/status_util.h"
+#include "renderer/scene/transform.h"
+
+namespace caustica {
+namespace {
+
+// Assimp splits meshes by primitive type (SortByPType) and triangulates polygons; we keep the
+// triangle meshes. Joining identical vertices matters for formats that store every face corner
+// separately (STL, OFF exporters), which would otherwise triple the vertex count.
+constexpr unsigned kPostProcess = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
+                                  aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+
+Affine to_affine(const aiMatrix4x4& m) {
+  Affine a;
+  a.m = {{{m.a1, m.a2, m.a3, m.a4}, {m.b1, m.b2, m.b3, m.b4}, {m.c1, m.c2, m.c3, m.c4}}};
+  return a;
+}
+
+Vec3f to_vec3(const aiColor3D& c) { return {c.r, c.g, c.b}; }
+
+Vec3f clamp01(Vec3f c) {
+  return {std::clamp(c.x, 0.0f, 1.0f), std::clamp(c.y, 0.0f, 1.0f), std::clamp(c.z, 0.0f, 1.0f)};
+}
+
+// The same rules as OBJ's MTL and glTF, in the terms Assimp normalises every format's materials
+// to: emission wins, then transparency (a dielectric), then the diffuse (or PBR base) colour.
+// Mirrors are not guessed: Assimp's shininess and reflectivity mean different things per format.
+Material convert_material(const aiMaterial& source, size_t index, const std::string& file_name,
+                          std::vector<std::string>* warnings) {
+  Material m;
+  aiString name;
+  m.name = source.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name.length > 0
+               ? std::string(name.C_Str())
+               : absl::StrCat("material ", index);
+  aiColor3D color(0.8f, 0.8f, 0.8f);
+  Vec3f albedo(0.8f);
+  if (aiColor4D base; source.Get(AI_MATKEY_BASE_COLOR, base) == AI_SUCCESS) {
+    albedo = {base.r, base.g, base.b};
+  } else if (source.Get(AI_MATKEY_COLOR_DIFFUSE, color) == AI_SUCCESS) {
+    albedo = to_vec3(color);
+  }
+  aiColor3D emissive(0, 0, 0);
+  Vec3f emission(0);
+  if (source.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS) {
+    emission = to_vec3(emissive);
+    float strength = 1;
+    if (source.Get(AI_MATKEY_EMISSIVE_INTENSITY, strength) == AI_SUCCESS)
+      emission = emission * strength;
+  }
+  float opacity = 1;
+  source.Get(AI_MATKEY_OPACITY, opacity);
+  float transmission = 0;
+  source.Get(AI_MATKEY_TRANSMISSION_FACTOR, transmission);
+
+  if (is_finite(emission) && (emission.x > 0 || emission.y > 0 || emission.z > 0)) {
+    m.type = MaterialType::kEmissive;
+    m.color = Vec3f(0);
+    m.radiance =
+        Vec3f(std::max(emission.x, 0.0f), std::max(emission.y, 0.0f), std::max(emission.z, 0.0f));
+  } else if (opacity < 1 || transmission > 0) {
+    m.type = MaterialType::kDielectric;
+    float ior = 1.5f;
+    // Many exporters write 1 (or nothing) when they mean "not set".
+    if (source.Get(AI_MATKEY_REFRACTI, ior) != AI_SUCCESS || !(ior > 1)) ior = 1.5f;
+    m.ior = ior;
+  } else {
+    m.type = MaterialType::kDiffuse;
+    if (!is_finite(albedo)) albedo = Vec3f(0.8f);
+    const Vec3f clamped = clamp01(albedo);
+    if (!(clamped == albedo)) {
+      warnings->push_back(absl::StrCat(file_name, ": material '", m.name, "': diffuse colour (",
+                                       albedo.x, ", ", albedo.y, ", ", albedo.z,
+                                       ") clamped to [0, 1]"));
+    }
+    m.color = clamped;
+  }
+  return m;
+}
+
+class AssimpReader {
+ public:
+  AssimpReader(const aiScene& scene, const std::filesystem::path& path)
+      : scene_(scene), file_name_(path.filename().string()) {}
+
+  absl::StatusOr<MeshFile> read() {
+    if (scene_.mRootNode == nullptr) return absl::InvalidArgumentError("the file has no nodes");
+    for (unsigned i = 0; i < scene_.mNumMaterials; ++i) {
+      file_.materials.push_back(
+          convert_material(*scene_.mMaterials[i], i, file_name_, &file_.warnings));
+    }
+    SCENE_RETURN_IF_ERROR(visit_tree());
+    if (file_.meshes.empty()) {
+      if (skipped_meshes_ > 0) {
+        return absl::InvalidArgumentError(absl::StrCat("has only point and line meshes (",
+                                                       skipped_meshes_, " of them), no triangles"));
+      }
+      return absl::InvalidArgumentError("has no triangle meshes");
+    }
+    if (scene_.mNumCameras > 0 || scene_.mNumLights > 0) {
+      file_.warnings.push_back(absl::StrCat(file_name_, ": its ", scene_.mNumCameras,
+                                            " camera(s) and ", scene_.mNumLights,
+                                            " light(s) are ignored (only glTF's are read)"));
+    }
+    return std::move(file_);
+  }
+
+ private:
+  // Iterative, so that a deep hierarchy cannot overflow the stack.
+  absl::Status visit_tree() {
+    std::vector<std::pair<const aiNode*, Affine>> pending = {{scene_.mRootNode, Affine()}};
+    while (!pending.empty()) {
+      const auto [node, parent] = pending.back();
+      pending.pop_back();
+      const Affine world = parent * to_affine(node->mTransformation);
+      for (unsigned i = 0; i < node->mNumMeshes; ++i) {
+        SCENE_RETURN_IF_ERROR(add_mesh(*node, node->mMeshes[i], world));
+      }
+      for (unsigned c = node->mNumChildren; c-- > 0;) {
+        if (node->mChildren[c] != nullptr) pending.emplace_back(node->mChildren[c], world);
+      }
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status add_mesh(const aiNode& node, unsigned index, const Affine& world) {
+    if (index >= scene_.mNumMeshes || scene_.mMeshes[index] == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("node '", node.mName.C_Str(), "' refers to missing mesh ", index));
+    }
+    const aiMesh& source = *scene_.mMeshes[index];
+    const std::string name =
+        absl::StrCat("mesh '", source.mName.C_Str(), "' at node '", node.mName.C_Str(), "'");
+    if ((source.mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) {
+      ++skipped_meshes_;
+      file_.warnings.push_back(
+          absl::StrCat(file_name_, ": ", name, ": skipped point/line mesh (no surface to render)"));
+      return absl::OkStatus();
+    }
+    if (source.mNumVertices > kMaxVerticesPerMesh) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          name, ": ", source.mNumVertices, " vertices exceed the limit of ", kMaxVerticesPerMesh));
+    }
+    if (source.mNumFaces > kMaxTrianglesPerMesh) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          name, ": ", source.mNumFaces, " faces exceed the limit of ", kMaxTrianglesPerMesh));
+    }
+    total_triangles_ += source.mNumFaces;
+    if (total_triangles_ > kMaxSceneTriangles) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          name, ": the node hierarchy instances more than ", kMaxSceneTriangles, " triangles"));
+    }
+    Mesh mesh;
+    mesh.name = absl::StrCat(file_name_, ": ", name);
+    mesh.positions.resize(source.mNumVertices);
+    for (unsigned v = 0; v < source.mNumVertices; ++v) {
+      const aiVector3D& p = source.mVertices[v];
+      mesh.positions[v] = {p.x, p.y, p.z};
+    }
+    if (source.HasNormals()) {
+      mesh.normals.resize(source.mNumVertices);
+      for (unsigned v = 0; v < source.mNumVertices; ++v) {
+        const aiVector3D& n = source.mNormals[v];
+        mesh.normals[v] = {n.x, n.y, n.z};
+      }
+    }
+    if (source.HasTextureCoords(0)) {
+      mesh.uvs.resize(source.mNumVertices);
+      for (unsigned v = 0; v < source.mNumVertices; ++v) {
+        const aiVector3D& uv = source.mTextureCoords[0][v];
+        mesh.uvs[v] = {uv.x, uv.y};
+      }
+    }
+    mesh.indices.reserve(3 * size_t{source.mNumFaces});
+    for (unsigned f = 0; f < source.mNumFaces; ++f) {
+      const aiFace& face = source.mFaces[f];
+      // After Triangulate and SortByPType a triangle mesh holds triangles only; anything else
+      // would be a point or line that slipped through, with no area.
+      if (face.mNumIndices != 3) continue;
+      for (unsigned k = 0; k < 3; ++k) {
+        if (face.mIndices[k] >= source.mNumVertices) {
+          return absl::InvalidArgumentError(absl::StrCat(name, ": face ", f, " vertex index ",
+                                                         face.mIndices[k], " is out of range (",
+                                                         source.mNumVertices, " vertices)"));
+        }
+        mesh.indices.push_back(face.mIndices[k]);
+      }
+    }
+    if (mesh.indices.empty()) return absl::OkStatus();
+    uint32_t material = kNoMaterial;
+    if (source.mMaterialIndex < file_.materials.size()) material = source.mMaterialIndex;
+    mesh.material_ids.assign(mesh.triangle_count(), material);
+    transform_mesh(world, &mesh);
+    file_.meshes.push_back(std::move(mesh));
+    return absl::OkStatus();
+  }
+
+  const aiScene& scene_;
+  std::string file_name_;
+  size_t skipped_meshes_ = 0;
+  size_t total_triangles_ = 0;
+  MeshFile file_;
+};
+
+}  // namespace
+
+bool assimp_reads_extension(std::string_view extension) {
+  if (extension.size() < 2 || extension[0] != '.') return false;
+  Assimp::Importer importer;
+  return importer.IsExtensionSupported(std::string(extension));
+}
+
+absl::StatusOr<MeshFile> load_assimp(const std::filesystem::path& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  // Assimp reads the whole file into memory; the same cap as for every other mesh file.
+  if (const uintmax_t size = std::filesystem::file_size(path, error);
+      !error && size > kMaxFileBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": ", size, " bytes exceed the limit of ", kMaxFileBytes));
+  }
+  Assimp::Importer importer;
+  const aiScene* scene = nullptr;
+  try {
+    scene = importer.ReadFile(path.string(), kPostProcess);
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": Assimp could not read it: ", e.what()));
+  }
+  if (scene == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": Assimp could not read it: ",
+                     absl::StripTrailingAsciiWhitespace(importer.GetErrorString())));
+  }
+  if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path.string(), ": Assimp read it only partially (the scene is marked incomplete)"));
+  }
+  absl::StatusOr<MeshFile> file = AssimpReader(*scene, path).read();
+  if (!file.ok()) return annotate(file.status(), path.string());
+  return file;
+}
+
+}  // namespace caustica

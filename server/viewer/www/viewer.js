@@ -1,0 +1,463 @@
+// The Caustica viewer page: a WebSocket to /ws (protocol in docs/viewer.md), progressive frames
+// drawn to a canvas, light drags, area-light switches and camera moves sent as JSON.
+// window.causticaViewer exposes the state tests read (frames drawn, lights, latencies).
+'use strict';
+
+(() => {
+  const params = new URLSearchParams(location.search);
+  const token = params.get('token') || '';
+  const requestedScene = params.get('scene') || '';
+  const requestedPasses = Number.parseInt(params.get('passes') || '0', 10) || 0;
+  // The token stays in memory only: out of the address bar, the history and screenshots.
+  if (params.has('token')) {
+    params.delete('token');
+    const query = params.toString();
+    history.replaceState(null, '', location.pathname + (query ? `?${query}` : ''));
+  }
+
+  const $ = (id) => document.getElementById(id);
+  const canvas = $('frame');
+  const context2d = canvas.getContext('2d');
+  const viewer = {
+    connected: false,
+    scenes: [],
+    scene: null,        // the open scene's message
+    lights: [],         // the scene's lights, then the offered viewer light if any
+    emitters: [],       // the scene's emissive materials
+    selected: null,     // index of the light the intensity slider scales
+    framesDrawn: 0,
+    lastFrame: null,    // header of the last frame drawn
+    latencies: [],      // ms from sending a light change to drawing the first frame showing it
+    errors: [],
+    idle: false,        // the picture reached its pass target
+  };
+  window.causticaViewer = viewer;
+
+  // --- the socket ---
+  const socket = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
+  socket.binaryType = 'arraybuffer';
+  let nextId = 1;
+  const send = (message) => {
+    if (socket.readyState !== WebSocket.OPEN) return 0;
+    const id = nextId++;
+    socket.send(JSON.stringify({ ...message, id }));
+    return id;
+  };
+
+  socket.addEventListener('open', () => {
+    viewer.connected = true;
+    $('connection').textContent = 'connected';
+    send({ type: 'hello', token });
+  });
+  socket.addEventListener('close', () => {
+    viewer.connected = false;
+    $('connection').textContent = 'disconnected (reload to reconnect)';
+  });
+  socket.addEventListener('message', (event) => {
+    if (typeof event.data === 'string') {
+      handleText(JSON.parse(event.data));
+    } else {
+      handleFrame(event.data);
+    }
+  });
+
+  function showError(message) {
+    viewer.errors.push(message);
+    const box = $('error');
+    box.textContent = `${message.code}: ${message.message}`;
+    box.hidden = false;
+  }
+
+  function handleText(message) {
+    switch (message.type) {
+      case 'scenes': return showScenes(message.scenes);
+      case 'scene': return showScene(message);
+      case 'updated': return updated(message);
+      case 'lights':
+        // Another client changed the lights: the page starts again from the scene's new ones.
+        showLights(message.lights);
+        showEmitters(message.emitters, true);
+        return selectLight(defaultSelection());
+      case 'idle':
+        viewer.idle = true;
+        return;
+      case 'error':
+        settle(message.id);
+        return showError(message);
+      default:
+        return undefined;
+    }
+  }
+
+  // --- scenes ---
+  let opened = false;
+  function showScenes(scenes) {
+    viewer.scenes = scenes;
+    const list = $('scene-list');
+    list.replaceChildren();
+    for (const scene of scenes) {
+      const option = document.createElement('option');
+      option.value = scene.id;
+      option.textContent = `${scene.name || '(unnamed)'} · ${scene.width}×${scene.height} · ${scene.id}`;
+      list.append(option);
+    }
+    if (scenes.length === 0) {
+      const option = document.createElement('option');
+      option.textContent = '(no scenes: upload one with `caustica scene upload`)';
+      list.append(option);
+    }
+    list.disabled = $('open-scene').disabled = scenes.length === 0;
+    if (!opened && requestedScene) openScene(requestedScene);
+  }
+
+  function openScene(id) {
+    opened = true;
+    $('error').hidden = true;
+    send({ type: 'open', scene: id, ...(requestedPasses ? { passes: requestedPasses } : {}) });
+  }
+  $('open-scene').addEventListener('click', () => openScene($('scene-list').value));
+
+  function showScene(message) {
+    viewer.scene = message;
+    viewer.idle = false;
+    // Changes still waiting were meant for the scene before.
+    queued = [];
+    $('scene-list').value = message.scene.id;
+    const url = new URL(location.href);
+    url.searchParams.set('scene', message.scene.id);
+    history.replaceState(null, '', url);
+    canvas.width = message.scene.width;
+    canvas.height = message.scene.height;
+    fitCanvas();
+    $('stage').hidden = $('controls').hidden = false;
+    showLights(message.lights);
+    showEmitters(message.emitters, true);
+    selectLight(defaultSelection());
+  }
+
+  // Small pictures are shown enlarged to fill the window; pointer maths uses the shown size.
+  function fitCanvas() {
+    const scale = Math.max(1, Math.min((window.innerWidth - 32) / canvas.width,
+      (window.innerHeight - 160) / canvas.height));
+    canvas.style.width = `${Math.floor(canvas.width * scale)}px`;
+    canvas.style.height = `${Math.floor(canvas.height * scale)}px`;
+  }
+  window.addEventListener('resize', () => { if (viewer.scene) fitCanvas(); });
+
+  // --- lights ---
+  function showLights(lights) {
+    viewer.lights = lights;
+    const offered = lights.find((light) => light.viewer_light);
+    const note = $('lights-note');
+    note.hidden = !offered;
+    note.textContent = offered ?
+      'This scene has no point or spot light to drag, so the dashed handle is a viewer point ' +
+      'light: its first drag (or the slider) adds it to the scene\'s lights, and the others stay.' : '';
+    const box = $('handles');
+    box.replaceChildren();
+    for (const light of lights) {
+      if (!light.draggable || !light.visible) continue;
+      const handle = document.createElement('div');
+      const at = handleAt(light);
+      handle.className = `handle${light.viewer_light ? ' placed' : ''}${at.outside ? ' outside' : ''}` +
+        `${light.index === viewer.selected ? ' selected' : ''}`;
+      handle.dataset.index = light.index;
+      handle.title = `${light.name || light.type} (${light.type}` +
+        `${at.outside ? ', outside the picture: drag it in' : ''})`;
+      placeHandle(handle, at.u, at.v);
+      box.append(handle);
+    }
+    const list = $('light-list');
+    list.replaceChildren();
+    for (const light of lights) {
+      const item = document.createElement('li');
+      const label = document.createElement('label');
+      const radio = document.createElement('input');
+      radio.type = 'radio';
+      radio.name = 'light';
+      radio.value = light.index;
+      radio.checked = light.index === viewer.selected;
+      radio.addEventListener('change', () => selectLight(light.index));
+      let what = light.type;
+      if (light.viewer_light) what = 'point, offered by the viewer';
+      else if (!light.draggable) what = `${light.type}: a direction, no position, so not draggable`;
+      else if (!light.visible) what = `${light.type}, behind the camera`;
+      label.append(radio, ` ${light.name || `light ${light.index}`} `);
+      const kind = document.createElement('span');
+      kind.className = 'muted';
+      kind.textContent = `(${what})`;
+      label.append(kind);
+      item.append(label);
+      list.append(item);
+    }
+  }
+  // The first light a drag can move, else the first light: what the slider scales at first.
+  function defaultSelection() {
+    const light = viewer.lights.find((l) => l.draggable) || viewer.lights[0];
+    return light ? light.index : null;
+  }
+  // The slider is in stops around the selected light's intensity when it was selected.
+  let intensityBase = null;
+  function selectLight(index) {
+    viewer.selected = index;
+    const light = viewer.lights.find((l) => l.index === index);
+    intensityBase = light ? light.intensity : null;
+    $('intensity').disabled = !light;
+    $('intensity').value = 0;
+    $('intensity-value').textContent = light ? `${light.intensity.toPrecision(3)} ${intensityUnit(light)}` : '';
+    $('selected-light').textContent = light ? light.name || `light ${light.index}` : 'none';
+    for (const handle of $('handles').children) {
+      handle.classList.toggle('selected', Number(handle.dataset.index) === index);
+    }
+    for (const radio of $('light-list').querySelectorAll('input')) radio.checked = Number(radio.value) === index;
+  }
+  const intensityUnit = (light) => (light.type === 'directional' ? 'W/m²' : 'W/sr');
+  $('intensity').addEventListener('input', () => {
+    const light = viewer.lights.find((l) => l.index === viewer.selected);
+    if (!light || intensityBase === null) return;
+    const intensity = intensityBase * 2 ** Number($('intensity').value);
+    $('intensity-value').textContent = `${intensity.toPrecision(3)} ${intensityUnit(light)}`;
+    change({ type: 'set_intensity', light: light.index, intensity });
+  });
+
+  // --- area lights: one row per emissive material, its switch and a radiance slider in stops ---
+  const emitterBase = [];  // radiance (brightest channel) each slider is centred on
+  function showEmitters(emitters, rebuild) {
+    viewer.emitters = emitters;
+    $('emitters-panel').hidden = emitters.length === 0;
+    const list = $('emitter-list');
+    if (rebuild || list.children.length !== emitters.length) {
+      list.replaceChildren();
+      emitterBase.length = 0;
+      for (const emitter of emitters) {
+        emitterBase[emitter.index] = emitter.brightness;
+        const item = document.createElement('li');
+        const label = document.createElement('label');
+        const on = document.createElement('input');
+        on.type = 'checkbox';
+        on.className = 'emitter-on';
+        on.addEventListener('change', () => change({ type: 'set_emitter', emitter: emitter.index, on: on.checked }));
+        label.append(on, ` ${emitter.material}`);
+        const slider = document.createElement('input');
+        slider.type = 'range';
+        slider.className = 'emitter-radiance';
+        slider.min = -4;
+        slider.max = 4;
+        slider.step = 0.05;
+        slider.value = 0;
+        slider.title = 'radiance, in stops';
+        const value = document.createElement('output');
+        slider.addEventListener('input', () => {
+          const radiance = emitterBase[emitter.index] * 2 ** Number(slider.value);
+          value.textContent = `${radiance.toPrecision(3)} W/(sr·m²)`;
+          change({ type: 'set_emitter', emitter: emitter.index, radiance });
+        });
+        item.append(label, slider, value);
+        list.append(item);
+      }
+    }
+    for (const emitter of emitters) {
+      const item = list.children[emitter.index];
+      item.querySelector('.emitter-on').checked = emitter.on;
+      item.querySelector('output').textContent = `${emitter.brightness.toPrecision(3)} W/(sr·m²)`;
+      item.classList.toggle('off', !emitter.on);
+    }
+  }
+
+  // Lights outside the picture get their handle at its edge, towards where they are, so that
+  // every light in front of the camera can be picked up.
+  const edge = 0.015;
+  const clamp = (x) => Math.min(1 - edge, Math.max(edge, x));
+  function handleAt(light) {
+    const u = clamp(light.u), v = clamp(light.v);
+    return { u, v, outside: u !== light.u || v !== light.v };
+  }
+  function placeHandle(handle, u, v) {
+    handle.style.left = `${(u * 100).toFixed(3)}%`;
+    handle.style.top = `${(v * 100).toFixed(3)}%`;
+  }
+
+  // Changes go one at a time: while one is in flight the newest wanted change of each kind waits,
+  // so a fast drag sends the latest position rather than a backlog, and a switch is never lost.
+  let inFlight = 0;
+  let queued = [];
+  const pendingLatency = new Map();  // request id -> {sentAt, epoch}
+  const firstDrawn = new Map();      // lights epoch -> when its first frame was drawn
+  const lightChanges = new Set(['move_light', 'set_intensity', 'set_emitter']);
+
+  function change(message) {
+    if (inFlight) {
+      queue(message);
+      return;
+    }
+    const sentAt = performance.now();
+    inFlight = send(message);
+    if (lightChanges.has(message.type)) pendingLatency.set(inFlight, { sentAt, epoch: null });
+  }
+  const changeKey = (message) => `${message.type}:${message.light ?? message.emitter ?? ''}`;
+  function queue(message) {
+    const at = queued.findIndex((previous) => changeKey(previous) === changeKey(message));
+    if (at < 0) {
+      queued.push(message);
+      return;
+    }
+    const previous = queued[at];
+    if (message.type === 'orbit') {
+      queued[at] = { ...message, dx: previous.dx + message.dx, dy: previous.dy + message.dy };
+    } else if (message.type === 'zoom') {
+      queued[at] = { ...message, steps: previous.steps + message.steps };
+    } else {
+      // A switch and a radiance for the same emitter travel together.
+      queued[at] = { ...previous, ...message };
+    }
+  }
+  function settle(id) {
+    if (id && id === inFlight) {
+      inFlight = 0;
+      if (pendingLatency.has(id) && pendingLatency.get(id).epoch === null) pendingLatency.delete(id);
+      if (queued.length) change(queued.shift());
+    }
+  }
+
+  function updated(message) {
+    if (!dragging) showLights(message.lights);
+    else viewer.lights = message.lights;
+    showEmitters(message.emitters, false);
+    viewer.idle = false;
+    const pending = pendingLatency.get(message.id);
+    if (pending && message.what === 'lights') {
+      pending.epoch = message.epochs.lights;
+      resolveLatencies();
+    }
+    settle(message.id);
+  }
+
+  function resolveLatencies() {
+    for (const [id, pending] of pendingLatency) {
+      if (pending.epoch === null) continue;
+      let drawnAt = null;
+      for (const [epoch, at] of firstDrawn) {
+        if (epoch >= pending.epoch && (drawnAt === null || at < drawnAt)) drawnAt = at;
+      }
+      if (drawnAt === null) continue;
+      const ms = Math.max(0, drawnAt - pending.sentAt);
+      viewer.latencies.push(ms);
+      pendingLatency.delete(id);
+      const sorted = [...viewer.latencies].sort((a, b) => a - b);
+      const median = sorted[Math.floor(sorted.length / 2)];
+      $('latency').textContent = `drag → frame: last ${ms.toFixed(0)} ms, median ` +
+        `${median.toFixed(0)} ms over ${sorted.length}`;
+    }
+  }
+
+  // --- frames ---
+  // Only the newest frame waits for decoding, so a slow decode skips frames instead of lagging.
+  let waitingFrame = null;
+  let decoding = false;
+  function handleFrame(buffer) {
+    const view = new DataView(buffer);
+    const headerLength = view.getUint32(0, true);
+    const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, headerLength)));
+    waitingFrame = { header, image: new Blob([new Uint8Array(buffer, 4 + headerLength)], { type: header.mime }) };
+    if (!decoding) drawFrames();
+  }
+  async function drawFrames() {
+    decoding = true;
+    while (waitingFrame) {
+      const { header, image } = waitingFrame;
+      waitingFrame = null;
+      try {
+        const bitmap = await createImageBitmap(image);
+        if (canvas.width !== bitmap.width || canvas.height !== bitmap.height) {
+          canvas.width = bitmap.width;
+          canvas.height = bitmap.height;
+          fitCanvas();
+        }
+        context2d.drawImage(bitmap, 0, 0);
+        bitmap.close();
+      } catch (error) {
+        showError({ code: 'DECODE', message: `cannot decode a ${header.encoding} frame: ${error}` });
+        continue;
+      }
+      const now = performance.now();
+      viewer.framesDrawn += 1;
+      viewer.lastFrame = header;
+      if (!firstDrawn.has(header.epochs.lights)) firstDrawn.set(header.epochs.lights, now);
+      resolveLatencies();
+      showOverlay(header);
+    }
+    decoding = false;
+  }
+
+  function showOverlay(header) {
+    const t = header.timings;
+    const target = viewer.scene ? viewer.scene.passes : '?';
+    $('overlay').textContent =
+      `pass ${header.passes}/${target}  frame ${header.frame}  ${header.width}×${header.height} ${header.encoding}\n` +
+      `epochs  lights ${header.epochs.lights}  camera ${header.epochs.camera}  settings ${header.epochs.settings}\n` +
+      `ms  trace ${t.photon_trace_ms.toFixed(1)}  maps ${t.photon_map_build_ms.toFixed(1)}  ` +
+      `render ${t.render_ms.toFixed(1)}  resolve ${(t.resolve_ms - t.encode_ms).toFixed(1)}  ` +
+      `encode ${t.encode_ms.toFixed(1)}  queue ${t.queue_ms.toFixed(1)}`;
+  }
+
+  // --- pointer input ---
+  let dragging = null;  // {kind: 'light', index, handle} or {kind: 'orbit', x, y}
+  const imagePoint = (event) => {
+    const rect = canvas.getBoundingClientRect();
+    return { u: (event.clientX - rect.left) / rect.width, v: (event.clientY - rect.top) / rect.height, rect };
+  };
+
+  function nearestLight(event) {
+    const { u, v, rect } = imagePoint(event);
+    let best = null;
+    for (const light of viewer.lights) {
+      if (!light.draggable || !light.visible) continue;
+      const at = handleAt(light);
+      const distance = Math.hypot((at.u - u) * rect.width, (at.v - v) * rect.height);
+      if (distance < 24 && (!best || distance < best.distance)) best = { light, distance };
+    }
+    return best && best.light;
+  }
+
+  canvas.addEventListener('contextmenu', (event) => event.preventDefault());
+  canvas.addEventListener('pointerdown', (event) => {
+    if (!viewer.scene) return;
+    canvas.setPointerCapture(event.pointerId);
+    const orbiting = event.button === 2 || event.shiftKey || event.altKey || event.ctrlKey;
+    const light = orbiting ? null : nearestLight(event);
+    if (light) {
+      if (light.index !== viewer.selected) selectLight(light.index);
+      const handle = $('handles').querySelector(`[data-index="${light.index}"]`);
+      dragging = { kind: 'light', index: light.index, handle };
+    } else if (orbiting) {
+      dragging = { kind: 'orbit', x: event.clientX, y: event.clientY };
+    }
+  });
+  canvas.addEventListener('pointermove', (event) => {
+    if (!dragging) return;
+    if (dragging.kind === 'light') {
+      const { u, v } = imagePoint(event);
+      if (dragging.handle) placeHandle(dragging.handle, u, v);
+      change({ type: 'move_light', light: dragging.index, u, v });
+    } else {
+      const rect = canvas.getBoundingClientRect();
+      const dx = (event.clientX - dragging.x) / rect.width;
+      const dy = (event.clientY - dragging.y) / rect.height;
+      dragging.x = event.clientX;
+      dragging.y = event.clientY;
+      change({ type: 'orbit', dx, dy });
+    }
+  });
+  const endDrag = () => {
+    dragging = null;
+    if (!inFlight) showLights(viewer.lights);
+  };
+  canvas.addEventListener('pointerup', endDrag);
+  canvas.addEventListener('pointercancel', endDrag);
+  canvas.addEventListener('wheel', (event) => {
+    if (!viewer.scene) return;
+    event.preventDefault();
+    change({ type: 'zoom', steps: -event.deltaY / 100 });
+  }, { passive: false });
+
+})();

@@ -1,0 +1,368 @@
+// Files written by other tools (tests/data/scene/thirdparty, README.md there): each loads through
+// load_mesh_file with the triangle count and bounds the file itself states, counted here by
+// reading the file independently of the loaders, or fails with a named error.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "renderer/scene/affine.h"
+#include "renderer/scene/load_scene.h"
+#include "renderer/scene/mesh_assimp.h"
+#include "renderer/scene/mesh_file.h"
+#include "renderer/scene/mesh_scene.h"
+#include "tests/renderer/scene/scene_test_util.h"
+
+namespace caustica {
+namespace {
+
+using ::caustica::testing::message_of;
+using ::caustica::testing::scene_data;
+using ::caustica::testing::Vec3Near;
+using ::testing::HasSubstr;
+
+std::string file_bytes(const std::string& relative) {
+  std::ifstream in(scene_data(relative), std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// What a file says about itself: triangles after fan-triangulating its polygons, and bounds.
+struct Expected {
+  size_t triangles = 0;
+  Bounds bounds;
+  void add_point(Vec3f p) {
+    if (bounds.empty()) {
+      bounds.lo = bounds.hi = p;
+    } else {
+      bounds.lo = min(bounds.lo, p);
+      bounds.hi = max(bounds.hi, p);
+    }
+  }
+};
+
+size_t total_triangles(const MeshFile& file) {
+  size_t n = 0;
+  for (const Mesh& mesh : file.meshes) n += mesh.triangle_count();
+  return n;
+}
+
+void expect_matches(const MeshFile& file, const Expected& expected, float tolerance) {
+  EXPECT_EQ(total_triangles(file), expected.triangles);
+  const Bounds bounds = mesh_bounds(file.meshes);
+  ASSERT_FALSE(bounds.empty());
+  EXPECT_THAT(bounds.lo, Vec3Near(expected.bounds.lo, tolerance));
+  EXPECT_THAT(bounds.hi, Vec3Near(expected.bounds.hi, tolerance));
+  for (const Mesh& mesh : file.meshes) {
+    EXPECT_EQ(mesh.material_ids.size(), mesh.triangle_count()) << mesh.name;
+    for (const uint32_t index : mesh.indices) ASSERT_LT(index, mesh.positions.size()) << mesh.name;
+  }
+}
+
+// ascii STL: one "facet" per triangle, three "vertex x y z" lines each.
+Expected read_ascii_stl(const std::string& relative) {
+  std::istringstream in(file_bytes(relative));
+  Expected e;
+  std::string word;
+  while (in >> word) {
+    if (word == "facet") ++e.triangles;
+    if (word == "vertex") {
+      Vec3f p;
+      in >> p.x >> p.y >> p.z;
+      e.add_point(p);
+    }
+  }
+  return e;
+}
+
+// Binary STL: an 80-byte header, a uint32 triangle count, 50 bytes per triangle.
+Expected read_binary_stl(const std::string& relative) {
+  const std::string bytes = file_bytes(relative);
+  Expected e;
+  uint32_t count = 0;
+  std::memcpy(&count, bytes.data() + 80, 4);
+  e.triangles = count;
+  for (uint32_t t = 0; t < count; ++t) {
+    for (int v = 0; v < 3; ++v) {
+      float xyz[3];
+      std::memcpy(xyz, bytes.data() + 84 + 50 * size_t{t} + 12 + 12 * v, 12);
+      e.add_point({xyz[0], xyz[1], xyz[2]});
+    }
+  }
+  return e;
+}
+
+// OFF, or an ascii PLY with only x y z per vertex: vertex lines, then "n i0 i1 ..." face lines.
+Expected read_indexed_text(std::istream& in, size_t vertices, size_t faces) {
+  Expected e;
+  std::string line;
+  for (size_t v = 0; v < vertices && std::getline(in, line);) {
+    std::istringstream values(line);
+    Vec3f p;
+    if (values >> p.x >> p.y >> p.z) {
+      e.add_point(p);
+      ++v;
+    }
+  }
+  for (size_t f = 0; f < faces && std::getline(in, line);) {
+    std::istringstream values(line);
+    size_t n = 0;
+    if (values >> n) {
+      e.triangles += n - 2;
+      ++f;
+    }
+  }
+  return e;
+}
+
+Expected read_off(const std::string& relative) {
+  std::istringstream in(file_bytes(relative));
+  std::string magic;
+  size_t vertices = 0, faces = 0, edges = 0;
+  in >> magic >> vertices >> faces >> edges;
+  return read_indexed_text(in, vertices, faces);
+}
+
+Expected read_ascii_ply(const std::string& relative) {
+  std::istringstream in(file_bytes(relative));
+  std::string line;
+  size_t vertices = 0, faces = 0;
+  while (std::getline(in, line) && line.rfind("end_header", 0) != 0) {
+    std::istringstream words(line);
+    std::string keyword, element;
+    size_t count = 0;
+    if (words >> keyword >> element >> count && keyword == "element") {
+      (element == "vertex" ? vertices : faces) = count;
+    }
+  }
+  return read_indexed_text(in, vertices, faces);
+}
+
+absl::StatusOr<MeshFile> load(const std::string& relative) {
+  return load_mesh_file(scene_data("thirdparty/" + relative));
+}
+
+TEST(ThirdPartyPly, AssimpTestCubeWithPaddedHeaderAndSizedTypes) {
+  // "format ascii 1.0          ", float32 and "list uint8 int32 vertex_index".
+  const absl::StatusOr<MeshFile> file = load("ply/cube.ply");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Expected expected = read_ascii_ply("thirdparty/ply/cube.ply");
+  EXPECT_EQ(expected.triangles, 12u);
+  expect_matches(*file, expected, 0);
+}
+
+TEST(ThirdPartyPly, BlenderCubeWithNormalsAndST) {
+  const absl::StatusOr<MeshFile> file = load("ply/cube_uv.ply");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->meshes.size(), 1u);
+  EXPECT_EQ(file->meshes[0].positions.size(), 24u);
+  EXPECT_EQ(file->meshes[0].normals.size(), 24u);
+  EXPECT_EQ(file->meshes[0].uvs.size(), 24u);
+  EXPECT_EQ(total_triangles(*file), 12u);  // element face 6, all quads
+}
+
+TEST(ThirdPartyPly, VcgBinaryCube) {
+  const absl::StatusOr<MeshFile> file = load("ply/cube_binary.ply");
+  ASSERT_TRUE(file.ok()) << file.status();
+  // The header declares 8 float x y z vertices and 12 faces; read the body by hand.
+  const std::string bytes = file_bytes("thirdparty/ply/cube_binary.ply");
+  const size_t body = bytes.find("end_header\n") + std::strlen("end_header\n");
+  Expected expected;
+  for (int v = 0; v < 8; ++v) {
+    float xyz[3];
+    std::memcpy(xyz, bytes.data() + body + 12 * v, 12);
+    expected.add_point({xyz[0], xyz[1], xyz[2]});
+  }
+  size_t at = body + 8 * 12;
+  for (int f = 0; f < 12; ++f) {
+    const uint8_t n = static_cast<uint8_t>(bytes[at]);
+    expected.triangles += n - 2;
+    at += 1 + 4 * size_t{n};
+  }
+  EXPECT_EQ(at, bytes.size());
+  expect_matches(*file, expected, 0);
+}
+
+TEST(ThirdPartyPly, VcgFloatColoursAreIgnored) {
+  const absl::StatusOr<MeshFile> file = load("ply/float-color.ply");
+  ASSERT_TRUE(file.ok()) << file.status();
+  Expected expected;
+  expected.triangles = 1;
+  expected.add_point({0, 0, 0});
+  expected.add_point({200, 200, 0});
+  expect_matches(*file, expected, 0);
+}
+
+TEST(ThirdPartyPly, PointCloudIsANamedError) {
+  const absl::Status status = load("ply/points.ply").status();
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(message_of(status), HasSubstr("points.ply: PLY header: no 'face' element"));
+}
+
+TEST(ThirdPartyAssimp, AsciiStl) {
+  const absl::StatusOr<MeshFile> file = load("stl/triangle.stl");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Expected expected = read_ascii_stl("thirdparty/stl/triangle.stl");
+  EXPECT_EQ(expected.triangles, 1u);
+  expect_matches(*file, expected, 0);
+}
+
+TEST(ThirdPartyAssimp, BinaryStl) {
+  const absl::StatusOr<MeshFile> file = load("stl/Spider_binary.stl");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Expected expected = read_binary_stl("thirdparty/stl/Spider_binary.stl");
+  EXPECT_EQ(expected.triangles, 1368u);
+  expect_matches(*file, expected, 0);
+  // JoinIdenticalVertices: STL stores three corners per triangle, shared ones are merged.
+  size_t vertices = 0;
+  for (const Mesh& mesh : file->meshes) vertices += mesh.positions.size();
+  EXPECT_LT(vertices, 3 * expected.triangles);
+}
+
+TEST(ThirdPartyAssimp, Off) {
+  const absl::StatusOr<MeshFile> file = load("off/Cube.off");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Expected expected = read_off("thirdparty/off/Cube.off");
+  EXPECT_EQ(expected.triangles, 12u);
+  expect_matches(*file, expected, 0);
+}
+
+TEST(ThirdPartyAssimp, ThreeMf) {
+  // 3D/3dmodel.model inside the zip: 8 vertices spanning (0, 0, 0) to (10, 20, 30), 12 triangles.
+  const absl::StatusOr<MeshFile> file = load("3mf/box.3mf");
+  ASSERT_TRUE(file.ok()) << file.status();
+  Expected expected;
+  expected.triangles = 12;
+  expected.add_point({0, 0, 0});
+  expected.add_point({10, 20, 30});
+  expect_matches(*file, expected, 1e-5f);
+}
+
+TEST(ThirdPartyAssimp, ColladaTriangleStripsAndMaterial) {
+  // Six <tristrips> <p> runs of four vertices: two triangles each; positions are +-50.
+  const absl::StatusOr<MeshFile> file = load("collada/cube_tristrips.dae");
+  ASSERT_TRUE(file.ok()) << file.status();
+  Expected expected;
+  expected.triangles = 12;
+  expected.add_point({-50, -50, -50});
+  expected.add_point({50, 50, 50});
+  expect_matches(*file, expected, 1e-3f);
+  // The phong effect's diffuse colour.
+  ASSERT_FALSE(file->meshes.empty());
+  const uint32_t id = file->meshes[0].material_ids[0];
+  ASSERT_LT(id, file->materials.size());
+  EXPECT_EQ(file->materials[id].type, MaterialType::kDiffuse);
+  EXPECT_THAT(file->materials[id].color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
+  // Its camera and lights are not read, and the user is told.
+  EXPECT_THAT(file->warnings, ::testing::Contains(HasSubstr("are ignored")));
+}
+
+TEST(ThirdPartyAssimp, ColladaConcavePolygonIsTriangulated) {
+  // One <polylist> polygon of 66 corners (<vcount>): a concave outline with a bridged hole, so
+  // 64 triangles; the bounds are those of the positions float_array.
+  const absl::StatusOr<MeshFile> file = load("collada/ConcavePolygon.dae");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const std::string text = file_bytes("thirdparty/collada/ConcavePolygon.dae");
+  const size_t array = text.find("<float_array id=\"Mesh_Object_positions_array\" count=\"192\">");
+  ASSERT_NE(array, std::string::npos);
+  std::istringstream values(text.substr(text.find('>', array) + 1));
+  Expected expected;
+  expected.triangles = 64;
+  for (int v = 0; v < 64; ++v) {
+    Vec3f p;
+    values >> p.x >> p.y >> p.z;
+    expected.add_point(p);
+  }
+  expect_matches(*file, expected, 1e-6f);
+}
+
+TEST(ThirdPartyAssimp, BinaryFbxBoxWithGeometricPivot) {
+  // The file's own values, read from its binary records: Vertices is a +-100 cube of 24
+  // corners, PolygonVertexIndex twelve 3-corner polygons, and the Model's Properties70 give
+  // GeometricTranslation, GeometricRotation (Euler XYZ, degrees) and GeometricScaling.
+  const absl::StatusOr<MeshFile> file = load("fbx/box.fbx");
+  ASSERT_TRUE(file.ok()) << file.status();
+  const Affine pivot =
+      translation({0.02918294258415699f, 0.041242070496082306f, 0.2000068873167038f}) *
+      rotation_y_deg(-30.398331095399516) * rotation_x_deg(19.52863768959518) *
+      scaling({0.0017681174642734368f, 0.0015908040794570112f, 0.0015908040167168886f});
+  Expected expected;
+  expected.triangles = 12;
+  for (int i = 0; i < 8; ++i) {
+    expected.add_point(pivot.apply_to_point(
+        {(i & 1) ? 100.0f : -100.0f, (i & 2) ? 100.0f : -100.0f, (i & 4) ? 100.0f : -100.0f}));
+  }
+  expect_matches(*file, expected, 1e-5f);
+  size_t vertices = 0;
+  for (const Mesh& mesh : file->meshes) vertices += mesh.positions.size();
+  EXPECT_EQ(vertices, 24u);
+}
+
+// A scene JSON's "mesh" shape reads the same files, with the file's materials or an override.
+TEST(ThirdPartyInJsonScene, AssimpFilesAsMeshShapes) {
+  const std::string json = R"({
+    "camera": {"position": [0, 0, 500], "look_at": [0, 0, 0], "fov": 40, "width": 64,
+               "height": 64},
+    "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+    "lights": [{"type": "point", "position": [0, 300, 300], "intensity": [1e5, 1e5, 1e5]}],
+    "shapes": [
+      {"type": "mesh", "file": "collada/cube_tristrips.dae"},
+      {"type": "mesh", "file": "stl/triangle.stl", "material": "grey",
+       "transform": {"translate": [0, 0, 100]}}
+    ]})";
+  const absl::StatusOr<Scene> scene =
+      parse_scene(json, scene_data("thirdparty"), "thirdparty.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->triangle_count(), 12u + 1u);
+  // The COLLADA material, named after its file; the STL triangle moved and overridden.
+  bool found = false;
+  for (const Material& m : scene->materials) {
+    if (m.name.rfind("cube_tristrips.dae:", 0) == 0) {
+      found = true;
+      EXPECT_THAT(m.color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
+    }
+  }
+  EXPECT_TRUE(found);
+  const Mesh& triangle = scene->meshes.back();
+  EXPECT_EQ(triangle.material_ids, (std::vector<uint32_t>{0}));
+  EXPECT_EQ(triangle.positions[0].z, 100);
+}
+
+TEST(AssimpErrors, GarbageIsWrappedWithTheFileName) {
+  const absl::Status status = load_mesh_file(scene_data("bad/garbage.fbx")).status();
+  ASSERT_FALSE(status.ok());
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(message_of(status), HasSubstr("garbage.fbx: Assimp could not read it: "));
+}
+
+TEST(AssimpErrors, TruncatedBinaryStl) {
+  const absl::Status status = load_mesh_file(scene_data("bad/truncated.stl")).status();
+  ASSERT_FALSE(status.ok());
+  EXPECT_THAT(message_of(status), HasSubstr("truncated.stl: Assimp could not read it: "));
+}
+
+TEST(AssimpErrors, MissingFileIsNotFound) {
+  const absl::Status status = load_mesh_file(scene_data("bad/nope.fbx")).status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(message_of(status), HasSubstr("nope.fbx: file not found"));
+}
+
+TEST(AssimpErrors, ExtensionsReadThroughAssimp) {
+  for (const char* extension : {".fbx", ".FBX", ".dae", ".stl", ".3mf", ".off", ".3ds"}) {
+    EXPECT_TRUE(assimp_reads_extension(extension)) << extension;
+  }
+  EXPECT_FALSE(assimp_reads_extension(".notamesh"));
+  EXPECT_TRUE(is_mesh_file_name("a/b/model.STL"));
+  EXPECT_TRUE(is_mesh_file_name("scan.ply.gz"));
+  EXPECT_FALSE(is_mesh_file_name("scene.json"));
+}
+
+}  // namespace
+}  // namespace caustica
