@@ -202,14 +202,15 @@ struct PhotonPathInputs {
   float inv_count;
   uint32_t seed, pass, max_bounces;
   PhotonStores stores;
-  float spacing;  // differential_spacing of the photon count
-  float photons;  // the photon count
+  float spacing;        // differential_spacing of the photon count
+  float photons;        // the photon count
+  uint32_t first_path;  // added to a path's index for its samples (PhotonTraceSettings)
 
   // Path `path`'s emission: its light, chosen by power, and its first ray.
   template <bool kDifferentials>
   CAUSTICA_HDI void start(PhotonPathState<kDifferentials>& p, uint32_t path) const {
     p.path = path;
-    p.s = Sampler(seed, path, pass);
+    p.s = Sampler(seed, first_path + path, pass);
     uint32_t li =
         ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, p.s.next_float());
     const DeviceLight& light = scene.lights[li];
@@ -482,7 +483,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
 
   const Vec3f center = resident.bounds().center();
   const float radius = resident.radius();
-  const float inv_count = 1.0f / float(count);
+  const uint32_t total = settings.total_paths != 0 ? settings.total_paths : count;
+  const float inv_count = 1.0f / float(total);
   const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
 
   // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
@@ -526,10 +528,17 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
                               footprints ? overflow_footprints.data() : nullptr,
                               footprints && media ? slot_volume_footprints.data() : nullptr,
                               footprints && media ? overflow_volume_footprints.data() : nullptr};
-    const PhotonPathInputs in{scene,       center, radius,
-                              inv_count,   seed,   pass,
-                              max_bounces, stores, differential_spacing(float(count)),
-                              float(count)};
+    const PhotonPathInputs in{scene,
+                              center,
+                              radius,
+                              inv_count,
+                              seed,
+                              pass,
+                              max_bounces,
+                              stores,
+                              differential_spacing(float(total)),
+                              float(total),
+                              settings.first_path};
     // The differentials' two instantiations: a path state without them keeps the common trace's
     // registers, which its occupancy depends on.
     const auto trace = [&](auto with_differentials) {
@@ -588,6 +597,8 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   };
   const Compaction caustic = compact(caustic_flags, caustic_overflow, out.caustic);
   const Compaction global = compact(global_flags, global_overflow, out.global);
+  out.caustic_from_slots = caustic.slotted;
+  out.global_from_slots = global.slotted;
   if (footprints) {
     caustic.gather(backend, "photon_compact_footprints", slot_footprints, overflow_footprints,
                    out.caustic_footprints);
@@ -596,6 +607,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   }
   if (media) {
     const Compaction volume = compact(volume_flags, volume_overflow, out.volume);
+    out.volume_from_slots = volume.slotted;
     if (footprints) {
       volume.gather(backend, "photon_compact_footprints", slot_volume_footprints,
                     overflow_volume_footprints, out.volume_footprints);

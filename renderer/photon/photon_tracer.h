@@ -6,6 +6,8 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
+#include <vector>
 
 #include "renderer/photon/photon.h"
 #include "renderer/resident/resident_scene.h"
@@ -17,6 +19,12 @@ struct PhotonTraceSettings {
   uint32_t max_bounces = 64;  // surface interactions per path, a cap behind Russian roulette
   uint32_t seed = 1;
   uint32_t pass = 0;
+  // A share of a pass split over devices: paths [first_path, first_path + photon_count) of
+  // `total_paths` (0: photon_count, the whole pass). Each path's samples follow from its index in
+  // the whole pass and its power from the whole count, so the shares' photons, concatenated in
+  // order, are the whole pass's.
+  uint32_t first_path = 0;
+  uint32_t total_paths = 0;
   // Trace the paths in waves of batched closest hits even where the structure answers single
   // rays; structures that answer batches only always do. The photons are the same either way.
   bool ray_queues = false;
@@ -37,7 +45,27 @@ struct TracedPhotons {
   // collisions' density there.
   Buffer<float> volume_footprints;
   uint32_t emitted = 0;
+  // Each kind's photons come in two runs: those from the paths' first stores, in path order, then
+  // the later stores of the few long paths, in path and bounce order. These are the first runs'
+  // lengths, which merge_photon_shares needs.
+  size_t caustic_from_slots = 0, global_from_slots = 0, volume_from_slots = 0;
 };
+
+// One kind's photons (or footprints) of a pass traced in shares, `shares` in path order with
+// `from_slots` their first runs' lengths, in the order one trace of the whole pass keeps them:
+// every share's first run, then every share's later stores.
+template <typename T>
+std::vector<T> merge_photon_shares(std::span<const std::vector<T>> shares,
+                                   std::span<const size_t> from_slots) {
+  std::vector<T> out;
+  for (size_t i = 0; i < shares.size(); ++i) {
+    out.insert(out.end(), shares[i].begin(), shares[i].begin() + from_slots[i]);
+  }
+  for (size_t i = 0; i < shares.size(); ++i) {
+    out.insert(out.end(), shares[i].begin() + from_slots[i], shares[i].end());
+  }
+  return out;
+}
 
 TracedPhotons trace_photons(Backend& backend, const ResidentScene& scene,
                             const PhotonTraceSettings& settings);

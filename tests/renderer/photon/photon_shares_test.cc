@@ -1,0 +1,90 @@
+// A pass's photons traced in shares (paths [first, first + count) of the whole, as devices of a
+// multi-device frame trace them) are the whole pass's photons: merged by merge_photon_shares, the
+// same photons in the same order, bit for bit, with and without differentials and media.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "renderer/photon/photon_tracer.h"
+#include "renderer/resident/resident_scene.h"
+#include "renderer/scene/load_scene.h"
+
+namespace caustica {
+namespace {
+
+// One kind of the shares' photons (or footprints), merged as a multi-device pass merges them.
+template <typename T>
+std::vector<T> merged(const std::vector<TracedPhotons>& shares, Buffer<T> TracedPhotons::*part,
+                      size_t TracedPhotons::*from_slots) {
+  std::vector<std::vector<T>> values;
+  std::vector<size_t> firsts;
+  for (const TracedPhotons& share : shares) {
+    values.push_back((share.*part).download());
+    firsts.push_back(share.*from_slots);
+  }
+  return merge_photon_shares<T>(values, firsts);
+}
+
+template <typename T>
+void expect_same_bytes(const std::vector<T>& a, const std::vector<T>& b, const char* what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(T))) << what;
+}
+
+void expect_shares_make_the_whole(const std::string& scene_name, bool differentials,
+                                  const std::vector<uint32_t>& cuts) {
+  SCOPED_TRACE(scene_name + (differentials ? " with differentials" : ""));
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + scene_name + "/scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, *scene);
+  const uint32_t total = cuts.back();
+  PhotonTraceSettings whole_settings{total, 16, 7, 2};
+  whole_settings.differentials = differentials;
+  const TracedPhotons whole = trace_photons(*backend, resident, whole_settings);
+  ASSERT_GT(whole.caustic.size() + whole.global.size() + whole.volume.size(), 100u);
+
+  std::vector<TracedPhotons> shares;
+  uint32_t emitted = 0;
+  for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+    PhotonTraceSettings share = whole_settings;
+    share.first_path = cuts[i];
+    share.photon_count = cuts[i + 1] - cuts[i];
+    share.total_paths = total;
+    shares.push_back(trace_photons(*backend, resident, share));
+    emitted += shares.back().emitted;
+  }
+  EXPECT_EQ(emitted, whole.emitted);
+  expect_same_bytes(merged(shares, &TracedPhotons::caustic, &TracedPhotons::caustic_from_slots),
+                    whole.caustic.download(), "caustic");
+  expect_same_bytes(merged(shares, &TracedPhotons::global, &TracedPhotons::global_from_slots),
+                    whole.global.download(), "global");
+  expect_same_bytes(merged(shares, &TracedPhotons::volume, &TracedPhotons::volume_from_slots),
+                    whole.volume.download(), "volume");
+  if (differentials) {
+    expect_same_bytes(
+        merged(shares, &TracedPhotons::caustic_footprints, &TracedPhotons::caustic_from_slots),
+        whole.caustic_footprints.download(), "caustic footprints");
+    expect_same_bytes(
+        merged(shares, &TracedPhotons::global_footprints, &TracedPhotons::global_from_slots),
+        whole.global_footprints.download(), "global footprints");
+  }
+}
+
+TEST(PhotonShares, TwoEqualSharesAreTheWholePass) {
+  expect_shares_make_the_whole("cornell-caustics", false, {0, 10000, 20000});
+}
+
+TEST(PhotonShares, UnequalSharesWithDifferentials) {
+  expect_shares_make_the_whole("cornell-caustics", true, {0, 1, 7001, 12000});
+}
+
+TEST(PhotonShares, MediaKeepTheirCollisionsInOrder) {
+  expect_shares_make_the_whole("fog-caustics", false, {0, 4000, 9000, 15000});
+}
+
+}  // namespace
+}  // namespace caustica
