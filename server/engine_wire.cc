@@ -55,11 +55,7 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   info->set_area_lights(static_cast<uint32_t>(emissive_triangles));
 }
 
-void describe_state(const Engine& engine, v1::SceneInfo* info) {
-  const Scene& scene = engine.scene();
-  const SceneStats stats = engine.scene_stats();
-  info->set_triangles(stats.triangles);
-  info->set_lights(static_cast<uint32_t>(scene.lights.size()));
+void describe_lights(const Scene& scene, v1::SceneInfo* info) {
   info->clear_light_list();
   for (const Light& light : scene.lights) *info->add_light_list() = wire::encode_light(light);
   info->clear_emitters();
@@ -67,6 +63,13 @@ void describe_state(const Engine& engine, v1::SceneInfo* info) {
     if (material.type == MaterialType::kEmissive)
       *info->add_emitters() = wire::encode_emitter(material);
   }
+}
+
+void describe_state(const Engine& engine, v1::SceneInfo* info) {
+  const Scene& scene = engine.scene();
+  const SceneStats stats = engine.scene_stats();
+  info->set_triangles(stats.triangles);
+  info->set_lights(static_cast<uint32_t>(scene.lights.size()));
   *info->mutable_camera() = wire::encode_camera(scene.camera);
   *info->mutable_settings() = wire::encode_settings(scene.settings);
   *info->mutable_epochs() = encode_epochs(engine.epochs());

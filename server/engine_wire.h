@@ -20,5 +20,7 @@ v1::RebuildReport encode_rebuild(const RebuildReport& report);
 void describe_geometry(const Scene& scene, v1::SceneInfo* info);
 // The fields that change with updates and passes, from the engine (call under the device lease).
 void describe_state(const Engine& engine, v1::SceneInfo* info);
+// The lights and the emissive materials' emission, which change only with updates.
+void describe_lights(const Scene& scene, v1::SceneInfo* info);
 
 }  // namespace caustica::server

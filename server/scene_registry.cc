@@ -26,7 +26,11 @@ void SceneEntry::refresh(const v1::RebuildReport* last_rebuild) {
   if (!engine) return;
   v1::SceneInfo info = this->info();
   describe_state(*engine, &info);
-  if (last_rebuild != nullptr) *info.mutable_last_rebuild() = *last_rebuild;
+  // Lights change only with an update (which reports a rebuild), not with every pass.
+  if (last_rebuild != nullptr) {
+    describe_lights(engine->scene(), &info);
+    *info.mutable_last_rebuild() = *last_rebuild;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   info_ = std::move(info);
 }

@@ -11,7 +11,7 @@
 
 namespace {
 
-using ::caustica::testing::ClientRun;
+using ::caustica::testing::CommandRun;
 using ::caustica::testing::run_client;
 using ::testing::HasSubstr;
 
@@ -19,7 +19,7 @@ TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
   for (const char* args :
        {"scene upload scene.json --structure kd-tree", "render s-1 -o out.png --structure kd-tree",
         "stream s-1 -o out --structure kd-tree"}) {
-    const ClientRun run = run_client(args);
+    const CommandRun run = run_client(args);
     EXPECT_NE(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("--structure"));
     EXPECT_THAT(run.output, HasSubstr("unknown structure 'kd-tree' (expected " +
@@ -32,17 +32,17 @@ TEST(ClientOptions, UnknownIntegratorIsRefusedNamingBoth) {
   for (const char* args : {"render s-1 -o out.png --integrator bdpt",
                            "animate s-1 --script s.json -o out "
                            "--integrator bdpt"}) {
-    const ClientRun run = run_client(args);
+    const CommandRun run = run_client(args);
     EXPECT_NE(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("unknown integrator 'bdpt' (expected photon or path)"))
         << args;
   }
-  const ClientRun help = run_client("render --help");
+  const CommandRun help = run_client("render --help");
   EXPECT_THAT(help.output, HasSubstr("--integrator"));
 }
 
 TEST(ClientOptions, UnknownEstimatorIsRefusedNamingEvery) {
-  const ClientRun run = run_client("render s-1 -o out.png --estimator ppm");
+  const CommandRun run = run_client("render s-1 -o out.png --estimator ppm");
   EXPECT_NE(run.exit_code, 0);
   EXPECT_THAT(run.output, HasSubstr("unknown estimator 'ppm' (expected knn, sppm or vkde)"));
   EXPECT_THAT(run_client("stream --help").output, HasSubstr("--estimator"));
@@ -50,7 +50,7 @@ TEST(ClientOptions, UnknownEstimatorIsRefusedNamingEvery) {
 
 TEST(ClientOptions, HelpListsTheStructures) {
   for (const char* args : {"scene upload --help", "render --help"}) {
-    const ClientRun run = run_client(args);
+    const CommandRun run = run_client(args);
     EXPECT_EQ(run.exit_code, 0) << args;
     EXPECT_THAT(run.output, HasSubstr("--structure"));
     EXPECT_THAT(run.output, HasSubstr(caustica::structure_kind_list())) << args;
@@ -62,7 +62,7 @@ TEST(ClientOptions, HelpListsTheStructures) {
 namespace {
 
 TEST(ClientOptions, HelpListsTheTokenAndTlsFlags) {
-  const ClientRun run = run_client("--help");
+  const CommandRun run = run_client("--help");
   EXPECT_EQ(run.exit_code, 0);
   for (const char* flag : {"--token", "CAUSTICA_TOKEN", "--tls-ca", "--tls-cert", "--tls-key"}) {
     EXPECT_THAT(run.output, HasSubstr(flag));
@@ -70,21 +70,21 @@ TEST(ClientOptions, HelpListsTheTokenAndTlsFlags) {
 }
 
 TEST(ClientOptions, TlsFilesMustExistAndComeInPairs) {
-  const ClientRun missing = run_client("--tls-ca /nonexistent/ca.pem scene list");
+  const CommandRun missing = run_client("--tls-ca /nonexistent/ca.pem scene list");
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_THAT(missing.output, HasSubstr("--tls-ca"));
   EXPECT_THAT(missing.output, HasSubstr("/nonexistent/ca.pem"));
   // Any existing file passes the parser's check; the pairing is refused before connecting.
-  const ClientRun cert_alone = run_client("--tls-cert /dev/null scene list");
+  const CommandRun cert_alone = run_client("--tls-cert /dev/null scene list");
   EXPECT_NE(cert_alone.exit_code, 0);
   EXPECT_THAT(cert_alone.output, HasSubstr("--tls-key"));
-  const ClientRun key_alone = run_client("scene list --tls-key /dev/null");
+  const CommandRun key_alone = run_client("scene list --tls-key /dev/null");
   EXPECT_NE(key_alone.exit_code, 0);
   EXPECT_THAT(key_alone.output, HasSubstr("--tls-cert"));
 }
 
 TEST(ClientOptions, VersionNamesTheReleaseAndTheApi) {
-  const ClientRun run = run_client("--version");
+  const CommandRun run = run_client("--version");
   EXPECT_EQ(run.exit_code, 0);
   EXPECT_THAT(run.output, ::testing::MatchesRegex("caustica [0-9]+\\.[0-9]+\\.[0-9]+ \\(API "
                                                   "v1-[0-9a-f]{8}\\)\n"));

@@ -173,7 +173,7 @@ class FakeTev {
   std::string received_;
 };
 
-using ::caustica::testing::ClientRun;
+using ::caustica::testing::CommandRun;
 using ::caustica::testing::run_client;
 
 // RGB floats of a PFM the CLI wrote, top row first, with alpha 1 added.
@@ -200,7 +200,7 @@ TEST(TevClient, StreamShowsEveryFrameInTev) {
   FakeTev tev;
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("caustica-tev-" + std::to_string(::getpid()));
-  const ClientRun run = run_client(
+  const CommandRun run = run_client(
       std::string("stream '") + CAUSTICA_SCENES_DIR + "/cornell-box/scene.json' --width 20 " +
       "--height 12 --photons 500 --passes 3 --every 1 --format pfm -o '" + dir.string() +
       "' --tev 127.0.0.1:" + std::to_string(tev.port()));
@@ -223,17 +223,17 @@ TEST(TevClient, NoViewerIsAnErrorBeforeAnyUpload) {
     FakeTev closed;  // a port nothing listens on once it is gone
     port = closed.port();
   }
-  const ClientRun run =
+  const CommandRun run =
       run_client(std::string("stream '") + CAUSTICA_SCENES_DIR +
                  "/cornell-box/scene.json' --tev 127.0.0.1:" + std::to_string(port));
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("cannot connect to tev at 127.0.0.1:" + std::to_string(port)),
             std::string::npos)
       << run.output;
-  const ClientRun png = run_client("stream s-1 -o out --format png --tev 127.0.0.1:1");
+  const CommandRun png = run_client("stream s-1 -o out --format png --tev 127.0.0.1:1");
   EXPECT_NE(png.exit_code, 0);
   EXPECT_NE(png.output.find("--format exr or pfm"), std::string::npos) << png.output;
-  const ClientRun neither = run_client("stream s-1");
+  const CommandRun neither = run_client("stream s-1");
   EXPECT_NE(neither.exit_code, 0);
   EXPECT_NE(neither.output.find("give -o DIR, --tev HOST:PORT or both"), std::string::npos)
       << neither.output;

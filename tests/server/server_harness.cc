@@ -361,17 +361,6 @@ v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string
   return report;
 }
 
-CommandRun run_command(const std::string& command) {
-  CommandRun run;
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[4096];
-  for (size_t n; (n = fread(buffer, 1, sizeof(buffer), pipe)) > 0;) run.output.append(buffer, n);
-  const int status = pclose(pipe);
-  if (WIFEXITED(status)) run.exit_code = WEXITSTATUS(status);
-  return run;
-}
-
 v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_id) {
   grpc::ClientContext context;
   set_deadline(context);

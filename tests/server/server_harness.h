@@ -16,6 +16,7 @@
 
 #include "caustica/v1/render_service.grpc.pb.h"
 #include "renderer/scene/scene.h"
+#include "tests/client/client_run.h"
 
 namespace caustica::testing {
 
@@ -127,12 +128,7 @@ std::vector<v1::SceneInfo> list_scenes(v1::RenderService::Stub& stub);
 v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string& scene_id,
                                 float intensity);
 
-// A shell command's exit code (-1 when it did not exit) and its stdout and stderr together.
-struct CommandRun {
-  int exit_code = -1;
-  std::string output;
-};
-CommandRun run_command(const std::string& command);
+// run_command and CommandRun: tests/client/client_run.h.
 
 // grpc.health.v1.Health/Check of the whole server.
 bool health_serving(const std::shared_ptr<grpc::Channel>& channel);
