@@ -13,6 +13,7 @@
 #include "absl/strings/str_join.h"
 #include "bench/convergence.h"
 #include "bench/measure.h"
+#include "bench/multi_device.h"
 #include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/dacrt.h"
@@ -585,6 +586,7 @@ std::vector<std::string> benchmark_names() {
                                     "incoherent_rays", "photon_pass",  "frame",
                                     "photon_gather",   "path_pass",    "convergence"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
+  for (std::string& name : multi_device_benchmark_names()) names.push_back(std::move(name));
   return names;
 }
 
@@ -615,6 +617,13 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   }
   if (any_of(serving_benchmark_names())) {
     if (absl::Status s = run_serving_benchmarks(o, report); !s.ok()) return s;
+  }
+  // Whole animations on several engines: run only when named.
+  if (std::any_of(o.only.begin(), o.only.end(), [](const std::string& n) {
+        const std::vector<std::string> names = multi_device_benchmark_names();
+        return std::find(names.begin(), names.end(), n) != names.end();
+      })) {
+    if (absl::Status s = multi_device_benchmarks(o, report); !s.ok()) return s;
   }
   // Thousands of passes: run only when named.
   if (std::find(o.only.begin(), o.only.end(), "convergence") != o.only.end()) {

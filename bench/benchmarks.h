@@ -46,6 +46,10 @@ struct BenchOptions {
   uint32_t convergence_passes = 256;
   // convergence: the runs measured, by name (convergence_run_names()); empty = every one.
   std::vector<std::string> convergence_runs;
+  // frame_devices, animation_devices: the devices (GPU ordinals; on the CPU, as many CPU backends
+  // as are listed) the multi-device engine runs on. Empty: every GPU, or two backends on the only
+  // one.
+  std::vector<int> devices;
 };
 
 // --final-gather-rays and --final-gather-seeds, where given, over the scene's settings.

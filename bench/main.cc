@@ -59,6 +59,13 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device,
                  "backend to measure; the serving benchmarks pass it to the server they start")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  app.add_option(
+         "--devices", options.devices,
+         "frame_devices, animation_devices: the GPUs (ordinals, repeats allowed: 0,0 is two "
+         "backends on GPU 0) or, with --device cpu, one CPU backend per "
+         "entry; default every GPU, or 0,0 where there is one")
+      ->delimiter(',')
+      ->check(CLI::Range(0, 63));
   std::vector<std::string> structures;
   app.add_option("--structure", structures,
                  "triangle structures to measure, each in turn: all, or any of " +

@@ -96,6 +96,10 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
                          mib_text(s.structure_bytes()), mib_text(s.photon_map_bytes()),
                          mib_text(s.device_bytes()));
   out << absl::StrFormat("upload       %s in %.1f ms\n", mib_text(s.upload_bytes()), s.upload_ms());
+  // Where the scene lives, once the server has more than the one device 0.
+  if (s.devices_size() > 1 || (s.devices_size() == 1 && s.devices(0) != 0)) {
+    out << absl::StrFormat("devices      %s\n", absl::StrJoin(s.devices(), ","));
+  }
   out << absl::StrFormat("film         %d passes\n", s.passes());
   out << absl::StrFormat("epochs       %s\n", epochs_text(s.epochs()));
   if (s.has_last_rebuild()) {
@@ -130,6 +134,17 @@ void print_stats(std::ostream& out, const v1::Stats& s) {
   out << absl::StrFormat("memory       %s used of %s budget, peak %s\n",
                          mib_text(s.memory_used_bytes()), mib_text(s.memory_budget_bytes()),
                          mib_text(s.memory_peak_bytes()));
+  // A server on several devices: each one's share (a one-device server's is the line above).
+  if (s.devices_size() > 1) {
+    for (const v1::DeviceStats& each : s.devices()) {
+      out << absl::StrFormat(
+          "device %-5d %s %d: %s, %d compute units; %s used of %s, peak %s; %d scenes, %d "
+          "waiting\n",
+          each.index(), each.kind(), each.ordinal(), each.name(), each.compute_units(),
+          mib_text(each.memory_used_bytes()), mib_text(each.memory_budget_bytes()),
+          mib_text(each.memory_peak_bytes()), each.scenes(), each.queue_waiting());
+    }
+  }
   out << absl::StrFormat("scenes       %d of at most %d\n", s.scenes(), s.max_scenes());
   if (!s.latencies().empty()) {
     out << absl::StrFormat("latency (ms) %-24s %7s %9s %9s %9s %9s\n", "stage", "count", "p50",
@@ -143,6 +158,13 @@ void print_stats(std::ostream& out, const v1::Stats& s) {
   print_scene_table(out, s.scene_stats());
   for (const v1::SceneInfo& scene : s.scene_stats()) {
     out << absl::StrFormat("structure    %s: %s\n", scene.scene_id(), structure_text(scene));
+  }
+  if (s.devices_size() > 1) {
+    for (const v1::SceneInfo& scene : s.scene_stats()) {
+      out << absl::StrFormat("placed       %s: device%s %s\n", scene.scene_id(),
+                             scene.devices_size() == 1 ? "" : "s",
+                             absl::StrJoin(scene.devices(), ","));
+    }
   }
 }
 

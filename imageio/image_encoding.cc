@@ -8,12 +8,15 @@
 #include <jpeglib.h>
 #include <png.h>
 
+#include <algorithm>
 #include <bit>
 #include <csetjmp>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <optional>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -206,6 +209,66 @@ absl::StatusOr<std::string> encode_jpeg(int width, int height, std::span<const u
   std::free(buffer);
   if (!ok) return absl::InternalError(absl::StrCat("JPEG encoding failed: ", error.message));
   return jpeg;
+}
+
+absl::StatusOr<JpegStrips> encode_jpeg_strips(int width, int height, std::span<const uint8_t> rgba8,
+                                              int quality, int strips) {
+  if (strips < 1 || strips > kMaxJpegStrips) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(strips, " JPEG strips is not in [1, ", kMaxJpegStrips, "]"));
+  }
+  if (absl::Status size = check_size(width, height, rgba8.size(), 4); !size.ok()) return size;
+  if (quality < 1 || quality > 100) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("JPEG quality ", quality, " is not in [1, 100]"));
+  }
+  // Whole 16-row blocks (4:2:0 chroma covers 16 rows) dealt out as evenly as they go, the extra
+  // ones to the top strips; the last strip ends at the image's last row.
+  const int blocks = (height + 15) / 16;
+  const int count = std::min(strips, blocks);
+  std::vector<int> first_row(static_cast<size_t>(count) + 1, 0);
+  for (int i = 0; i < count; ++i) {
+    const int strip_blocks = blocks / count + (i < blocks % count ? 1 : 0);
+    first_row[i + 1] = std::min(height, first_row[i] + 16 * strip_blocks);
+  }
+  struct Strip {
+    unsigned char* buffer = nullptr;
+    unsigned long size = 0;
+    JpegError error{};
+    bool ok = false;
+  };
+  std::vector<Strip> results(static_cast<size_t>(count));
+  const size_t stride = static_cast<size_t>(width) * 4;
+  auto encode_strip = [&](int i) {
+    Strip& strip = results[i];
+    strip.ok = jpeg_compress_rgba(width, first_row[i + 1] - first_row[i],
+                                  rgba8.data() + static_cast<size_t>(first_row[i]) * stride,
+                                  quality, &strip.buffer, &strip.size, &strip.error);
+  };
+  {
+    // The first strip is encoded on this thread while the others run on their own.
+    std::vector<std::jthread> threads;
+    threads.reserve(static_cast<size_t>(count) - 1);
+    for (int i = 1; i < count; ++i) threads.emplace_back(encode_strip, i);
+    encode_strip(0);
+  }
+  JpegStrips out;
+  size_t total = 0;
+  for (const Strip& strip : results) total += strip.size;
+  out.data.reserve(total);
+  std::optional<std::string> failure;
+  for (int i = 0; i < count; ++i) {
+    Strip& strip = results[i];
+    if (!strip.ok && !failure) failure = strip.error.message;
+    if (!failure) {
+      out.data.append(reinterpret_cast<const char*>(strip.buffer), strip.size);
+      out.strip_bytes.push_back(static_cast<uint32_t>(strip.size));
+      out.strip_rows.push_back(static_cast<uint32_t>(first_row[i + 1] - first_row[i]));
+    }
+    std::free(strip.buffer);
+  }
+  if (failure) return absl::InternalError(absl::StrCat("JPEG encoding failed: ", *failure));
+  return out;
 }
 
 absl::StatusOr<std::string> encode_exr(int width, int height, std::span<const float> rgba,

@@ -1,8 +1,11 @@
 #include "renderer/engine.h"
 
+#include <algorithm>
 #include <chrono>
+#include <exception>
 #include <optional>
 #include <stdexcept>
+#include <thread>
 #include <tuple>
 
 #include "absl/status/status.h"
@@ -10,6 +13,7 @@
 #include "absl/strings/str_format.h"
 #include "renderer/estimator/estimator.h"
 #include "renderer/photon/photon_map.h"
+#include "renderer/photon/photon_shares.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/path_tracer.h"
@@ -106,54 +110,165 @@ bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
          a.final_gather_seeds == b.final_gather_seeds;
 }
 
-struct Engine::State {
+// Rows per band when an image is dealt to several devices (RowBands): a multiple of the 8 x 4
+// pixel blocks the camera rays go in, and small enough that a bright region spans every device.
+constexpr int kBandRows = 32;
+
+// One device's part of the engine: its copy of the scene and its structure, its estimator (the
+// maps and what lives across passes) and the film of its bands of rows.
+struct DeviceSlice {
   std::shared_ptr<Backend> backend;
-  Scene scene;
+  RowBands bands;
   std::optional<ResidentScene> resident;
-  std::optional<Film> film;
-  // Owns the photon maps (those traced ahead by a light change serve the pass they were traced
-  // for) and whatever lives across passes.
+  std::optional<Film> film;  // none where the image has no rows for this device
   std::unique_ptr<Estimator> estimator;
+
+  void make_film(int width, int image_height) {
+    film.reset();
+    const int rows = bands.film_rows(image_height);
+    if (rows > 0) film.emplace(*backend, width, rows);
+  }
+  void clear() {
+    estimator.reset();
+    resident.reset();
+    film.reset();
+  }
+};
+
+struct Engine::State {
+  std::vector<DeviceSlice> slices;  // the first one answers for the engine where one must
+  Scene scene;
   Epochs epochs;
   double last_build_ms = 0;
   size_t last_photon_map_bytes = 0;
   uint32_t photons_per_leaf = 0;  // 0: the estimator's own choice
+  // The whole image from several devices' films, kept between frames.
+  std::vector<float> image_linear;
+  std::vector<Rgba8> image_srgb8;
 
-  // Traces the photons of pass `pass` and has the estimator build its maps from them, adding the
-  // cost to `timings`.
+  DeviceSlice& first() { return slices.front(); }
+  const DeviceSlice& first() const { return slices.front(); }
+  bool loaded() const { return first().resident.has_value(); }
+
+  // Runs `work(slice, index)` for every device at once, a thread each beyond the caller's, with
+  // that device current; rethrows the first device's failure once all are done.
+  template <typename Work>
+  void on_every_device(Work&& work) {
+    if (slices.size() == 1) {
+      slices[0].backend->make_current();
+      work(slices[0], size_t(0));
+      return;
+    }
+    std::vector<std::exception_ptr> failures(slices.size());
+    auto run = [&](size_t i) {
+      try {
+        slices[i].backend->make_current();
+        work(slices[i], i);
+      } catch (...) {
+        failures[i] = std::current_exception();
+      }
+    };
+    std::vector<std::thread> threads;
+    threads.reserve(slices.size() - 1);
+    for (size_t i = 1; i < slices.size(); ++i) threads.emplace_back(run, i);
+    run(0);
+    for (std::thread& t : threads) t.join();
+    for (const std::exception_ptr& failure : failures) {
+      if (failure) std::rethrow_exception(failure);
+    }
+  }
+
+  void new_estimators(const RenderSettings& settings) {
+    on_every_device([&](DeviceSlice& d, size_t) {
+      d.estimator = make_estimator(*d.backend, estimator_options(settings, photons_per_leaf));
+    });
+  }
+  void drop_maps() {
+    on_every_device([](DeviceSlice& d, size_t) { d.estimator->drop_maps(); });
+  }
+
+  // Traces the photons of pass `pass` and has the estimators build their maps from them, adding
+  // the cost to `timings`. On several devices each traces its share of the paths, and every
+  // device's maps are built from all the shares merged in the whole pass's order.
   void trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
                           uint64_t& caustic_count, uint64_t& global_count) {
     const RenderSettings& rs = scene.settings;
-    auto t0 = std::chrono::steady_clock::now();
+    const size_t devices = slices.size();
     PhotonTraceSettings trace{rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass};
-    trace.differentials = estimator->needs_differentials();
-    TracedPhotons traced = trace_photons(*backend, *resident, trace);
-    backend->synchronize();
+    trace.differentials = first().estimator->needs_differentials();
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<TracedPhotons> shares(devices);
+    on_every_device([&](DeviceSlice& d, size_t i) {
+      PhotonTraceSettings share = trace;
+      share.total_paths = trace.photon_count;
+      share.first_path = uint32_t(uint64_t(trace.photon_count) * i / devices);
+      share.photon_count =
+          uint32_t(uint64_t(trace.photon_count) * (i + 1) / devices) - share.first_path;
+      shares[i] = trace_photons(*d.backend, *d.resident, share);
+      d.backend->synchronize();
+    });
     timings.photon_trace_ms += elapsed_ms(t0);
-    emitted += traced.emitted;
-    caustic_count = traced.caustic.size();
-    global_count = traced.global.size();
 
     auto t1 = std::chrono::steady_clock::now();
-    estimator->prepare(*backend, *resident, traced, pass);
-    backend->synchronize();
+    on_every_device([&](DeviceSlice& d, size_t) {
+      if (devices == 1) {
+        d.estimator->prepare(*d.backend, *d.resident, shares[0], pass);
+      } else {
+        const TracedPhotons merged = merge_traced_photons(*d.backend, shares);
+        d.estimator->prepare(*d.backend, *d.resident, merged, pass);
+      }
+      d.backend->synchronize();
+    });
     timings.photon_map_build_ms += elapsed_ms(t1);
-    last_photon_map_bytes = estimator->map_bytes();
+    for (const TracedPhotons& share : shares) {
+      emitted += share.emitted;
+    }
+    caustic_count = 0;
+    global_count = 0;
+    for (const TracedPhotons& share : shares) {
+      caustic_count += share.caustic.size();
+      global_count += share.global.size();
+    }
+    last_photon_map_bytes = first().estimator->map_bytes();
   }
 
   // The light-change pipeline: photons and maps for the film's next pass, reported; none for
   // the path integrator, which traces no photons.
   void prepare_photons(RebuildReport& report) {
-    estimator->drop_maps();  // frees the old maps before the new ones are allocated
+    drop_maps();  // frees the old maps before the new ones are allocated
     if (scene.settings.integrator != Integrator::kPhoton) return;
-    trace_pass_photons(film->passes(), report.timings, report.photons_emitted,
+    trace_pass_photons(first().film->passes(), report.timings, report.photons_emitted,
                        report.caustic_photons, report.global_photons);
     report.rebuilt.push_back("photon_maps");
+  }
+
+  void clear_films() {
+    on_every_device([](DeviceSlice& d, size_t) {
+      if (d.film) d.film->clear();
+    });
+  }
+
+  // The devices' films resolved and their rows put in image order; one device's film is the
+  // image itself.
+  template <typename Pixel, typename Resolve>
+  std::span<const Pixel> whole_image(std::vector<Pixel>& image, int channels, Resolve&& resolve) {
+    if (slices.size() == 1) return resolve(*first().film);
+    const int width = scene.camera.width;
+    image.resize(size_t(width) * scene.camera.height * channels);
+    on_every_device([&](DeviceSlice& d, size_t) {
+      if (!d.film) return;
+      const std::span<const Pixel> rows = resolve(*d.film);
+      const size_t row_size = size_t(width) * channels;
+      for (int y = 0; y < d.film->height(); ++y) {
+        std::copy_n(rows.data() + size_t(y) * row_size, row_size,
+                    image.data() + size_t(d.bands.image_row(y)) * row_size);
+      }
+    });
+    return image;
   }
 };
 
 Engine::Engine(std::unique_ptr<State> state) : state_(std::move(state)) {}
-Engine::~Engine() = default;
 
 absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name) {
   if (name == "cpu") return DeviceKind::kCpu;
@@ -168,8 +283,17 @@ absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name) {
 
 const char* device_kind_name(DeviceKind kind) { return kind == DeviceKind::kCuda ? "cuda" : "cpu"; }
 
-absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
-                                                      size_t memory_budget_bytes) {
+int device_count(DeviceKind device) {
+  if (device == DeviceKind::kCpu) return 1;
+#if defined(CAUSTICA_WITH_CUDA)
+  return cuda_device_count();
+#else
+  return 0;
+#endif
+}
+
+absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device, size_t memory_budget_bytes,
+                                                      int ordinal) {
   switch (device) {
     case DeviceKind::kCpu:
       return std::shared_ptr<Backend>(make_cpu_backend(memory_budget_bytes));
@@ -182,7 +306,13 @@ absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
   }
   std::shared_ptr<Backend> backend;
   absl::Status status = guarded([&]() -> absl::Status {
-    backend = make_cuda_backend(memory_budget_bytes);
+    const int count = cuda_device_count();
+    if (ordinal >= count) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("no CUDA device ", ordinal, ": this machine has ", count,
+                       count == 1 ? " GPU" : " GPUs", " (0 to ", count - 1, ")"));
+    }
+    backend = make_cuda_backend(memory_budget_bytes, ordinal);
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
@@ -194,35 +324,47 @@ absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
 
 absl::StatusOr<std::unique_ptr<Engine>> Engine::create(const EngineOptions& options) {
   auto state = std::make_unique<State>();
-  if (options.backend) {
-    state->backend = options.backend;
-  } else {
+  std::vector<std::shared_ptr<Backend>> backends = options.backends;
+  if (backends.empty() && options.backend) backends.push_back(options.backend);
+  if (backends.empty()) {
     absl::StatusOr<std::shared_ptr<Backend>> backend =
         make_backend(options.device, options.memory_budget_bytes);
     if (!backend.ok()) return backend.status();
-    state->backend = *std::move(backend);
+    backends.push_back(*std::move(backend));
+  }
+  for (size_t i = 0; i < backends.size(); ++i) {
+    if (!backends[i]) return absl::InvalidArgumentError(absl::StrCat("backend ", i, " is null"));
+    DeviceSlice slice;
+    slice.backend = backends[i];
+    slice.bands = {kBandRows, int(backends.size()), int(i)};
+    state->slices.push_back(std::move(slice));
   }
   state->photons_per_leaf = options.photons_per_leaf;
   return std::unique_ptr<Engine>(new Engine(std::move(state)));
+}
+
+Engine::~Engine() {
+  // Each device's memory goes back on its own device.
+  if (state_) state_->on_every_device([](DeviceSlice& d, size_t) { d.clear(); });
 }
 
 absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   if (absl::Status s = validate_scene(scene); !s.ok()) return s;
   if (absl::Status s = media_support(scene, scene.settings); !s.ok()) return s;
   RebuildReport report;
+  State& st = *state_;
   absl::Status status = guarded([&]() -> absl::Status {
-    State& st = *state_;
-    st.estimator.reset();
-    st.resident.reset();
-    st.film.reset();
+    st.on_every_device([](DeviceSlice& d, size_t) { d.clear(); });
     auto start = std::chrono::steady_clock::now();
-    st.resident.emplace(ResidentScene::upload(*st.backend, scene));
-    st.backend->synchronize();
+    st.on_every_device([&](DeviceSlice& d, size_t) {
+      d.resident.emplace(ResidentScene::upload(*d.backend, scene));
+      d.backend->synchronize();
+    });
     st.last_build_ms = elapsed_ms(start);
     st.scene = scene;
-    st.film.emplace(*st.backend, scene.camera.width, scene.camera.height);
-    st.estimator =
-        make_estimator(*st.backend, estimator_options(scene.settings, st.photons_per_leaf));
+    st.on_every_device(
+        [&](DeviceSlice& d, size_t) { d.make_film(scene.camera.width, scene.camera.height); });
+    st.new_estimators(scene.settings);
     ++st.epochs.geometry;
     ++st.epochs.lights;
     ++st.epochs.camera;
@@ -233,34 +375,33 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
   });
   if (!status.ok()) {
     // Nothing half-built stays behind: a failed load leaves an engine without a scene.
-    state_->estimator.reset();
-    state_->resident.reset();
-    state_->film.reset();
+    st.on_every_device([](DeviceSlice& d, size_t) { d.clear(); });
     return status;
   }
-  report.epochs = state_->epochs;
+  report.epochs = st.epochs;
   return report;
 }
 
 absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights,
                                                  const std::vector<EmitterChange>& emitters) {
   State& st = *state_;
-  if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_lights(lights, st.resident->view().area_light_count); !s.ok())
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
+  if (absl::Status s = validate_lights(lights, st.first().resident->view().area_light_count);
+      !s.ok())
     return s;
   absl::StatusOr<std::vector<Material>> materials =
       apply_emitter_changes(st.scene.materials, emitters);
   if (!materials.ok()) return materials.status();
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    st.estimator->drop_maps();
-    if (!emitters.empty()) {
-      st.resident->set_emission(*materials);
-      st.scene.materials = *std::move(materials);
-    }
-    st.resident->set_lights(lights);
+    st.drop_maps();
+    st.on_every_device([&](DeviceSlice& d, size_t) {
+      if (!emitters.empty()) d.resident->set_emission(*materials);
+      d.resident->set_lights(lights);
+      if (d.film) d.film->clear();
+    });
+    if (!emitters.empty()) st.scene.materials = *std::move(materials);
     st.scene.lights = lights;
-    st.film->clear();
     ++st.epochs.lights;
     report.rebuilt = {"lights", "film"};
     st.prepare_photons(report);
@@ -273,15 +414,17 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
 
 absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   State& st = *state_;
-  if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
   if (absl::Status s = validate_camera(camera); !s.ok()) return s;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
-      st.film.reset();
-      st.film.emplace(*st.backend, camera.width, camera.height);
+      st.on_every_device([&](DeviceSlice& d, size_t) {
+        d.film.reset();
+        d.make_film(camera.width, camera.height);
+      });
     } else {
-      st.film->clear();
+      st.clear_films();
     }
     st.scene.camera = camera;
     ++st.epochs.camera;
@@ -296,7 +439,7 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
 absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& settings,
                                                    const ImageSize& size) {
   State& st = *state_;
-  if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
   // Everything is checked before anything changes, so a refused change changes nothing.
   Camera camera = st.scene.camera;
   for (auto [field, value, side] : {std::tuple{"width", size.width, &camera.width},
@@ -321,29 +464,35 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
       camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    // The new film first: when it does not fit, nothing has changed yet.
-    std::optional<Film> film;
-    if (resize) film.emplace(*st.backend, camera.width, camera.height);
+    // The new films first: when one does not fit, nothing has changed yet.
+    std::vector<std::optional<Film>> films(st.slices.size());
+    if (resize) {
+      st.on_every_device([&](DeviceSlice& d, size_t i) {
+        const int rows = d.bands.film_rows(camera.height);
+        if (rows > 0) films[i].emplace(*d.backend, camera.width, rows);
+      });
+    }
     if (structure_change) {
       // The photons traced ahead went through the old structure: they are traced again through
       // the new one, as after any geometry change.
-      st.estimator->drop_maps();
+      st.drop_maps();
       auto start = std::chrono::steady_clock::now();
-      st.resident->rebuild_structure(settings.structure);
-      st.backend->synchronize();
+      st.on_every_device([&](DeviceSlice& d, size_t) {
+        d.resident->rebuild_structure(settings.structure);
+        d.backend->synchronize();
+      });
       st.last_build_ms = elapsed_ms(start);
       report.timings.structure_build_ms = st.last_build_ms;
       ++st.epochs.geometry;
     }
-    if (estimator_change)
-      st.estimator = make_estimator(*st.backend, estimator_options(settings, st.photons_per_leaf));
+    if (estimator_change) st.new_estimators(settings);
     st.scene.settings = settings;
     if (resize) {
-      st.film = std::move(film);
+      for (size_t i = 0; i < st.slices.size(); ++i) st.slices[i].film = std::move(films[i]);
       st.scene.camera = camera;
       ++st.epochs.camera;
     } else {
-      st.film->clear();
+      st.clear_films();
     }
     ++st.epochs.settings;
     report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
@@ -362,37 +511,44 @@ ShadingSettings Engine::shading(uint32_t pass) const {
   // The gather radius cap: the setting, or 5% of the scene's diagonal when it is 0.
   float max_radius = rs.max_radius;
   if (max_radius <= 0)
-    max_radius = st.resident ? 0.05f * length(st.resident->bounds().extent()) : 0.0f;
+    max_radius = st.loaded() ? 0.05f * length(st.first().resident->bounds().extent()) : 0.0f;
   return {rs.k_nearest, max_radius, rs.kernel, rs.max_depth, rs.area_light_samples, rs.seed, pass};
 }
 
 absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progress) {
   State& st = *state_;
-  if (!st.resident) return absl::FailedPreconditionError("no scene loaded");
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
   PassReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     const PinholeCamera camera = PinholeCamera::from(st.scene.camera);
-    Backend& backend = *st.backend;
     for (uint32_t i = 0; i < passes; ++i) {
-      const uint32_t pass = st.film->passes();
+      const uint32_t pass = st.first().film->passes();
       const bool path = st.scene.settings.integrator == Integrator::kPath;
       // Photons traced ahead by a light change serve the pass they were traced for; the path
       // integrator takes none.
       if (path) {
         st.last_photon_map_bytes = 0;
-        st.estimator->drop_maps();
-      } else if (!st.estimator->prepared_for(pass)) {
+        st.drop_maps();
+      } else if (!st.first().estimator->prepared_for(pass)) {
         st.trace_pass_photons(pass, report.timings, report.photons_emitted, report.caustic_photons,
                               report.global_photons);
       }
 
       auto t0 = std::chrono::steady_clock::now();
-      if (path) {
-        render_path_pass(backend, *st.resident, camera, {st.scene.settings.seed, pass}, *st.film);
-      } else {
-        st.estimator->render(backend, *st.resident, camera, shading(pass), *st.film);
-      }
-      backend.synchronize();
+      const ShadingSettings shading_settings = shading(pass);
+      st.on_every_device([&](DeviceSlice& d, size_t) {
+        if (!d.film) {
+          d.estimator->drop_maps();  // no rows here: the maps serve no pixel
+          return;
+        }
+        const PinholeCamera rows = camera.with_bands(d.bands);
+        if (path) {
+          render_path_pass(*d.backend, *d.resident, rows, {st.scene.settings.seed, pass}, *d.film);
+        } else {
+          d.estimator->render(*d.backend, *d.resident, rows, shading_settings, *d.film);
+        }
+        d.backend->synchronize();
+      });
       report.timings.render_ms += elapsed_ms(t0);
       ++report.passes_rendered;
       if (progress) progress(i + 1, passes);
@@ -400,35 +556,55 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
-  report.total_passes = st.film->passes();
+  report.total_passes = st.first().film->passes();
   return report;
 }
 
-std::span<const float> Engine::image_linear() { return state_->film->resolve_linear(); }
+std::span<const float> Engine::image_linear() {
+  return state_->whole_image(state_->image_linear, 4,
+                             [](Film& film) { return film.resolve_linear(); });
+}
 std::span<const Rgba8> Engine::image_srgb8(float exposure_stops) {
-  return state_->film->resolve_srgb8(exposure_stops);
+  return state_->whole_image(state_->image_srgb8, 1, [exposure_stops](Film& film) {
+    return film.resolve_srgb8(exposure_stops);
+  });
 }
 const Scene& Engine::scene() const { return state_->scene; }
 const Epochs& Engine::epochs() const { return state_->epochs; }
 void Engine::restore_epochs(const Epochs& epochs) { state_->epochs = epochs; }
-uint32_t Engine::film_passes() const { return state_->film ? state_->film->passes() : 0; }
-DeviceInfo Engine::device_info() const { return state_->backend->info(); }
-Backend& Engine::backend() { return *state_->backend; }
+uint32_t Engine::film_passes() const {
+  return state_->first().film ? state_->first().film->passes() : 0;
+}
+DeviceInfo Engine::device_info() const { return state_->first().backend->info(); }
+std::vector<DeviceInfo> Engine::devices() const {
+  std::vector<DeviceInfo> out;
+  for (const DeviceSlice& d : state_->slices) out.push_back(d.backend->info());
+  return out;
+}
+Backend& Engine::backend() { return *state_->first().backend; }
+std::vector<Backend*> Engine::backends() {
+  std::vector<Backend*> out;
+  for (DeviceSlice& d : state_->slices) out.push_back(d.backend.get());
+  return out;
+}
 
 SceneStats Engine::scene_stats() const {
   const State& st = *state_;
   SceneStats s;
-  if (!st.resident) return s;
-  s.triangles = st.resident->triangle_count();
-  const StructureStats& structure = st.resident->structure().stats();
+  if (!st.loaded()) return s;
+  const ResidentScene& resident = *st.first().resident;
+  s.triangles = resident.triangle_count();
+  const StructureStats& structure = resident.structure().stats();
   s.structure = structure.kind;
   s.structure_nodes = structure.nodes;
   s.structure_bytes = structure.bytes;
   s.structure_sah_cost = structure.sah_cost;
   s.photon_map_bytes = st.last_photon_map_bytes;
-  s.device_bytes = st.resident->bytes() + (st.film ? st.film->bytes() : 0) +
-                   (st.estimator ? st.estimator->map_bytes() + st.estimator->state_bytes() : 0);
-  s.lights = st.resident->view().light_count;
+  for (const DeviceSlice& d : st.slices) {
+    s.device_bytes += d.resident->bytes() + (d.film ? d.film->bytes() : 0) +
+                      (d.estimator ? d.estimator->map_bytes() + d.estimator->state_bytes() : 0);
+  }
+  s.lights = resident.view().light_count;
   s.last_structure_build_ms = st.last_build_ms;
   return s;
 }

@@ -27,9 +27,13 @@ absl::StatusOr<DeviceKind> parse_device_kind(std::string_view name);
 const char* device_kind_name(DeviceKind kind);
 
 // A backend for `device` whose allocations count against `memory_budget_bytes`. A server makes
-// one and shares it between the engines of all its scenes, so one budget covers them all.
-absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device,
-                                                      size_t memory_budget_bytes);
+// one per device and shares it between the engines of the scenes there, so one budget covers
+// them all. `ordinal`: which GPU (-1: the current one); ignored on the CPU.
+absl::StatusOr<std::shared_ptr<Backend>> make_backend(DeviceKind device, size_t memory_budget_bytes,
+                                                      int ordinal = -1);
+// The GPUs this build and machine can use for `device` (0 for CUDA without a driver or GPU, or in
+// a build without the CUDA backend); 1 for the CPU.
+int device_count(DeviceKind device);
 
 // OK when the engine renders `scene`'s participating media with `settings` (every scene without
 // media), else UNIMPLEMENTED naming what does not trace through them (docs/media.md). Engine::load
@@ -42,6 +46,11 @@ struct EngineOptions {
   // When set, the engine allocates from this backend and ignores the two fields above. (Every
   // field has an initializer, so designated initializers may leave any out without a warning.)
   std::shared_ptr<Backend> backend = nullptr;
+  // When it holds any, the engine works on all of them and ignores the three fields above: each
+  // device holds the scene, traces its share of every pass's photons, builds the maps from all
+  // of them and renders its bands of image rows (docs/multi-device.md). One gives what `backend`
+  // gives; the same seed gives the same image on any number of devices.
+  std::vector<std::shared_ptr<Backend>> backends = {};
   // Photons per leaf of the photon maps' hierarchy (photon/photon_map.h), a tuning knob; 0 takes
   // the estimator's own choice (for knn, photons_per_leaf_for in estimator/knn_gather.h).
   uint32_t photons_per_leaf = 0;
@@ -99,7 +108,8 @@ struct SceneStats {
   double last_structure_build_ms = 0;
 };
 
-// Not thread-safe: callers serialise every call on one engine, and all work on one device.
+// Not thread-safe: callers serialise every call on one engine. With several devices, each call
+// works on all of them at once, from a thread per device, and returns when all are done.
 class Engine {
  public:
   static absl::StatusOr<std::unique_ptr<Engine>> create(const EngineOptions& options);
@@ -140,8 +150,12 @@ class Engine {
   // Passes in the film since the last change (0 without a scene).
   uint32_t film_passes() const;
   SceneStats scene_stats() const;
+  // The first device's, and every device's in the order they were given.
   DeviceInfo device_info() const;
+  std::vector<DeviceInfo> devices() const;
+  // The first device's backend, and every device's.
   Backend& backend();
+  std::vector<Backend*> backends();
   // The shading of pass `pass` as render() runs it, from the scene's settings; with it a caller
   // can time the render pass alone on photon maps of its own.
   ShadingSettings shading(uint32_t pass) const;

@@ -1,8 +1,9 @@
-// Fair access to the one device all resident scenes share. Work takes a Lease, holds it for one
-// unit (one render pass, one upload build, one rebuild, one resolve) and gives it back; waiters are
-// served first come, first served. A render job re-queues for every pass, so concurrent clients
-// interleave pass by pass instead of one long job starving the others. Holding the lease is also
-// what serialises every engine call: engines share one Backend and are not thread-safe.
+// Fair access to one device, which the scenes placed there share (the server has one queue per
+// device). Work takes a Lease, holds it for one unit (one render pass, one upload build, one
+// rebuild, one resolve) and gives it back; waiters are served first come, first served. A render
+// job re-queues for every pass, so concurrent clients interleave pass by pass instead of one long
+// job starving the others. Holding the lease is also what serialises every engine call on the
+// device: engines there share one Backend and are not thread-safe.
 #pragma once
 
 #include <chrono>

@@ -62,6 +62,12 @@ absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format,
     return invalid_format(field, "jpeg_quality",
                           absl::StrCat(format.jpeg_quality(), " is not in [1, 100] (0 = 90)"));
   }
+  if (format.jpeg_strips() > static_cast<uint32_t>(kMaxJpegStrips)) {
+    return invalid_format(field, "jpeg_strips",
+                          absl::StrCat(format.jpeg_strips(), " is not in [1, ", kMaxJpegStrips,
+                                       "] (0 = 1, one JPEG)"));
+  }
+  if (format.jpeg_strips() > 1) spec.jpeg_strips = static_cast<int>(format.jpeg_strips());
   if (format.jpeg_quality() != 0) spec.jpeg_quality = static_cast<int>(format.jpeg_quality());
   if (spec.encoding == v1::EXR && spec.pixel_format == v1::RGBA8_SRGB) {
     return invalid_format(field, "encoding",
@@ -87,15 +93,25 @@ size_t bytes_per_pixel(v1::PixelFormat format) {
 
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
                                          std::span<const Rgba8> srgb8,
-                                         std::span<const float> linear) {
+                                         std::span<const float> linear, v1::Frame* header) {
   const bool half = spec.pixel_format == v1::RGBA16F_LINEAR;
   const std::span<const uint8_t> srgb8_bytes(reinterpret_cast<const uint8_t*>(srgb8.data()),
                                              srgb8.size_bytes());
   switch (spec.encoding) {
     case v1::PNG:
       return encode_png(width, height, srgb8_bytes);
-    case v1::JPEG:
-      return encode_jpeg(width, height, srgb8_bytes, spec.jpeg_quality);
+    case v1::JPEG: {
+      if (spec.jpeg_strips <= 1) return encode_jpeg(width, height, srgb8_bytes, spec.jpeg_quality);
+      absl::StatusOr<JpegStrips> strips =
+          encode_jpeg_strips(width, height, srgb8_bytes, spec.jpeg_quality, spec.jpeg_strips);
+      if (!strips.ok()) return strips.status();
+      if (header != nullptr) {
+        header->mutable_strip_bytes()->Assign(strips->strip_bytes.begin(),
+                                              strips->strip_bytes.end());
+        header->mutable_strip_rows()->Assign(strips->strip_rows.begin(), strips->strip_rows.end());
+      }
+      return std::move(strips->data);
+    }
     case v1::EXR:
       return encode_exr(width, height, linear, half);
     default:

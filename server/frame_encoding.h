@@ -24,6 +24,7 @@ struct FrameSpec {
   v1::Encoding encoding = v1::RAW;
   float exposure_stops = 0;
   int jpeg_quality = 90;
+  int jpeg_strips = 1;  // JPEG only: the frame as this many strips (see encode_jpeg_strips)
 
   // Whether the film is resolved to 8-bit sRGB (else to linear float).
   bool wants_srgb8() const { return pixel_format == v1::RGBA8_SRGB; }
@@ -33,17 +34,19 @@ struct FrameSpec {
 
 // INVALID_ARGUMENT naming `<field>.pixel_format`, `<field>.encoding` or `<field>.exposure_stops`
 // for unknown values and for combinations that do not exist (PNG or JPEG of linear data, EXR of
-// 8-bit), and `<field>.jpeg_quality` above 100.
+// 8-bit), `<field>.jpeg_quality` above 100 and `<field>.jpeg_strips` above kMaxJpegStrips.
 absl::StatusOr<FrameSpec> parse_frame_format(const v1::FrameFormat& format, std::string_view field);
 
 // Bytes of one pixel in `format` (before any encoding).
 size_t bytes_per_pixel(v1::PixelFormat format);
 
 // Encodes a resolved film. `srgb8` is used when spec.wants_srgb8(), else `linear` (RGBA float,
-// top row first); both hold width * height pixels.
+// top row first); both hold width * height pixels. A JPEG of more than one strip is the strips'
+// bytes concatenated; `header`, when given, gets their strip_bytes and strip_rows.
 absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int height,
                                          std::span<const Rgba8> srgb8,
-                                         std::span<const float> linear);
+                                         std::span<const float> linear,
+                                         v1::Frame* header = nullptr);
 
 // The messages that carry `data` under the header fields of `header`: pieces of at most
 // `max_chunk_bytes` (>= 1) of data, each with data_size, data_offset and last_chunk set. An empty

@@ -19,11 +19,19 @@ int main(int argc, char** argv) {
   app.add_option("--device", options.device, "auto, cpu or cuda")
       ->check(CLI::IsMember({"auto", "cpu", "cuda"}))
       ->capture_default_str();
+  app.add_option("--devices", options.devices,
+                 "which devices of --device to serve on: all (every visible GPU; one on the "
+                 "CPU), a count N (the first N GPUs; N CPU devices) or a comma list of GPU "
+                 "ordinals such as 0,1 (repeats allowed: 0,0 is two devices on GPU 0)")
+      ->capture_default_str();
+  app.add_flag("--split-frames", options.split_frames,
+               "place every scene on every device so that one frame uses them all; without it "
+               "each scene lives on the device with the most free memory budget");
   app.add_option("--max-scenes", options.max_scenes, "most resident scenes")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--memory-budget", memory_budget,
-                 "device memory for all scenes together: bytes or 512M, 8G, ...")
+                 "device memory for the scenes on each device: bytes or 512M, 8G, ...")
       ->capture_default_str();
   app.add_option("--max-message-mb", options.max_message_mb, "largest gRPC message in MiB")
       ->check(CLI::Range(1, 2047))
@@ -84,8 +92,10 @@ int main(int argc, char** argv) {
                  "most scenes one tenant may hold, uploads included; 0: up to --max-scenes")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  app.add_option("--tenant-memory-share", options.tenant_memory_share,
-                 "the share of --memory-budget one tenant's scenes may hold, in (0, 1]")
+  app.add_option(
+         "--tenant-memory-share", options.tenant_memory_share,
+         "the share of the memory budget of all devices together one tenant's scenes may hold, "
+         "in (0, 1]")
       ->check(CLI::Range(0.0, 1.0) & CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--tenant-max-streams", options.max_tenant_streams,

@@ -30,6 +30,20 @@ prometheus::MetricFamily gauge(const std::string& name, const std::string& help,
   return family;
 }
 
+// One gauge per device, labelled device="<index>".
+prometheus::MetricFamily device_gauge(const std::string& name, const std::string& help,
+                                      const std::vector<DeviceReadings>& devices,
+                                      size_t DeviceReadings::*field) {
+  prometheus::MetricFamily family{name, help, prometheus::MetricType::Gauge, {}};
+  for (size_t i = 0; i < devices.size(); ++i) {
+    prometheus::ClientMetric metric;
+    metric.label.push_back({"device", std::to_string(i)});
+    metric.gauge.value = double(devices[i].*field);
+    family.metric.push_back(std::move(metric));
+  }
+  return family;
+}
+
 }  // namespace
 
 // The gauges, read from the server at each scrape rather than kept up to date by every call.
@@ -40,12 +54,21 @@ class ServerMetrics::Gauges final : public prometheus::Collectable {
   std::vector<prometheus::MetricFamily> Collect() const override {
     const ServerReadings r = read_();
     return {
-        gauge("caustica_memory_used_bytes", "Device memory the scenes hold now.",
+        gauge("caustica_memory_used_bytes", "Device memory the scenes hold now, all devices.",
               double(r.memory_used_bytes)),
-        gauge("caustica_memory_peak_bytes", "The most device memory held since the start.",
+        gauge("caustica_memory_peak_bytes",
+              "The most device memory held since the start, summed over the devices.",
               double(r.memory_peak_bytes)),
         gauge("caustica_memory_budget_bytes", "Device memory all scenes may hold together.",
               double(r.memory_budget_bytes)),
+        device_gauge("caustica_device_memory_used_bytes",
+                     "Memory the scenes hold now on one device.", r.devices,
+                     &DeviceReadings::memory_used_bytes),
+        device_gauge("caustica_device_memory_budget_bytes",
+                     "Memory the scenes may hold on one device (--memory-budget).", r.devices,
+                     &DeviceReadings::memory_budget_bytes),
+        device_gauge("caustica_device_queue_waiting", "Calls waiting for one device now.",
+                     r.devices, &DeviceReadings::queue_waiting),
         gauge("caustica_scenes", "Resident scenes.", double(r.scenes)),
         gauge("caustica_max_scenes", "The most resident scenes (--max-scenes).",
               double(r.max_scenes)),

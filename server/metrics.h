@@ -1,6 +1,7 @@
 // The server's Prometheus metrics (docs/server.md, "Metrics"), through prometheus-cpp: calls by
 // method and status code, latency histograms per call and per pipeline stage, and gauges read at
-// each scrape (memory in use, peak and budget, scenes, streams and calls running). Served as text
+// each scrape (memory in use, peak and budget, over all devices and per device, scenes, streams and
+// calls running). Served as text
 // on /metrics when the server is given --metrics-listen.
 #pragma once
 
@@ -10,6 +11,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -25,6 +27,13 @@ class Histogram;
 
 namespace caustica::server {
 
+// One device's gauges, labelled with its index.
+struct DeviceReadings {
+  size_t memory_used_bytes = 0;
+  size_t memory_budget_bytes = 0;
+  size_t queue_waiting = 0;
+};
+
 // What the gauges show, read when Prometheus scrapes.
 struct ServerReadings {
   size_t memory_used_bytes = 0;
@@ -34,6 +43,7 @@ struct ServerReadings {
   size_t max_scenes = 0;
   uint32_t active_streams = 0;
   uint32_t calls_in_flight = 0;
+  std::vector<DeviceReadings> devices;  // by device index
 };
 
 class ServerMetrics {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <span>
 #include <thread>
 #include <utility>
@@ -52,16 +53,24 @@ class ScopedCount {
 
 }  // namespace
 
-RenderService::RenderService(std::shared_ptr<Backend> backend, const ServiceOptions& options)
-    : backend_(std::move(backend)),
-      options_(options),
-      device_info_(backend_->info()),
-      registry_(options.max_scenes, options.max_tenant_scenes),
-      metrics_([this] {
-        return ServerReadings{backend_->bytes_in_use(), backend_->peak_bytes(), backend_->budget(),
-                              registry_.size(),         registry_.max_scenes(), active_streams_,
-                              calls_in_flight_};
+RenderService::RenderService(std::vector<std::shared_ptr<Backend>> backends,
+                             const ServiceOptions& options)
+    : options_(options), registry_(options.max_scenes, options.max_tenant_scenes), metrics_([this] {
+        ServerReadings readings{
+            memory_used(),          memory_peak(),   memory_budget(),  registry_.size(),
+            registry_.max_scenes(), active_streams_, calls_in_flight_, {}};
+        for (const auto& device : devices_) {
+          readings.devices.push_back({device->backend->bytes_in_use(), device->backend->budget(),
+                                      device->queue.waiting()});
+        }
+        return readings;
       }) {
+  for (std::shared_ptr<Backend>& backend : backends) {
+    auto device = std::make_unique<Device>();
+    device->info = backend->info();
+    device->backend = std::move(backend);
+    devices_.push_back(std::move(device));
+  }
   restoring_ = options_.store != nullptr;
   if (options_.scene_idle_ttl_s > 0) reaper_ = std::thread([this] { reap_idle_scenes(); });
 }
@@ -77,7 +86,7 @@ void RenderService::begin_shutdown() {
     shutting_down_ = true;
   }
   reaper_wake_.notify_all();
-  queue_.shut_down();
+  for (const auto& device : devices_) device->queue.shut_down();
 }
 
 void RenderService::reap_idle_scenes() {
@@ -157,8 +166,75 @@ absl::Status RenderService::check_tenant_share(const std::string& tenant, size_t
 }
 
 size_t RenderService::tenant_memory_limit() const {
-  return static_cast<size_t>(static_cast<double>(backend_->budget()) *
+  return static_cast<size_t>(static_cast<double>(memory_budget()) *
                              std::clamp(options_.tenant_memory_share, 0.0, 1.0));
+}
+
+size_t RenderService::memory_used() const {
+  size_t bytes = 0;
+  for (const auto& device : devices_) bytes += device->backend->bytes_in_use();
+  return bytes;
+}
+
+size_t RenderService::memory_peak() const {
+  size_t bytes = 0;
+  for (const auto& device : devices_) bytes += device->backend->peak_bytes();
+  return bytes;
+}
+
+size_t RenderService::memory_budget() const {
+  size_t bytes = 0;
+  for (const auto& device : devices_) bytes += device->backend->budget();
+  return bytes;
+}
+
+absl::StatusOr<std::vector<uint32_t>> RenderService::place(size_t bytes, const std::string& what) {
+  std::lock_guard<std::mutex> lock(placement_mutex_);
+  auto free_bytes = [&](uint32_t index) {
+    const Device& device = *devices_[index];
+    const size_t taken = device.backend->bytes_in_use() + device.reserved_bytes;
+    const size_t budget = device.backend->budget();
+    return budget > taken ? budget - taken : 0;
+  };
+  std::vector<uint32_t> placed;
+  if (options_.split_frames) {
+    for (uint32_t i = 0; i < devices_.size(); ++i) placed.push_back(i);
+  } else {
+    uint32_t best = 0;
+    for (uint32_t i = 1; i < devices_.size(); ++i) {
+      if (free_bytes(i) > free_bytes(best)) best = i;
+    }
+    placed.push_back(best);
+  }
+  // Each device of the scene holds all of it.
+  for (uint32_t index : placed) {
+    const size_t free = free_bytes(index);
+    if (bytes <= free) continue;
+    const size_t budget = devices_[index]->backend->budget();
+    return absl::ResourceExhaustedError(
+        devices_.size() == 1
+            ? absl::StrCat(what, ", but only ", mib(free), " of the device's ", mib(budget),
+                           " budget are free (--memory-budget)")
+            : absl::StrCat(what, ", but only ", mib(free), " of device ", index, "'s ", mib(budget),
+                           " budget are free",
+                           options_.split_frames ? " (--split-frames puts it on every device"
+                                                 : " (the most of any device",
+                           "; --memory-budget applies per device)"));
+  }
+  for (uint32_t index : placed) devices_[index]->reserved_bytes += bytes;
+  return placed;
+}
+
+void RenderService::unreserve(const std::vector<uint32_t>& devices, size_t bytes) {
+  std::lock_guard<std::mutex> lock(placement_mutex_);
+  for (uint32_t index : devices) devices_[index]->reserved_bytes -= bytes;
+}
+
+absl::StatusOr<std::unique_ptr<Engine>> RenderService::create_engine(
+    const std::vector<uint32_t>& devices) const {
+  std::vector<std::shared_ptr<Backend>> backends;
+  for (uint32_t index : devices) backends.push_back(devices_[index]->backend);
+  return Engine::create({.backends = std::move(backends)});
 }
 
 grpc::Status RenderService::serve(grpc::ServerContext* context, const char* method,
@@ -205,11 +281,26 @@ absl::Status RenderService::stop_status(grpc::ServerContext* context) const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<DeviceQueue::Lease> RenderService::acquire(grpc::ServerContext* context,
-                                                          const SceneEntry& entry,
-                                                          double* queue_ms) {
-  absl::StatusOr<DeviceQueue::Lease> lease =
-      queue_.acquire([this, context] { return stop_status(context); });
+absl::StatusOr<RenderService::Leases> RenderService::acquire_devices(
+    const std::vector<uint32_t>& devices, const DeviceQueue::StopCheck& stop) {
+  const auto start = Clock::now();
+  Leases leases;
+  // Ascending order everywhere: a call holding device 0 and waiting for 1 never waits for one
+  // that holds 1 and waits for 0. Leases already held are given back if a later wait gives up.
+  for (uint32_t index : devices) {
+    absl::StatusOr<DeviceQueue::Lease> lease = devices_[index]->queue.acquire(stop);
+    if (!lease.ok()) return lease.status();
+    leases.held_.push_back(*std::move(lease));
+  }
+  leases.waited_ms_ = ms_since(start);
+  return leases;
+}
+
+absl::StatusOr<RenderService::Leases> RenderService::acquire(grpc::ServerContext* context,
+                                                             const SceneEntry& entry,
+                                                             double* queue_ms) {
+  absl::StatusOr<Leases> lease =
+      acquire_devices(entry.devices(), [this, context] { return stop_status(context); });
   if (!lease.ok()) return lease.status();
   record_stage("queue", lease->waited_ms());
   if (queue_ms != nullptr) *queue_ms += lease->waited_ms();
@@ -242,7 +333,7 @@ absl::StatusOr<v1::RebuildReport> RenderService::rebuild(
     grpc::ServerContext* context, SceneEntry& entry,
     const std::function<absl::StatusOr<RebuildReport>(Engine&)>& change) {
   double queue_ms = 0;
-  absl::StatusOr<DeviceQueue::Lease> lease = acquire(context, entry, &queue_ms);
+  absl::StatusOr<Leases> lease = acquire(context, entry, &queue_ms);
   if (!lease.ok()) return lease.status();
   absl::StatusOr<RebuildReport> report = change(*entry.engine);
   if (!report.ok()) return report.status();
@@ -272,7 +363,7 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   double resolve_ms = 0;
   while (true) {
     if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
-    absl::StatusOr<DeviceQueue::Lease> lease = acquire(context, entry, &queue_ms);
+    absl::StatusOr<Leases> lease = acquire(context, entry, &queue_ms);
     if (!lease.ok()) return lease.status();
     Engine& engine = *entry.engine;
     const uint32_t goal = target > 0 ? target : std::max(engine.scene().settings.passes, 1u);
@@ -311,7 +402,7 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
     break;
   }
   const auto encode_start = Clock::now();
-  if (!spec.raw()) data = encode_frame(spec, width, height, srgb8, linear);
+  if (!spec.raw()) data = encode_frame(spec, width, height, srgb8, linear, &frame.header);
   if (!data.ok()) return data.status();
   frame.data = *std::move(data);
   const double encode_ms = spec.raw() ? 0.0 : ms_since(encode_start);
@@ -355,23 +446,29 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     if (!slot.ok()) return slot.status();
     const auto start = Clock::now();
     wire::SceneAssembler assembler;
-    bool budget_checked = false;
+    // Where the scene goes, chosen at its header; the declared bytes stay reserved there until
+    // the scene is built (or the upload fails).
+    std::optional<std::vector<uint32_t>> placed;
+    size_t reserved = 0;
+    absl::Cleanup unreserve_placement = [&] {
+      if (placed) unreserve(*placed, reserved);
+    };
+    auto place_scene = [&](size_t declared) -> absl::Status {
+      absl::StatusOr<std::vector<uint32_t>> devices = place(
+          declared,
+          absl::StrCat("scene '", assembler.name(), "' declares ", mib(declared), " of mesh data"));
+      if (!devices.ok()) return devices.status();
+      placed = *std::move(devices);
+      reserved = declared;
+      return absl::OkStatus();
+    };
     v1::SceneChunk chunk;
     while (reader->Read(&chunk)) {
       if (absl::Status added = assembler.add(chunk); !added.ok()) return added;
-      if (!budget_checked && assembler.has_header()) {
+      if (!placed && assembler.has_header()) {
         // Refuse before the mesh data arrives: the scene's arrays alone must fit in what is left
         // of the budget (the built structure needs more on top).
-        budget_checked = true;
-        const size_t budget = backend_->budget();
-        const size_t in_use = backend_->bytes_in_use();
-        const size_t free_bytes = budget > in_use ? budget - in_use : 0;
-        if (assembler.bytes_declared() > free_bytes) {
-          return absl::ResourceExhaustedError(absl::StrCat(
-              "scene '", assembler.name(), "' declares ", mib(assembler.bytes_declared()),
-              " of mesh data, but only ", mib(free_bytes), " of the device's ", mib(budget),
-              " budget are free (--memory-budget)"));
-        }
+        if (absl::Status fits = place_scene(assembler.bytes_declared()); !fits.ok()) return fits;
         if (absl::Status fits =
                 check_tenant_share(tenant, assembler.bytes_declared(),
                                    absl::StrCat("scene '", assembler.name(), "' declares ",
@@ -386,6 +483,9 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
     absl::StatusOr<Scene> scene = assembler.finish();
     if (!scene.ok()) return scene.status();
+    if (!placed) {
+      if (absl::Status fits = place_scene(0); !fits.ok()) return fits;
+    }
     // The geometry goes to disk before the device is taken: writing it need not hold up others.
     std::string blob;
     if (options_.store) {
@@ -398,10 +498,10 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
       if (!blob.empty()) options_.store->discard_blob(blob);
     };
 
-    absl::StatusOr<DeviceQueue::Lease> lease =
-        queue_.acquire([this, context] { return stop_status(context); });
+    absl::StatusOr<Leases> lease =
+        acquire_devices(*placed, [this, context] { return stop_status(context); });
     if (!lease.ok()) return lease.status();
-    absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
+    absl::StatusOr<std::unique_ptr<Engine>> engine = create_engine(*placed);
     if (!engine.ok()) return engine.status();
     absl::StatusOr<RebuildReport> built = (*engine)->load(*scene);
     if (built.ok()) {
@@ -447,8 +547,8 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     v1::RebuildReport report = encode_rebuild(*built);
     report.mutable_timings()->set_queue_ms(lease->waited_ms());
     record_stages(built->timings);
-    auto entry =
-        std::make_shared<SceneEntry>(scene_id, tenant, *std::move(engine), std::move(info));
+    auto entry = std::make_shared<SceneEntry>(scene_id, tenant, *placed, *std::move(engine),
+                                              std::move(info));
     entry->refresh(&report);
     lease->release();
     *response = entry->info();
@@ -504,9 +604,13 @@ absl::Status RenderService::restore_scene(const StoredScene& stored) {
   absl::StatusOr<Scene> geometry = options_.store->read_blob(stored.blob);
   if (!geometry.ok()) return geometry.status();
   const Scene scene = restored_scene(*std::move(geometry), stored);
-  absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
+  // Placed afresh, as an upload now would be: the devices may differ from the last run's.
+  absl::StatusOr<std::vector<uint32_t>> placed =
+      place(0, absl::StrCat("scene '", stored.name, "'"));
+  if (!placed.ok()) return placed.status();
+  absl::StatusOr<Leases> lease = acquire_devices(*placed, {});
   if (!lease.ok()) return lease.status();
-  absl::StatusOr<std::unique_ptr<Engine>> engine = Engine::create({.backend = backend_});
+  absl::StatusOr<std::unique_ptr<Engine>> engine = create_engine(*placed);
   if (!engine.ok()) return engine.status();
   absl::StatusOr<RebuildReport> built = (*engine)->load(scene);
   if (!built.ok()) return built.status();
@@ -519,8 +623,8 @@ absl::Status RenderService::restore_scene(const StoredScene& stored) {
   info.set_upload_ms(stored.upload_ms);
   describe_geometry(scene, &info);
   const v1::RebuildReport report = encode_rebuild(*built);
-  auto entry =
-      std::make_shared<SceneEntry>(stored.id, stored.tenant, *std::move(engine), std::move(info));
+  auto entry = std::make_shared<SceneEntry>(stored.id, stored.tenant, *placed, *std::move(engine),
+                                            std::move(info));
   entry->refresh(&report);
   registry_.add_restored(std::move(entry));
   return absl::OkStatus();
@@ -571,12 +675,17 @@ absl::StatusOr<size_t> RenderService::forget(SceneEntry& entry) {
     return absl::NotFoundError(absl::StrCat("scene_id: scene '", entry.id(), "' was deleted"));
   }
   // Not cancellable: the scene is already gone from the registry and its memory must be freed
-  // under the device lease. Only shutdown ends the wait (the process frees everything then).
-  absl::StatusOr<DeviceQueue::Lease> lease = queue_.acquire();
+  // under its devices' leases. Only shutdown ends the wait (the process frees everything then).
+  absl::StatusOr<Leases> lease = acquire_devices(entry.devices(), {});
   if (!lease.ok()) return lease.status();
-  const size_t before = backend_->bytes_in_use();
+  auto in_use = [&] {
+    size_t bytes = 0;
+    for (uint32_t index : entry.devices()) bytes += devices_[index]->backend->bytes_in_use();
+    return bytes;
+  };
+  const size_t before = in_use();
   entry.engine.reset();
-  const size_t after = backend_->bytes_in_use();
+  const size_t after = in_use();
   return before > after ? before - after : 0;
 }
 
@@ -792,6 +901,44 @@ grpc::Status RenderService::GetVersion(grpc::ServerContext* context, const v1::G
   });
 }
 
+void RenderService::describe_devices(v1::Stats* response) const {
+  std::vector<uint32_t> scenes(devices_.size(), 0);
+  for (const std::shared_ptr<SceneEntry>& entry : registry_.list_all()) {
+    for (uint32_t index : entry->devices()) ++scenes[index];
+  }
+  for (uint32_t i = 0; i < devices_.size(); ++i) {
+    const Device& device = *devices_[i];
+    v1::DeviceStats* out = response->add_devices();
+    out->set_index(i);
+    out->set_kind(device_kind_name(device.backend->kind()));
+    out->set_ordinal(device.info.ordinal);
+    out->set_name(device.info.name);
+    out->set_compute_units(static_cast<uint32_t>(device.info.compute_units));
+    out->set_memory_bytes(device.info.memory_bytes);
+    out->set_memory_used_bytes(device.backend->bytes_in_use());
+    out->set_memory_budget_bytes(device.backend->budget());
+    out->set_memory_peak_bytes(device.backend->peak_bytes());
+    out->set_scenes(scenes[i]);
+    out->set_queue_waiting(static_cast<uint32_t>(device.queue.waiting()));
+  }
+  // What clients from before several devices read: the first device, and the sums.
+  const v1::DeviceStats& first = response->devices(0);
+  v1::DeviceInfo* device = response->mutable_device();
+  device->set_kind(first.kind());
+  device->set_name(first.name());
+  device->set_compute_units(first.compute_units());
+  device->set_memory_bytes(first.memory_bytes());
+  uint64_t used = 0, budget = 0, peak = 0;
+  for (const v1::DeviceStats& each : response->devices()) {
+    used += each.memory_used_bytes();
+    budget += each.memory_budget_bytes();
+    peak += each.memory_peak_bytes();
+  }
+  response->set_memory_used_bytes(used);
+  response->set_memory_budget_bytes(budget);
+  response->set_memory_peak_bytes(peak);
+}
+
 grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                                      const v1::GetStatsRequest* request, v1::Stats* response) {
   return serve(context, "GetStats", request->scene_id(),
@@ -806,14 +953,7 @@ grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                    scenes.push_back(*std::move(entry));
                  }
                  response->set_uptime_s(ms_since(started_) / 1000.0);
-                 v1::DeviceInfo* device = response->mutable_device();
-                 device->set_kind(device_kind_name(backend_->kind()));
-                 device->set_name(device_info_.name);
-                 device->set_compute_units(static_cast<uint32_t>(device_info_.compute_units));
-                 device->set_memory_bytes(device_info_.memory_bytes);
-                 response->set_memory_used_bytes(backend_->bytes_in_use());
-                 response->set_memory_budget_bytes(backend_->budget());
-                 response->set_memory_peak_bytes(backend_->peak_bytes());
+                 describe_devices(response);
                  response->set_scenes(static_cast<uint32_t>(registry_.size(tenant)));
                  response->set_max_scenes(static_cast<uint32_t>(registry_.max_scenes()));
                  response->set_frames_served(frames_served_);

@@ -1,8 +1,10 @@
 // caustica.v1.RenderService over the sync gRPC API. Every call runs through one wrapper that logs
 // a line with its latency and status, records the latency for GetStats and turns the absl::Status
-// of the work into a grpc::Status with the same code and message. Engine work goes through the
-// DeviceQueue one pass (or one rebuild) at a time, so concurrent clients share the device fairly
-// and cancellation, deadlines and shutdown take effect between passes.
+// of the work into a grpc::Status with the same code and message. Each device has a DeviceQueue
+// and each scene lives on a set of devices (one, or all with --split-frames); engine work holds
+// the queues of its scene's devices one pass (or one rebuild) at a time, so concurrent clients
+// share a device fairly, scenes on different devices render at once, and cancellation, deadlines
+// and shutdown take effect between passes.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -17,6 +19,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.grpc.pb.h"
@@ -48,14 +51,19 @@ struct ServiceOptions {
   // A scene no call has touched for this long is deleted, as if its tenant had deleted it.
   // 0: never.
   double scene_idle_ttl_s = 0;
+  // --split-frames: every scene on every device, so one frame uses them all. Otherwise each scene
+  // goes to the device with the most free budget when it is uploaded or restored.
+  bool split_frames = false;
 };
 
 class RenderService final : public v1::RenderService::Service {
  public:
-  RenderService(std::shared_ptr<Backend> backend, const ServiceOptions& options);
+  // One device per backend, at least one; their order gives the indices that GetStats and
+  // SceneInfo.devices report.
+  RenderService(std::vector<std::shared_ptr<Backend>> backends, const ServiceOptions& options);
   ~RenderService() override;
 
-  // New calls and running streams end with UNAVAILABLE; waiters for the device give up.
+  // New calls and running streams end with UNAVAILABLE; waiters for the devices give up.
   void begin_shutdown();
   // Rebuilds every scene of the store, with its id, state and epochs. Until it returns, calls
   // other than GetVersion and GetStats are UNAVAILABLE. A scene that cannot be restored (its blob
@@ -104,6 +112,32 @@ class RenderService final : public v1::RenderService::Service {
   };
 
   class StreamSlot;
+
+  // One device: its backend, which the engines of every scene there share, and the queue that
+  // serialises their work on it.
+  struct Device {
+    std::shared_ptr<Backend> backend;
+    DeviceInfo info;
+    DeviceQueue queue;
+    // Declared bytes of uploads placed here whose scenes are not built yet, so that concurrent
+    // uploads see each other and spread over the devices. Guarded by placement_mutex_.
+    size_t reserved_bytes = 0;
+  };
+
+  // The leases of a scene's devices, taken in ascending index order (so two calls never wait for
+  // each other's devices) and released together.
+  class Leases {
+   public:
+    double waited_ms() const { return waited_ms_; }
+    void release() {
+      for (DeviceQueue::Lease& lease : held_) lease.release();
+    }
+
+   private:
+    friend class RenderService;
+    std::vector<DeviceQueue::Lease> held_;
+    double waited_ms_ = 0;
+  };
   // A frame call's scene and checked format, and for a stream its place among the tenant's.
   struct FrameCall {
     std::shared_ptr<SceneEntry> entry;
@@ -144,10 +178,26 @@ class RenderService final : public v1::RenderService::Service {
   absl::Status persist(const SceneEntry& entry);
   // CANCELLED, DEADLINE_EXCEEDED or UNAVAILABLE when the call should stop now.
   absl::Status stop_status(grpc::ServerContext* context) const;
-  // Waits for the device; NOT_FOUND when the scene was deleted meanwhile. Adds the wait to
-  // `queue_ms` when given.
-  absl::StatusOr<DeviceQueue::Lease> acquire(grpc::ServerContext* context, const SceneEntry& entry,
-                                             double* queue_ms);
+  // Waits for every device of `devices` (ascending), giving up like DeviceQueue::acquire.
+  absl::StatusOr<Leases> acquire_devices(const std::vector<uint32_t>& devices,
+                                         const DeviceQueue::StopCheck& stop);
+  // Waits for the scene's devices; NOT_FOUND when the scene was deleted meanwhile. Adds the wait
+  // to `queue_ms` when given.
+  absl::StatusOr<Leases> acquire(grpc::ServerContext* context, const SceneEntry& entry,
+                                 double* queue_ms);
+  // The devices for a new scene of `bytes` declared bytes, reserved there until unreserve():
+  // every device with --split-frames, else the one with the most free budget (the lowest index
+  // of equals). RESOURCE_EXHAUSTED, led by `what`, when the bytes do not fit there.
+  absl::StatusOr<std::vector<uint32_t>> place(size_t bytes, const std::string& what);
+  void unreserve(const std::vector<uint32_t>& devices, size_t bytes);
+  // A new engine on `devices`.
+  absl::StatusOr<std::unique_ptr<Engine>> create_engine(const std::vector<uint32_t>& devices) const;
+  // Summed over every device: memory in use, peak and budget.
+  size_t memory_used() const;
+  size_t memory_peak() const;
+  size_t memory_budget() const;
+  // Stats.devices, and the first device and the sums in the fields that predate it.
+  void describe_devices(v1::Stats* response) const;
   // Runs one engine change under the lease, records its stages, refreshes the scene's snapshot
   // and returns the report (with the queue time).
   absl::StatusOr<v1::RebuildReport> rebuild(
@@ -167,11 +217,11 @@ class RenderService final : public v1::RenderService::Service {
   // One run of `stage` ("queue", "render", ...), for GetStats' percentiles and /metrics.
   void record_stage(const char* stage, double ms);
 
-  const std::shared_ptr<Backend> backend_;
   const ServiceOptions options_;
-  const DeviceInfo device_info_;
+  // Never resized after construction: queues are not movable and handlers index it freely.
+  std::vector<std::unique_ptr<Device>> devices_;
+  std::mutex placement_mutex_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
-  DeviceQueue queue_;
   SceneRegistry registry_;
   LatencyStats latencies_;
   std::atomic<bool> shutting_down_{false};

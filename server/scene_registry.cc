@@ -8,13 +8,15 @@
 
 namespace caustica::server {
 
-SceneEntry::SceneEntry(std::string id, std::string tenant, std::unique_ptr<Engine> engine_in,
-                       v1::SceneInfo info)
+SceneEntry::SceneEntry(std::string id, std::string tenant, std::vector<uint32_t> devices,
+                       std::unique_ptr<Engine> engine_in, v1::SceneInfo info)
     : engine(std::move(engine_in)),
       id_(std::move(id)),
       tenant_(std::move(tenant)),
+      devices_(std::move(devices)),
       info_(std::move(info)) {
   info_.set_scene_id(id_);
+  info_.mutable_devices()->Assign(devices_.begin(), devices_.end());
 }
 
 v1::SceneInfo SceneEntry::info() const {

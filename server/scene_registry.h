@@ -26,14 +26,17 @@ namespace caustica::server {
 
 class SceneEntry {
  public:
-  SceneEntry(std::string id, std::string tenant, std::unique_ptr<Engine> engine,
-             v1::SceneInfo info);
+  // `devices`: the server's devices the engine works on, ascending; also SceneInfo.devices.
+  SceneEntry(std::string id, std::string tenant, std::vector<uint32_t> devices,
+             std::unique_ptr<Engine> engine, v1::SceneInfo info);
 
   const std::string& id() const { return id_; }
   // Who uploaded it; only calls of the same tenant see it.
   const std::string& tenant() const { return tenant_; }
+  // Where the scene lives; engine calls hold the leases of all of these devices.
+  const std::vector<uint32_t>& devices() const { return devices_; }
 
-  // --- touched only under the device lease, which serialises every engine call ---
+  // --- touched only under the leases of its devices, which serialise every engine call ---
   // Null once the scene is deleted (calls still holding the entry then get NOT_FOUND).
   std::unique_ptr<Engine> engine;
 
@@ -53,6 +56,7 @@ class SceneEntry {
   mutable std::atomic<std::chrono::steady_clock::rep> last_used_;
   const std::string id_;
   const std::string tenant_;
+  const std::vector<uint32_t> devices_;
   mutable std::mutex mutex_;  // guards info_
   v1::SceneInfo info_;
 };

@@ -14,11 +14,13 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_split.h"
 #include "proto/wire/api_version.h"
 #include "server/auth.h"
 #include "server/log.h"
@@ -82,6 +84,72 @@ absl::StatusOr<size_t> parse_byte_size(std::string_view text) {
   return static_cast<size_t>(bytes);
 }
 
+absl::StatusOr<std::vector<int>> parse_devices(std::string_view text, DeviceKind kind,
+                                               int visible) {
+  const std::string value(absl::StripAsciiWhitespace(std::string(text)));
+  const bool cuda = kind == DeviceKind::kCuda;
+  auto refuse = [&](const std::string& why) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--devices '", std::string(text), "': ", why,
+                     " (expected all, a count N or a comma list of GPU ordinals such as 0,1)"));
+  };
+  // A plain non-negative decimal, without sign, blanks or exponent.
+  auto number = [](std::string_view digits) -> std::optional<int> {
+    int n = 0;
+    const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), n);
+    if (digits.empty() || error != std::errc() || end != digits.data() + digits.size() || n < 0) {
+      return std::nullopt;
+    }
+    return n;
+  };
+  auto visible_text = [&] {
+    return absl::StrCat(visible, visible == 1 ? " GPU is" : " GPUs are", " visible");
+  };
+  if (value.empty()) return refuse("is empty");
+  if (value == "all") {
+    // Without a GPU, make_backend explains why (no driver, no device) better than a count of 0.
+    if (!cuda || visible <= 0) return std::vector<int>{0};
+    if (static_cast<size_t>(visible) > kMaxDevices) {
+      return refuse(absl::StrCat(visible_text(), ", more than the ", kMaxDevices,
+                                 " one server renders on; name them"));
+    }
+    std::vector<int> all(static_cast<size_t>(visible));
+    for (int i = 0; i < visible; ++i) all[static_cast<size_t>(i)] = i;
+    return all;
+  }
+  if (value.find(',') == std::string::npos) {
+    const std::optional<int> count = number(value);
+    if (!count) return refuse(absl::StrCat("'", value, "' is not a count"));
+    if (*count == 0) return refuse("a count must be at least 1");
+    if (static_cast<size_t>(*count) > kMaxDevices) {
+      return refuse(absl::StrCat("at most ", kMaxDevices, " devices"));
+    }
+    if (cuda && *count > visible) {
+      return refuse(absl::StrCat("asks for ", *count, " GPUs but ", visible_text()));
+    }
+    std::vector<int> first(static_cast<size_t>(*count), 0);
+    if (cuda) {
+      for (int i = 0; i < *count; ++i) first[static_cast<size_t>(i)] = i;
+    }
+    return first;
+  }
+  std::vector<int> ordinals;
+  for (const std::string& part : std::vector<std::string>(absl::StrSplit(value, ','))) {
+    const std::string item(absl::StripAsciiWhitespace(part));
+    if (item.empty()) return refuse("an entry of the list is empty");
+    const std::optional<int> ordinal = number(item);
+    if (!ordinal) return refuse(absl::StrCat("'", item, "' is not a device ordinal"));
+    if (cuda && *ordinal >= visible) {
+      return refuse(absl::StrCat("no GPU ", *ordinal, ": ", visible_text(),
+                                 visible > 0 ? absl::StrCat(" (0 to ", visible - 1, ")") : ""));
+    }
+    ordinals.push_back(cuda ? *ordinal : 0);
+  }
+  if (ordinals.size() > kMaxDevices)
+    return refuse(absl::StrCat("at most ", kMaxDevices, " devices"));
+  return ordinals;
+}
+
 absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& options) {
   absl::StatusOr<LogLevel> level = parse_log_level(options.log_level);
   if (!level.ok())
@@ -134,21 +202,29 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
     if (!opened.ok()) return opened.status();
     store = *std::move(opened);
   }
-  absl::StatusOr<std::shared_ptr<Backend>> backend =
-      make_backend(*device, options.memory_budget_bytes);
-  if (!backend.ok()) return backend.status();
+  absl::StatusOr<std::vector<int>> ordinals =
+      parse_devices(options.devices, *device, device_count(*device));
+  if (!ordinals.ok()) return ordinals.status();
+  std::vector<std::shared_ptr<Backend>> backends;
+  for (int ordinal : *ordinals) {
+    absl::StatusOr<std::shared_ptr<Backend>> backend =
+        make_backend(*device, options.memory_budget_bytes, ordinal);
+    if (!backend.ok()) return backend.status();
+    backends.push_back(*std::move(backend));
+  }
 
   std::unique_ptr<Server> server(new Server());
   server->options_ = options;
   const size_t max_message_bytes = options.max_message_mb << 20;
   server->service_ = std::make_unique<RenderService>(
-      *backend, ServiceOptions{.max_scenes = options.max_scenes,
+      backends, ServiceOptions{.max_scenes = options.max_scenes,
                                .max_message_bytes = max_message_bytes,
                                .store = store,
                                .max_tenant_scenes = options.max_tenant_scenes,
                                .tenant_memory_share = options.tenant_memory_share,
                                .max_tenant_streams = options.max_tenant_streams,
-                               .scene_idle_ttl_s = options.scene_idle_ttl_s});
+                               .scene_idle_ttl_s = options.scene_idle_ttl_s,
+                               .split_frames = options.split_frames});
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
@@ -248,13 +324,22 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
                         authenticator->requires_tokens()
                             ? absl::StrCat("bearer tokens from ", options.tokens_file)
                             : std::string("no --tokens: every caller is the default tenant")));
-  const DeviceInfo info = (*backend)->info();
   log_line(LogLevel::kInfo,
-           absl::StrFormat("caustica-server %s (API %s) listening on port %d (%s); device %s: %s, "
-                           "%d compute units; memory budget %d bytes; at most %d scenes",
+           absl::StrFormat("caustica-server %s (API %s) listening on port %d (%s); %d %s "
+                           "device%s, memory budget %d bytes each; %s; at most %d scenes",
                            wire::release_version(), wire::api_version(), server->port_,
-                           options.listen, device_kind_name(*device), info.name, info.compute_units,
-                           (*backend)->budget(), options.max_scenes));
+                           options.listen, backends.size(), device_kind_name(*device),
+                           backends.size() == 1 ? "" : "s", options.memory_budget_bytes,
+                           options.split_frames ? "every scene on every device (--split-frames)"
+                                                : "each scene on one device",
+                           options.max_scenes));
+  for (size_t i = 0; i < backends.size(); ++i) {
+    const DeviceInfo info = backends[i]->info();
+    log_line(
+        LogLevel::kInfo,
+        absl::StrFormat("caustica-server: device %d: %s %d, %s, %d compute units", i,
+                        device_kind_name(*device), info.ordinal, info.name, info.compute_units));
+  }
   return server;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/health_status.h"
@@ -22,8 +23,13 @@ struct ServerOptions {
   std::string listen = "127.0.0.1:50051";  // host:port; port 0 picks a free one
   std::string port_file;                   // when set, the bound port is written here
   std::string device = "auto";             // auto | cpu | cuda
+  // Which devices of that kind to serve on (parse_devices): all, a count or a list of ordinals.
+  std::string devices = "all";
+  // Every scene on every device, so that one frame uses them all; else each scene lives on the
+  // one device with the most free budget when it arrives.
+  bool split_frames = false;
   size_t max_scenes = 16;
-  size_t memory_budget_bytes = size_t{8} << 30;
+  size_t memory_budget_bytes = size_t{8} << 30;  // per device
   size_t max_message_mb = 64;
   std::string log_level = "info";
   double shutdown_grace_s = 5;  // how long running calls may finish before they are cancelled
@@ -55,6 +61,16 @@ struct ServerOptions {
 // "8G", "512M", "64k", "1.5G" (binary units, case-insensitive, optional trailing B or iB) or a
 // plain byte count.
 absl::StatusOr<size_t> parse_byte_size(std::string_view text);
+
+// The most devices one server renders on.
+inline constexpr size_t kMaxDevices = 64;
+
+// --devices for `kind` on a machine with `visible` GPUs (device_count()): one ordinal per backend
+// to make. "all" is every visible GPU (one backend on the CPU); "N" the first N GPUs (N backends
+// on the CPU); "0,1" those ordinals, repeats allowed ("0,0": two backends on GPU 0). On the CPU a
+// list's ordinals are all 0, only its length counts. INVALID_ARGUMENT naming --devices and the
+// value otherwise.
+absl::StatusOr<std::vector<int>> parse_devices(std::string_view text, DeviceKind kind, int visible);
 
 class Server {
  public:

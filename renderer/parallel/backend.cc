@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cstdlib>
 #include <string_view>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 
@@ -45,6 +47,20 @@ void Backend::deallocate(void* p, size_t bytes) {
   std::lock_guard<std::mutex> lock(memory_mutex_);
   deallocate_raw(p, bytes);
   in_use_ -= bytes;
+}
+
+void Backend::copy_from(Backend& source, void* dst, const void* src, size_t bytes) {
+  if (bytes == 0) return;
+  // A CPU backend's memory is the host's, so one copy does where either side is the CPU.
+  if (source.kind() == DeviceKind::kCpu) {
+    copy_to_device(dst, src, bytes);
+  } else if (kind() == DeviceKind::kCpu) {
+    source.copy_to_host(dst, src, bytes);
+  } else {
+    std::vector<std::byte> staging(bytes);
+    source.copy_to_host(staging.data(), src, bytes);
+    copy_to_device(dst, staging.data(), bytes);
+  }
 }
 
 double Backend::time_ms(const std::function<void()>& fn) {

@@ -64,6 +64,7 @@ struct DeviceInfo {
   std::string name;
   int compute_units = 0;    // CPU threads or CUDA SMs
   size_t memory_bytes = 0;  // physical memory of the device
+  int ordinal = 0;          // the CUDA device number; 0 on the CPU
 };
 
 // What the launch profiler gathered for one launch name (Backend::launch_times).
@@ -108,7 +109,14 @@ class Backend {
   virtual void copy_to_host(void* dst, const void* src, size_t bytes) = 0;
   virtual void copy_on_device(void* dst, const void* src, size_t bytes) = 0;
   virtual void fill_bytes(void* dst, uint8_t value, size_t bytes) = 0;
+  // Copies `bytes` of `source`'s memory at `src` into this backend's at `dst`: device to device
+  // where both are GPUs (over the peer link where there is one), else through the host. The
+  // caller synchronises `source` first, and keeps `src` until this backend synchronises.
+  virtual void copy_from(Backend& source, void* dst, const void* src, size_t bytes);
   virtual void synchronize() = 0;
+  // Makes this backend's device the calling thread's current one: a thread that works on several
+  // GPUs calls it before each one's work. Nothing to do on the CPU.
+  virtual void make_current() {}
   // Milliseconds the device spends on the work `fn` queues, for benchmarks: host clock around
   // synchronisations here, CUDA events on the backend's stream in the CUDA backend.
   virtual double time_ms(const std::function<void()>& fn);

@@ -6,8 +6,6 @@
 #pragma once
 
 #include <cstdint>
-#include <span>
-#include <vector>
 
 #include "renderer/photon/photon.h"
 #include "renderer/resident/resident_scene.h"
@@ -47,25 +45,9 @@ struct TracedPhotons {
   uint32_t emitted = 0;
   // Each kind's photons come in two runs: those from the paths' first stores, in path order, then
   // the later stores of the few long paths, in path and bounce order. These are the first runs'
-  // lengths, which merge_photon_shares needs.
+  // lengths, which merge_traced_photons (photon_shares.h) needs.
   size_t caustic_from_slots = 0, global_from_slots = 0, volume_from_slots = 0;
 };
-
-// One kind's photons (or footprints) of a pass traced in shares, `shares` in path order with
-// `from_slots` their first runs' lengths, in the order one trace of the whole pass keeps them:
-// every share's first run, then every share's later stores.
-template <typename T>
-std::vector<T> merge_photon_shares(std::span<const std::vector<T>> shares,
-                                   std::span<const size_t> from_slots) {
-  std::vector<T> out;
-  for (size_t i = 0; i < shares.size(); ++i) {
-    out.insert(out.end(), shares[i].begin(), shares[i].begin() + from_slots[i]);
-  }
-  for (size_t i = 0; i < shares.size(); ++i) {
-    out.insert(out.end(), shares[i].begin() + from_slots[i], shares[i].end());
-  }
-  return out;
-}
 
 TracedPhotons trace_photons(Backend& backend, const ResidentScene& scene,
                             const PhotonTraceSettings& settings);

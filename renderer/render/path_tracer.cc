@@ -206,10 +206,10 @@ void trace_paths_through(const Structure& structure, Backend& backend,
   const size_t pixels = size_t(camera.width) * camera.height;
   const uint32_t seed = settings.seed, pass = settings.pass;
   parallel_for(backend, "path_trace", pixels, [=] CAUSTICA_HD(size_t pixel) {
-    Sampler s(seed, uint32_t(pixel), pass);
-    const float x = float(pixel % camera.width) + s.next_float();
-    const float y = float(pixel / camera.width) + s.next_float();
-    accum[pixel] += trace_path(scene, structure, camera.ray_through(x, y), scene_radius, s);
+    Sampler s(seed, camera.stream(pixel), pass);
+    const float jx = s.next_float();
+    const Ray ray = camera.pixel_ray(pixel, jx, s.next_float());
+    accum[pixel] += trace_path(scene, structure, ray, scene_radius, s);
   });
 }
 

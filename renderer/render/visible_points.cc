@@ -27,10 +27,10 @@ struct Chain {
 // The chain's first ray: the pixel's jittered camera ray (the sampler's first two dimensions).
 CAUSTICA_HDI Chain start_chain(const PinholeCamera& camera, const VisiblePointSettings& cfg,
                                size_t pixel) {
-  Sampler s(cfg.seed, uint32_t(pixel), cfg.pass);
-  const float x = float(pixel % camera.width) + s.next_float();
-  const float y = float(pixel / camera.width) + s.next_float();
-  return {camera.ray_through(x, y), Vec3f(1.0f), Vec3f(0.0f), s, 0};
+  Sampler s(cfg.seed, camera.stream(pixel), cfg.pass);
+  const float jx = s.next_float();
+  const Ray ray = camera.pixel_ray(pixel, jx, s.next_float());
+  return {ray, Vec3f(1.0f), Vec3f(0.0f), s, 0};
 }
 
 // The chain's hit `hit` of its current ray: true when the chain goes on (its next ray set), false

@@ -177,9 +177,8 @@ struct PassInputs {
 
   // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
   CAUSTICA_HDI Ray camera_ray(size_t pixel, Sampler& s) const {
-    const float x = float(pixel % camera.width) + s.next_float();
-    const float y = float(pixel / camera.width) + s.next_float();
-    return camera.ray_through(x, y);
+    const float jx = s.next_float();
+    return camera.pixel_ray(pixel, jx, s.next_float());
   }
 };
 
@@ -206,7 +205,7 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
   trace_camera_tiles(
       backend, structure, in.camera.origin, in.camera.width, in.camera.height,
       [=] CAUSTICA_HD(size_t pixel) {
-        Sampler s(seed, uint32_t(pixel), pass);
+        Sampler s(seed, in.camera.stream(pixel), pass);
         return in.camera_ray(pixel, s).direction;
       },
       hits.data());
@@ -315,12 +314,12 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
         [=] CAUSTICA_HD(size_t thread) {
           size_t pixel;
           if (!in.blocks.pixel_of(thread, pixel)) return;
-          Sampler s(in.cfg.seed, uint32_t(pixel), in.cfg.pass);
+          Sampler s(in.cfg.seed, in.camera.stream(pixel), in.cfg.pass);
           Vec3f direct(0.0f);
           uint32_t made = 0, beams_made = 0;
           Vec3f emitted = walk_specular_tree<kMedia>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
-              BranchRoulette(in.cfg, uint32_t(pixel)),
+              BranchRoulette(in.cfg, in.camera.stream(pixel)),
               [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput,
                   uint32_t medium) {
                 direct += throughput * direct_light(in.scene, structure, sh.position, n,
@@ -398,7 +397,7 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     const SurfaceHit sh = surface_at(in.scene, hit);
     const DeviceMaterial& m = in.scene.materials[sh.material];
     const Vec3f d = pr.ray.direction;
-    const BranchRoulette roulette(in.cfg, pr.pixel);
+    const BranchRoulette roulette(in.cfg, in.camera.stream(pr.pixel));
     auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
       const uint64_t branch = child_branch(pr.branch, pr.depth, choice);
       if (!roulette.spares(branch, pr.depth, in.max_depth, throughput)) return;
@@ -443,7 +442,7 @@ Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structu
     PathRay* first = wave.data();
     const PassInputs inputs = in;
     parallel_for(backend, "specular_wave_camera", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
-      Sampler s(inputs.cfg.seed, uint32_t(pixel), inputs.cfg.pass);
+      Sampler s(inputs.cfg.seed, inputs.camera.stream(pixel), inputs.cfg.pass);
       first[pixel] = {inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u};
     });
   }
@@ -514,10 +513,11 @@ Buffer<uint32_t> order_leaves(Backend& backend, const Buffer<PathLeaf>& leaves) 
 }
 
 // The sampler of a pixel's diffuse hit `rank` (in its walk's order) as the walk holds it there:
-// past the camera ray's two dimensions and the earlier hits' direct light.
-CAUSTICA_HDI Sampler diffuse_hit_sampler(const ShadingSettings& cfg, uint32_t pixel, uint32_t rank,
+// past the camera ray's two dimensions and the earlier hits' direct light. `stream`: the pixel's
+// (PinholeCamera::stream).
+CAUSTICA_HDI Sampler diffuse_hit_sampler(const ShadingSettings& cfg, uint32_t stream, uint32_t rank,
                                          uint32_t dimensions) {
-  Sampler s(cfg.seed, pixel, cfg.pass);
+  Sampler s(cfg.seed, stream, cfg.pass);
   s.skip(2 + rank * dimensions);
   return s;
 }
@@ -570,8 +570,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
     const PathLeaf l = leaf[diffuse_at[r]];
     Ray* mine = shadow + r * slots;
     for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
-    Sampler s =
-        diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
+                                    uint32_t(r) - pixel_offset[l.pixel], dimensions);
     (void)direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
                             inputs.cfg.area_light_samples, inputs.scene_radius, s,
                             [&](uint32_t slot, const Ray& ray) {
@@ -586,8 +586,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
   parallel_for(backend, "shadow_ray_shade", requests, [=] CAUSTICA_HD(size_t r) {
     PathLeaf& l = leaf[diffuse_at[r]];
     const uint8_t* mine = is_blocked + r * slots;
-    Sampler s =
-        diffuse_hit_sampler(inputs.cfg, l.pixel, uint32_t(r) - pixel_offset[l.pixel], dimensions);
+    Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
+                                    uint32_t(r) - pixel_offset[l.pixel], dimensions);
     l.value = direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
                                 [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });

@@ -28,7 +28,7 @@ struct FieldRules {
 constexpr FieldRules kRules[] = {
     {"hello", RequestType::kHello, {"token"}},
     {"list", RequestType::kList, {}},
-    {"open", RequestType::kOpen, {"scene", "passes"}},
+    {"open", RequestType::kOpen, {"scene", "passes", "strips"}},
     {"move_light", RequestType::kMoveLight, {"light", "u", "v"}},
     {"set_intensity", RequestType::kSetIntensity, {"light", "intensity"}},
     {"set_emitter", RequestType::kSetEmitter, {"emitter", "on", "radiance"}},
@@ -214,6 +214,9 @@ absl::StatusOr<ViewerRequest> parse_request(std::string_view text) {
       if (request.scene.empty()) return invalid(type, "scene", "is empty");
       if (message.contains("passes")) {
         ASSIGN_OR_RETURN_FIELD(request.passes, index_field(message, type, "passes", 1u << 16));
+      }
+      if (message.contains("strips")) {
+        ASSIGN_OR_RETURN_FIELD(request.strips, index_field(message, type, "strips", 16));
       }
       break;
     case RequestType::kMoveLight:
@@ -404,16 +407,23 @@ v1::Encoding preferred_frame_encoding() {
 
 std::string frame_message(const v1::Frame& header, std::string_view data) {
   const v1::StageTimings& t = header.timings();
-  const json fields = {{"scene", header.scene_id()},
-                       {"frame", header.frame_number()},
-                       {"width", header.width()},
-                       {"height", header.height()},
-                       {"passes", header.passes()},
-                       {"encoding", encoding_name(header.encoding())},
-                       {"mime", encoding_mime_type(header.encoding())},
-                       {"epochs", epochs_json(header.epochs())},
-                       {"photons", header.photons_emitted()},
-                       {"timings", timings_json(t)}};
+  json fields = {{"scene", header.scene_id()},
+                 {"frame", header.frame_number()},
+                 {"width", header.width()},
+                 {"height", header.height()},
+                 {"passes", header.passes()},
+                 {"encoding", encoding_name(header.encoding())},
+                 {"mime", encoding_mime_type(header.encoding())},
+                 {"epochs", epochs_json(header.epochs())},
+                 {"photons", header.photons_emitted()},
+                 {"timings", timings_json(t)}};
+  if (header.strip_bytes_size() > 0) {
+    // The page decodes each strip on its own and draws it below the ones before.
+    fields["strip_bytes"] =
+        std::vector<uint32_t>(header.strip_bytes().begin(), header.strip_bytes().end());
+    fields["strip_rows"] =
+        std::vector<uint32_t>(header.strip_rows().begin(), header.strip_rows().end());
+  }
   const std::string text = fields.dump(-1, ' ', false, json::error_handler_t::replace);
   std::string message;
   message.reserve(4 + text.size() + data.size());

@@ -36,6 +36,7 @@ struct ViewerRequest {
   std::string token;          // hello
   std::string scene;          // open
   uint32_t passes = 0;        // open: the refinement target; 0: the server's default
+  uint32_t strips = 0;        // open: JPEG strips per frame, up to 16; 0: the session's default
   uint32_t light = 0;         // move_light, set_intensity: index into the scene message's lights
   double u = 0, v = 0;        // move_light: where the light should appear, image coordinates
   double intensity = 0;       // set_intensity: the brightest channel, W/sr

@@ -177,6 +177,7 @@ absl::Status ViewerSession::open(const ViewerRequest& request) {
   pivot_distance_ = scene_scale_hint(camera_);
   lights_ = scene_lights(info, placed_light());
   const uint32_t passes = request.passes > 0 ? request.passes : options_.default_passes;
+  const uint32_t strips = request.strips > 0 ? request.strips : options_.jpeg_strips;
   json message = {{"type", "scene"},
                   {"scene",
                    {{"id", info.scene_id()},
@@ -193,7 +194,7 @@ absl::Status ViewerSession::open(const ViewerRequest& request) {
                   {"emitters", emitters_json(lights_)}};
   if (request.id) message["id"] = *request.id;
   send(message);
-  start_stream(scene_id_, passes);
+  start_stream(scene_id_, passes, strips);
   return absl::OkStatus();
 }
 
@@ -266,14 +267,15 @@ absl::Status ViewerSession::change_camera(const ViewerRequest& request) {
 
 // --- the frame stream ---
 
-void ViewerSession::start_stream(const std::string& scene_id, uint32_t passes) {
+void ViewerSession::start_stream(const std::string& scene_id, uint32_t passes, uint32_t strips) {
   {
     std::lock_guard lock(mutex_);
     if (closed_) return;
     stream_stop_ = false;
     woken_ = false;
   }
-  stream_thread_ = std::thread([this, scene_id, passes] { stream_loop(scene_id, passes); });
+  stream_thread_ =
+      std::thread([this, scene_id, passes, strips] { stream_loop(scene_id, passes, strips); });
 }
 
 void ViewerSession::stop_stream() {
@@ -308,7 +310,8 @@ bool ViewerSession::wait_for_wake(double timeout_s) {
 }
 
 grpc::Status ViewerSession::stream_once(const std::string& scene_id, uint32_t passes,
-                                        v1::Epochs* epochs, uint32_t* last_passes) {
+                                        uint32_t strips, v1::Epochs* epochs,
+                                        uint32_t* last_passes) {
   std::shared_ptr<grpc::ClientContext> context = make_context(0);
   {
     std::lock_guard lock(mutex_);
@@ -324,6 +327,7 @@ grpc::Status ViewerSession::stream_once(const std::string& scene_id, uint32_t pa
   request.set_max_chunk_bytes(options_.stream_chunk_bytes);
   request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
   request.mutable_format()->set_encoding(options_.encoding);
+  if (options_.encoding == v1::JPEG) request.mutable_format()->set_jpeg_strips(strips);
   std::unique_ptr<grpc::ClientReader<v1::Frame>> reader =
       stub_->StreamFrames(context.get(), request);
   v1::Frame piece;
@@ -352,11 +356,11 @@ grpc::Status ViewerSession::stream_once(const std::string& scene_id, uint32_t pa
   return status;
 }
 
-void ViewerSession::stream_loop(std::string scene_id, uint32_t passes) {
+void ViewerSession::stream_loop(std::string scene_id, uint32_t passes, uint32_t strips) {
   while (true) {
     v1::Epochs epochs;
     uint32_t last_passes = 0;
-    const grpc::Status status = stream_once(scene_id, passes, &epochs, &last_passes);
+    const grpc::Status status = stream_once(scene_id, passes, strips, &epochs, &last_passes);
     {
       std::lock_guard lock(mutex_);
       if (stream_stop_) return;

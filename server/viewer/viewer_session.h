@@ -36,6 +36,9 @@ struct ViewerOptions {
   // Passes a picture refines to when the page does not ask for a number.
   uint32_t default_passes = 32;
   v1::Encoding encoding = preferred_frame_encoding();
+  // JPEG frames as this many strips when the page does not ask (open's "strips"): the server
+  // encodes them and the browser decodes them in parallel rather than one whole image at a time.
+  uint32_t jpeg_strips = 4;
   double call_timeout_s = 60;
   // While the picture is finished, how often the session checks for changes by other clients.
   double idle_poll_s = 1;
@@ -79,13 +82,14 @@ class ViewerSession {
   void send_updated(const char* what, const v1::RebuildReport& report,
                     const ViewerRequest& request);
 
-  void start_stream(const std::string& scene_id, uint32_t passes);
+  void start_stream(const std::string& scene_id, uint32_t passes, uint32_t strips);
   void stop_stream();
   void wake_stream();
-  void stream_loop(std::string scene_id, uint32_t passes);
-  // One StreamFrames call; its status. `epochs` and `passes` get those of the last frame.
-  grpc::Status stream_once(const std::string& scene_id, uint32_t passes, v1::Epochs* epochs,
-                           uint32_t* last_passes);
+  void stream_loop(std::string scene_id, uint32_t passes, uint32_t strips);
+  // One StreamFrames call (JPEG frames in `strips` strips); its status. `epochs` and `passes` get
+  // those of the last frame.
+  grpc::Status stream_once(const std::string& scene_id, uint32_t passes, uint32_t strips,
+                           v1::Epochs* epochs, uint32_t* last_passes);
   // Waits until woken, closed or `timeout_s` passed (0: no timeout); whether it was woken.
   bool wait_for_wake(double timeout_s);
 

@@ -12,6 +12,7 @@
 #include <jpeglib.h>
 #include <png.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdlib>
@@ -19,6 +20,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 namespace caustica {
@@ -216,6 +218,117 @@ TEST(ImageEncoding, JpegRoundTripsThroughLibjpeg) {
     }
   }
   EXPECT_LT(total_error / (pixels.size() * 3), 2.0);
+}
+
+// libjpeg-turbo's decode of one JPEG as RGB rows; `height` gets its row count.
+std::vector<uint8_t> decode_jpeg_rgb(std::string_view jpeg, int width, int* height) {
+  jpeg_decompress_struct info;
+  jpeg_error_mgr errors;
+  info.err = jpeg_std_error(&errors);
+  jpeg_create_decompress(&info);
+  jpeg_mem_src(&info, reinterpret_cast<const unsigned char*>(jpeg.data()), jpeg.size());
+  EXPECT_EQ(jpeg_read_header(&info, TRUE), JPEG_HEADER_OK);
+  info.out_color_space = JCS_RGB;
+  jpeg_start_decompress(&info);
+  EXPECT_EQ(int(info.output_width), width);
+  *height = int(info.output_height);
+  std::vector<uint8_t> rgb(size_t(width) * info.output_height * 3);
+  while (info.output_scanline < info.output_height) {
+    JSAMPROW row = rgb.data() + size_t(info.output_scanline) * width * 3;
+    jpeg_read_scanlines(&info, &row, 1);
+  }
+  jpeg_finish_decompress(&info);
+  jpeg_destroy_decompress(&info);
+  return rgb;
+}
+
+TEST(ImageEncoding, JpegStripsDecodeToTheImage) {
+  const int width = 72, height = 100;  // 7 blocks of 16 rows, the last one short
+  const std::vector<Rgba8> pixels = smooth(width, height);
+  absl::StatusOr<std::string> whole = encode_jpeg(width, height, bytes_of(pixels), 90);
+  ASSERT_TRUE(whole.ok()) << whole.status();
+  int whole_height = 0;
+  const std::vector<uint8_t> whole_rgb = decode_jpeg_rgb(*whole, width, &whole_height);
+  for (int strips : {2, 3, 4, 7, 16}) {
+    absl::StatusOr<JpegStrips> encoded =
+        encode_jpeg_strips(width, height, bytes_of(pixels), 90, strips);
+    ASSERT_TRUE(encoded.ok()) << encoded.status();
+    const size_t count = std::min(strips, 7);
+    ASSERT_EQ(encoded->strip_bytes.size(), count) << strips;
+    ASSERT_EQ(encoded->strip_rows.size(), count) << strips;
+    std::vector<uint8_t> rgb;
+    size_t offset = 0;
+    int rows = 0;
+    for (size_t i = 0; i < count; ++i) {
+      if (i + 1 < count) EXPECT_EQ(encoded->strip_rows[i] % 16, 0u) << strips << " strip " << i;
+      const std::string_view strip =
+          std::string_view(encoded->data).substr(offset, encoded->strip_bytes[i]);
+      offset += encoded->strip_bytes[i];
+      ASSERT_GE(strip.size(), 4u);
+      EXPECT_EQ(uint8_t(strip[0]), 0xff);
+      EXPECT_EQ(uint8_t(strip[1]), 0xd8);
+      EXPECT_EQ(uint8_t(strip[strip.size() - 2]), 0xff);
+      EXPECT_EQ(uint8_t(strip[strip.size() - 1]), 0xd9);
+      int strip_height = 0;
+      const std::vector<uint8_t> part = decode_jpeg_rgb(strip, width, &strip_height);
+      EXPECT_EQ(strip_height, int(encoded->strip_rows[i]));
+      rows += strip_height;
+      rgb.insert(rgb.end(), part.begin(), part.end());
+    }
+    EXPECT_EQ(offset, encoded->data.size());
+    ASSERT_EQ(rows, height);
+    // Each strip is as close to the pixels as the one JPEG is, and so close to its decode.
+    double total_error = 0;
+    for (size_t i = 0; i < pixels.size(); ++i) {
+      const uint8_t expected[3] = {pixels[i].r, pixels[i].g, pixels[i].b};
+      for (int c = 0; c < 3; ++c) {
+        const int error = std::abs(int(rgb[3 * i + c]) - int(expected[c]));
+        ASSERT_LE(error, 16) << strips << " strips, pixel " << i << " channel " << c;
+        EXPECT_LE(std::abs(int(rgb[3 * i + c]) - int(whole_rgb[3 * i + c])), 16);
+        total_error += error;
+      }
+    }
+    EXPECT_LT(total_error / (pixels.size() * 3), 2.5) << strips;
+  }
+}
+
+TEST(ImageEncoding, OneJpegStripIsTheJpeg) {
+  const int width = 40, height = 37;
+  const std::vector<Rgba8> pixels = smooth(width, height);
+  absl::StatusOr<std::string> whole = encode_jpeg(width, height, bytes_of(pixels), 85);
+  absl::StatusOr<JpegStrips> one = encode_jpeg_strips(width, height, bytes_of(pixels), 85, 1);
+  ASSERT_TRUE(whole.ok() && one.ok());
+  EXPECT_EQ(one->data, *whole);
+  EXPECT_EQ(one->strip_bytes, std::vector<uint32_t>{uint32_t(whole->size())});
+  EXPECT_EQ(one->strip_rows, std::vector<uint32_t>{uint32_t(height)});
+}
+
+TEST(ImageEncoding, JpegStripRowsAreEvenWholeBlocks) {
+  const std::vector<Rgba8> pixels = smooth(16, 1024);
+  absl::StatusOr<JpegStrips> four = encode_jpeg_strips(16, 1024, bytes_of(pixels), 90, 4);
+  ASSERT_TRUE(four.ok());
+  EXPECT_EQ(four->strip_rows, (std::vector<uint32_t>{256, 256, 256, 256}));
+  const std::vector<Rgba8> odd = smooth(16, 1000);
+  absl::StatusOr<JpegStrips> uneven = encode_jpeg_strips(16, 1000, bytes_of(odd), 90, 4);
+  ASSERT_TRUE(uneven.ok());
+  EXPECT_EQ(uneven->strip_rows, (std::vector<uint32_t>{256, 256, 256, 232}));
+  const std::vector<Rgba8> short_image = smooth(16, 20);
+  absl::StatusOr<JpegStrips> two = encode_jpeg_strips(16, 20, bytes_of(short_image), 90, 16);
+  ASSERT_TRUE(two.ok());
+  EXPECT_EQ(two->strip_rows, (std::vector<uint32_t>{16, 4}));
+}
+
+TEST(ImageEncoding, RefusesBadJpegStripCounts) {
+  const std::vector<Rgba8> pixels = smooth(16, 16);
+  for (int strips : {0, -1, kMaxJpegStrips + 1}) {
+    EXPECT_EQ(encode_jpeg_strips(16, 16, bytes_of(pixels), 90, strips).status().code(),
+              absl::StatusCode::kInvalidArgument)
+        << strips;
+  }
+  EXPECT_EQ(encode_jpeg_strips(16, 16, bytes_of(pixels), 0, 2).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(encode_jpeg_strips(16, 15, bytes_of(pixels), 90, 2).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 TEST(ImageEncoding, JpegQualityChangesTheSize) {

@@ -67,6 +67,47 @@ TEST(FrameFormat, JpegHoldsSrgbBytesAtAQualityInRange) {
       << spec.status().message();
 }
 
+TEST(FrameFormat, JpegStripsAreOneToSixteen) {
+  v1::FrameFormat format;
+  format.set_encoding(v1::JPEG);
+  absl::StatusOr<FrameSpec> spec = parse_frame_format(format, "format");
+  ASSERT_TRUE(spec.ok());
+  EXPECT_EQ(spec->jpeg_strips, 1);
+  format.set_jpeg_strips(16);
+  spec = parse_frame_format(format, "format");
+  ASSERT_TRUE(spec.ok());
+  EXPECT_EQ(spec->jpeg_strips, 16);
+  format.set_jpeg_strips(17);
+  spec = parse_frame_format(format, "request.format");
+  EXPECT_EQ(spec.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(spec.status().message().find("request.format.jpeg_strips"), std::string::npos)
+      << spec.status().message();
+}
+
+TEST(FrameEncoding, JpegStripsFillTheHeader) {
+  const std::vector<Rgba8> srgb8(8 * 40, Rgba8{10, 200, 30, 255});
+  FrameSpec spec;
+  spec.encoding = v1::JPEG;
+  spec.jpeg_strips = 3;
+  v1::Frame header;
+  absl::StatusOr<std::string> bytes = encode_frame(spec, 8, 40, srgb8, {}, &header);
+  ASSERT_TRUE(bytes.ok()) << bytes.status();
+  ASSERT_EQ(header.strip_bytes_size(), 3);
+  ASSERT_EQ(header.strip_rows_size(), 3);
+  EXPECT_EQ(header.strip_rows(0) + header.strip_rows(1) + header.strip_rows(2), 40u);
+  EXPECT_EQ(header.strip_bytes(0) + header.strip_bytes(1) + header.strip_bytes(2), bytes->size());
+  // Every piece of a split frame carries the strips, as the other header fields.
+  for (const v1::Frame& piece : split_frame(header, *bytes, 100)) {
+    EXPECT_EQ(piece.strip_bytes_size(), 3);
+    EXPECT_EQ(piece.strip_rows_size(), 3);
+  }
+  spec.jpeg_strips = 1;
+  v1::Frame single;
+  bytes = encode_frame(spec, 8, 40, srgb8, {}, &single);
+  ASSERT_TRUE(bytes.ok());
+  EXPECT_EQ(single.strip_bytes_size(), 0);
+}
+
 TEST(FrameEncoding, EncodedFramesAreTheirFiles) {
   const std::vector<Rgba8> srgb8(6, Rgba8{10, 200, 30, 255});
   FrameSpec jpeg;

@@ -26,19 +26,7 @@ class DurableServer : public ::testing::Test {
 
   // A server on data_dir_, waited for until it has restored its scenes.
   std::unique_ptr<ServerProcess> start(std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"--data-dir", data_dir_.string()};
-    args.insert(args.end(), extra.begin(), extra.end());
-    std::unique_ptr<ServerProcess> server = ServerProcess::start(args);
-    if (server == nullptr) return nullptr;
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while (!health_serving(server->channel())) {
-      if (std::chrono::steady_clock::now() > give_up) {
-        ADD_FAILURE() << "the server never turned SERVING; its log:\n" << server->log();
-        return nullptr;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    return server;
+    return start_restored_server(data_dir_, extra);
   }
 
   size_t blobs() const {
@@ -49,15 +37,6 @@ class DurableServer : public ::testing::Test {
 
   fs::path data_dir_;
 };
-
-std::vector<float> render(v1::RenderService::Stub& stub, const std::string& id, uint32_t passes) {
-  v1::Frame frame;
-  const grpc::Status status =
-      render_frame(stub, id, passes, frame_format(v1::RGBA32F_LINEAR), &frame);
-  EXPECT_TRUE(status.ok()) << status.error_message();
-  EXPECT_EQ(frame.passes(), passes);
-  return frame_floats(frame);
-}
 
 // What a restarted server must report of a scene: everything but timings and the film.
 void expect_same_scene(const v1::SceneInfo& before, const v1::SceneInfo& after) {
@@ -114,8 +93,8 @@ TEST_F(DurableServer, EveryAcknowledgedChangeSurvivesSigkill) {
   }
   const std::vector<v1::SceneInfo> before = list_scenes(*stub);
   ASSERT_EQ(before.size(), 2u);
-  const std::vector<float> image_a = render(*stub, a, 3);
-  const std::vector<float> image_b = render(*stub, b, 2);
+  const std::vector<float> image_a = render_linear(*stub, a, 3);
+  const std::vector<float> image_b = render_linear(*stub, b, 2);
   server->kill_now();
 
   server = start();
@@ -125,8 +104,8 @@ TEST_F(DurableServer, EveryAcknowledgedChangeSurvivesSigkill) {
   ASSERT_EQ(after.size(), 2u);
   for (size_t i = 0; i < 2; ++i) expect_same_scene(before[i], after[i]);
   EXPECT_EQ(after[0].passes(), 0u);  // the film is not kept: it refills from the same seeds
-  EXPECT_EQ(render(*stub, a, 3), image_a);
-  EXPECT_EQ(render(*stub, b, 2), image_b);
+  EXPECT_EQ(render_linear(*stub, a, 3), image_a);
+  EXPECT_EQ(render_linear(*stub, b, 2), image_b);
   EXPECT_EQ(get_scene_status(*stub, gone).error_code(), grpc::StatusCode::NOT_FOUND);
   EXPECT_EQ(blobs(), 2u);
   // New uploads get fresh ids next to the restored ones.
@@ -212,7 +191,7 @@ TEST_F(DurableServer, KilledJustAfterALightChangeKeepsIt) {
     auto reference_stub = reference->stub();
     const std::string twin = upload_scene(*reference_stub, scene, "lit");
     update_lights(*reference_stub, twin, intensity);
-    EXPECT_EQ(render(*stub, id, 2), render(*reference_stub, twin, 2)) << intensity;
+    EXPECT_EQ(render_linear(*stub, id, 2), render_linear(*reference_stub, twin, 2)) << intensity;
   }
 }
 

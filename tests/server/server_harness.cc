@@ -378,6 +378,33 @@ bool health_serving(const std::shared_ptr<grpc::Channel>& channel) {
   return status.ok() && *status == client::ServingStatus::kServing;
 }
 
+std::vector<float> render_linear(v1::RenderService::Stub& stub, const std::string& id,
+                                 uint32_t passes) {
+  v1::Frame frame;
+  const grpc::Status status =
+      render_frame(stub, id, passes, frame_format(v1::RGBA32F_LINEAR), &frame);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(frame.passes(), passes);
+  return frame_floats(frame);
+}
+
+std::unique_ptr<ServerProcess> start_restored_server(const std::filesystem::path& data_dir,
+                                                     const std::vector<std::string>& extra) {
+  std::vector<std::string> args = {"--data-dir", data_dir.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  std::unique_ptr<ServerProcess> server = ServerProcess::start(args);
+  if (server == nullptr) return nullptr;
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!health_serving(server->channel())) {
+    if (std::chrono::steady_clock::now() > give_up) {
+      ADD_FAILURE() << "the server never turned SERVING; its log:\n" << server->log();
+      return nullptr;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return server;
+}
+
 void expect_server_healthy(ServerProcess& server) {
   ASSERT_TRUE(server.running()) << server.log();
   EXPECT_TRUE(health_serving(server.channel()));

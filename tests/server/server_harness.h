@@ -132,6 +132,13 @@ v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string
 
 // grpc.health.v1.Health/Check of the whole server.
 bool health_serving(const std::shared_ptr<grpc::Channel>& channel);
+// RGBA32F linear pixels of a RenderFrame of `passes` passes of scene `id`, which must succeed.
+std::vector<float> render_linear(v1::RenderService::Stub& stub, const std::string& id,
+                                 uint32_t passes);
+// A server on `data_dir` (--data-dir) with `extra` flags, waited for until it has restored its
+// scenes and turned SERVING; null, with the test failed, when it does not within a minute.
+std::unique_ptr<ServerProcess> start_restored_server(const std::filesystem::path& data_dir,
+                                                     const std::vector<std::string>& extra = {});
 // Health check, then a small render of a fresh upload: what "the server survived" means.
 void expect_server_healthy(ServerProcess& server);
 

@@ -83,6 +83,12 @@ TEST_F(MetricsTest, MetricsShowCallsStagesAndMemoryAndPassPromtool) {
   EXPECT_GE(sample(text, "caustica_memory_peak_bytes"), sample(text, "caustica_memory_used_bytes"));
   EXPECT_EQ(sample(text, "caustica_memory_budget_bytes"), double(size_t{8} << 30));
   EXPECT_EQ(sample(text, "caustica_active_streams"), 0);
+  // One device: its own gauges carry what the totals do.
+  EXPECT_EQ(sample(text, R"(caustica_device_memory_used_bytes{device="0"})"),
+            sample(text, "caustica_memory_used_bytes"));
+  EXPECT_EQ(sample(text, R"(caustica_device_memory_budget_bytes{device="0"})"),
+            double(size_t{8} << 30));
+  EXPECT_EQ(sample(text, R"(caustica_device_queue_waiting{device="0"})"), 0);
   EXPECT_THAT(text, HasSubstr("# TYPE caustica_request_duration_seconds histogram"));
 }
 

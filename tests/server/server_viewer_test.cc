@@ -39,6 +39,17 @@ class RecordingSink : public server::viewer::ViewerSink {
     // JPEG's start-of-image marker or PNG's signature: the pieces were put together whole.
     header["image_whole"] = image.starts_with("\xff\xd8\xff") ? image.ends_with("\xff\xd9")
                                                               : image.starts_with("\x89PNG");
+    if (header.contains("strip_bytes")) {
+      // Each strip a whole JPEG of its own, and together all the bytes.
+      bool whole = header["strip_rows"].size() == header["strip_bytes"].size();
+      size_t offset = 0;
+      for (const json& size : header["strip_bytes"]) {
+        const std::string strip = image.substr(offset, size.get<size_t>());
+        whole = whole && strip.starts_with("\xff\xd8") && strip.ends_with("\xff\xd9");
+        offset += size.get<size_t>();
+      }
+      header["strips_whole"] = whole && offset == image.size();
+    }
     std::lock_guard lock(mutex_);
     frames_.push_back(std::move(header));
     changed_.notify_all();
@@ -148,6 +159,9 @@ TEST_F(ViewerSessionTest, FramesRefineAndALightDragShowsInANewEpoch) {
   EXPECT_EQ(finished["width"], 64);
   EXPECT_GT(finished["image_bytes"].get<size_t>(), 512u);
   EXPECT_TRUE(finished["image_whole"]);
+  // JPEG frames come as strips by default; 48 rows make three 16-row strips.
+  EXPECT_EQ(finished["strip_rows"], json({16, 16, 16}));
+  EXPECT_TRUE(finished["strips_whole"]);
   const uint64_t lights_epoch = finished["epochs"]["lights"];
   sink_.wait_text("idle", &seen_);
 
@@ -200,6 +214,49 @@ TEST_F(ViewerSessionTest, FramesRefineAndALightDragShowsInANewEpoch) {
   EXPECT_EQ(sink_.wait_text("updated", &seen_)["what"], "camera");
   session_->close();
   expect_server_healthy(*server_);
+}
+
+TEST_F(ViewerSessionTest, TheOpenMessageChoosesTheStripCount) {
+  session_->handle_text(R"({"type":"hello"})");
+  sink_.wait_text("scenes", &seen_);
+  session_->handle_text(R"({"type":"open","scene":"x","strips":17})");
+  EXPECT_THAT(sink_.wait_text("error", &seen_)["message"].get<std::string>(),
+              HasSubstr("open.strips"));
+  session_->handle_text(
+      json({{"type", "open"}, {"scene", scene_id_}, {"passes", 2}, {"strips", 1}}).dump());
+  const json finished = sink_.wait_frame([](const json& frame) { return frame["passes"] == 2; });
+  ASSERT_FALSE(finished.is_null());
+  EXPECT_TRUE(finished["image_whole"]);
+  EXPECT_FALSE(finished.contains("strip_bytes")) << "one strip is one JPEG, as before strips";
+  session_->close();
+}
+
+TEST_F(ServerTest, RenderFrameInJpegStrips) {
+  const std::string id = upload_scene(
+      *stub_, small_scene_from(std::filesystem::path(CAUSTICA_SCENES_DIR) / "ring" / "scene.json",
+                               64, 72, 5000, 16, 1));
+  v1::FrameFormat format;
+  format.set_encoding(v1::JPEG);
+  format.set_jpeg_strips(4);
+  v1::Frame frame;
+  grpc::Status status = render_frame(*stub_, id, 1, format, &frame);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(frame.strip_bytes_size(), 4);
+  ASSERT_EQ(frame.strip_rows_size(), 4);
+  EXPECT_THAT(frame.strip_rows(), ::testing::ElementsAre(32, 16, 16, 8));
+  size_t offset = 0;
+  for (uint32_t size : frame.strip_bytes()) {
+    const std::string strip = frame.data().substr(offset, size);
+    EXPECT_TRUE(strip.starts_with("\xff\xd8")) << "strip at " << offset;
+    EXPECT_TRUE(strip.ends_with("\xff\xd9")) << "strip at " << offset;
+    offset += size;
+  }
+  EXPECT_EQ(offset, frame.data().size());
+
+  format.set_jpeg_strips(17);
+  status = render_frame(*stub_, id, 1, format, &frame);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), HasSubstr("format.jpeg_strips"));
 }
 
 // The Cornell box with a point light and a directional light besides its area light.

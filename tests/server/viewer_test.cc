@@ -152,6 +152,10 @@ TEST(ViewerProtocol, ParsesEveryMessageType) {
   ASSERT_TRUE(open.ok()) << open.status();
   EXPECT_EQ(open->scene, "s-1");
   EXPECT_EQ(open->passes, 8u);
+  EXPECT_EQ(open->strips, 0u) << "no strips field: the session's default";
+  open = parse_request(R"({"type":"open","scene":"s-1","strips":2})");
+  ASSERT_TRUE(open.ok()) << open.status();
+  EXPECT_EQ(open->strips, 2u);
   absl::StatusOr<ViewerRequest> move =
       parse_request(R"({"type":"move_light","light":1,"u":0.25,"v":-0.5})");
   ASSERT_TRUE(move.ok()) << move.status();
@@ -191,7 +195,9 @@ TEST(ViewerProtocol, RefusalsSayWhatIsWrong) {
   EXPECT_THAT(refusal(R"({"type":"teleport"})"),
               HasSubstr("unknown message type 'teleport' (expected hello, list, open"));
   EXPECT_THAT(refusal(R"({"type":"open","scene":"s","colour":"red"})"),
-              HasSubstr("open.colour: unknown field (open takes type, id, scene, passes)"));
+              HasSubstr("open.colour: unknown field (open takes type, id, scene, passes, strips)"));
+  EXPECT_THAT(refusal(R"({"type":"open","scene":"s","strips":17})"),
+              HasSubstr("open.strips: must be an integer in [0, 16]"));
   EXPECT_THAT(refusal(R"({"type":"open"})"), HasSubstr("open.scene: is missing"));
   EXPECT_THAT(refusal(R"({"type":"open","scene":7})"), HasSubstr("open.scene: must be a string"));
   EXPECT_THAT(refusal(R"({"type":"move_light","light":-1,"u":0,"v":0})"),
@@ -421,7 +427,19 @@ TEST(ViewerProtocol, FrameMessageIsLengthJsonThenImage) {
   EXPECT_EQ(fields["mime"], "image/png");
   EXPECT_EQ(fields["epochs"]["lights"], 3);
   EXPECT_EQ(fields["timings"]["render_ms"], 12.5);
+  EXPECT_FALSE(fields.contains("strip_bytes")) << "one image, no strips";
   EXPECT_EQ(message.substr(4 + length), image);
+
+  header.add_strip_bytes(10);
+  header.add_strip_bytes(4);
+  header.add_strip_rows(16);
+  header.add_strip_rows(0);
+  const std::string strips = frame_message(header, image);
+  length = 0;
+  for (int i = 0; i < 4; ++i) length |= uint32_t(static_cast<unsigned char>(strips[i])) << (8 * i);
+  const nlohmann::json strip_fields = nlohmann::json::parse(strips.substr(4, length));
+  EXPECT_EQ(strip_fields["strip_bytes"], nlohmann::json({10, 4}));
+  EXPECT_EQ(strip_fields["strip_rows"], nlohmann::json({16, 0}));
 }
 
 TEST(ViewerProtocol, PrefersJpegWhereTheApiHasIt) {

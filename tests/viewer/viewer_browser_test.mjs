@@ -4,7 +4,7 @@
 //                                        the lights epoch and the picture; the drag-to-frame
 //                                        latency is measured; in an area-lit scene the viewer
 //                                        light is added and switching the area light off darkens
-//                                        the picture
+//                                        the picture; the page's drag bench (?bench=drag) logs its line
 //   node viewer_browser_test.mjs tokens   with --tokens: no token shows the refusal; a token
 //                                        lists only its tenant's scenes
 // Exits 77 (skipped) when chromium or node_modules are missing. CAUSTICA_SERVER_BIN,
@@ -171,6 +171,11 @@ async function framesTest() {
     check(before.errors.length === 0, `errors before the drag: ${JSON.stringify(before.errors)}`);
     check(before.lastFrame.passes === PASSES, `the picture stopped at ${before.lastFrame.passes} passes`);
     check(before.lastFrame.width === WIDTH && before.lastFrame.height === HEIGHT, 'frame size');
+    // Frames come as JPEG strips by default, decoded each on its own and drawn one under another.
+    const stripRows = before.lastFrame.strip_rows || [];
+    check(stripRows.length === 4 && stripRows.reduce((sum, rows) => sum + rows, 0) === HEIGHT &&
+      (before.lastFrame.strip_bytes || []).length === 4, `strips: ${JSON.stringify(stripRows)}`);
+    check(await page.evaluate(() => document.getElementById('frame').height) === HEIGHT, 'canvas height');
     const overlay = await page.textContent('#overlay');
     check(/pass \d+\/\d+/.test(overlay) && /lights \d+/.test(overlay) && /render [\d.]+/.test(overlay),
       `overlay: ${overlay}`);
@@ -276,6 +281,27 @@ async function framesTest() {
     check(darkening < 0.9, `the picture did not darken (mean ${mean(pixelsOn).toFixed(1)} -> ${mean(pixelsOff).toFixed(1)})`);
     check(page.pageErrors.length === 0, `page errors: ${page.pageErrors.join('; ')}`);
 
+    // The drag bench (scripts/viewer-latency's page mode): a few moves of the ring's light, and
+    // one console line with the figures.
+    const benchLines = [];
+    const onConsole = (message) => {
+      if (message.text().startsWith('caustica-drag-bench')) benchLines.push(message.text());
+    };
+    page.on('console', onConsole);
+    await page.goto(`${server.url}?scene=${sceneId}&passes=1&bench=drag&moves=3`);
+    await page.waitForFunction(() => document.title.startsWith('caustica-drag-bench '), null, { timeout: 60000 });
+    page.off('console', onConsole);
+    check(benchLines.length === 1 && benchLines[0].startsWith('caustica-drag-bench {'),
+      `bench lines: ${JSON.stringify(benchLines)}`);
+    const bench = JSON.parse(benchLines[0].slice('caustica-drag-bench '.length));
+    check(bench.moves === 3 && bench.median_ms > 0 && bench.min_ms <= bench.median_ms &&
+      bench.median_ms <= bench.max_ms && bench.width === WIDTH && bench.height === HEIGHT &&
+      bench.encoding === 'jpeg' && bench.median_decode_ms >= 0 && bench.median_draw_ms >= 0 &&
+      Number.isFinite(bench.server_median_ms.render_ms), `bench: ${benchLines[0]}`);
+    check(await page.title() === 'caustica-drag-bench done', `title: ${await page.title()}`);
+    await page.goto(`${server.url}?scene=${sceneId}&bench=drag&moves=0`);
+    await page.waitForFunction(() => document.title === 'caustica-drag-bench error', null, { timeout: 10000 });
+
     // SIGTERM while a page streams: the server ends the socket and its stream and exits 0.
     await page.goto(`${server.url}?scene=${sceneId}&passes=60000`);
     await page.waitForFunction(() => window.causticaViewer.framesDrawn >= 2, null, { timeout: 60000 });
@@ -293,7 +319,7 @@ async function framesTest() {
       frames_drawn: after.framesDrawn, mean_pixel_difference: Number(difference.toFixed(2)),
       area_light_off_ms: Math.round(switched.latencies[switched.latencies.length - 1]),
       area_light_off_brightness: Number(darkening.toFixed(2)),
-      shutdown_s: stopSeconds,
+      bench_median_ms: bench.median_ms, bench_decode_ms: bench.median_decode_ms, shutdown_s: stopSeconds,
     }));
   } finally {
     await browser.close();

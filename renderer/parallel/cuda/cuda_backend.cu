@@ -28,6 +28,7 @@
 #include <cuda/std/functional>
 #include <mutex>
 #include <new>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -87,14 +88,36 @@ struct MergeBoundsOp {
   __host__ __device__ Aabb operator()(const Aabb& a, const Aabb& b) const { return merge(a, b); }
 };
 
+// Makes `device` current for a scope and the caller's device again after it: memory may be
+// allocated and freed from any thread (a scene deleted while another device renders).
+class DeviceScope {
+ public:
+  explicit DeviceScope(int device) {
+    if (cudaGetDevice(&previous_) == cudaSuccess && previous_ != device) {
+      CAUSTICA_CUDA_LOG(cudaSetDevice(device));
+    } else {
+      previous_ = -1;
+    }
+  }
+  ~DeviceScope() {
+    if (previous_ >= 0) CAUSTICA_CUDA_LOG(cudaSetDevice(previous_));
+  }
+  DeviceScope(const DeviceScope&) = delete;
+  DeviceScope& operator=(const DeviceScope&) = delete;
+
+ private:
+  int previous_ = -1;
+};
+
 class CudaBackend final : public Backend {
  public:
-  explicit CudaBackend(size_t memory_budget_bytes) : Backend(memory_budget_bytes) {
+  CudaBackend(size_t memory_budget_bytes, int ordinal) : Backend(memory_budget_bytes) {
     try {
+      if (ordinal >= 0) CAUSTICA_CUDA_CHECK(cudaSetDevice(ordinal));
       CAUSTICA_CUDA_CHECK(cudaGetDevice(&device_));
       cudaDeviceProp prop;
       CAUSTICA_CUDA_CHECK(cudaGetDeviceProperties(&prop, device_));
-      info_ = {prop.name, prop.multiProcessorCount, prop.totalGlobalMem};
+      info_ = {prop.name, prop.multiProcessorCount, prop.totalGlobalMem, device_};
       int pools_supported = 0;
       CAUSTICA_CUDA_CHECK(
           cudaDeviceGetAttribute(&pools_supported, cudaDevAttrMemoryPoolsSupported, device_));
@@ -164,6 +187,21 @@ class CudaBackend final : public Backend {
     CAUSTICA_CUDA_CHECK(cudaMemsetAsync(dst, value, bytes, stream_));
   }
   void synchronize() override { CAUSTICA_CUDA_CHECK(cudaStreamSynchronize(stream_)); }
+  void make_current() override { CAUSTICA_CUDA_CHECK(cudaSetDevice(device_)); }
+
+  void copy_from(Backend& source, void* dst, const void* src, size_t bytes) override {
+    if (source.kind() != DeviceKind::kCuda || bytes == 0) {
+      Backend::copy_from(source, dst, src, bytes);
+      return;
+    }
+    const int from = static_cast<CudaBackend&>(source).device_;
+    if (from == device_) {
+      CAUSTICA_CUDA_CHECK(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream_));
+      return;
+    }
+    enable_peer_access(from);
+    CAUSTICA_CUDA_CHECK(cudaMemcpyPeerAsync(dst, device_, src, from, bytes, stream_));
+  }
   // Events on the stream time the device work alone, not the host's launch overhead around it.
   double time_ms(const std::function<void()>& fn) override {
     cudaEvent_t start, stop;
@@ -285,6 +323,7 @@ class CudaBackend final : public Backend {
 
  protected:
   void* allocate_raw(size_t bytes) override {
+    const DeviceScope scope(device_);
     void* p = nullptr;
     const cudaError_t status = cudaMallocFromPoolAsync(&p, bytes, pool_, stream_);
     if (status == cudaErrorMemoryAllocation) {
@@ -296,7 +335,10 @@ class CudaBackend final : public Backend {
   }
   // Ordered on the stream after all work queued so far, so buffers may be dropped while kernels
   // that read them are still running.
-  void deallocate_raw(void* p, size_t) override { CAUSTICA_CUDA_LOG(cudaFreeAsync(p, stream_)); }
+  void deallocate_raw(void* p, size_t) override {
+    const DeviceScope scope(device_);
+    CAUSTICA_CUDA_LOG(cudaFreeAsync(p, stream_));
+  }
 
  private:
   static constexpr size_t kStagingBytes = 256;
@@ -424,6 +466,7 @@ class CudaBackend final : public Backend {
 
   // Idempotent, so the constructor can undo a partial set-up with it.
   void release() noexcept {
+    const DeviceScope scope(device_);
     if (stream_ != nullptr) CAUSTICA_CUDA_LOG(cudaStreamSynchronize(stream_));
     for (cudaEvent_t event : events_) CAUSTICA_CUDA_LOG(cudaEventDestroy(event));
     events_.clear();
@@ -437,8 +480,26 @@ class CudaBackend final : public Backend {
     stream_ = nullptr;
   }
 
+  // Lets this device read `peer`'s memory directly where the two are linked (NVLink or PCIe
+  // peer to peer), once; without it cudaMemcpyPeerAsync stages through the host.
+  void enable_peer_access(int peer) {
+    std::lock_guard<std::mutex> lock(peers_mutex_);
+    if (!peers_tried_.insert(peer).second) return;
+    int can = 0;
+    CAUSTICA_CUDA_CHECK(cudaDeviceCanAccessPeer(&can, device_, peer));
+    if (!can) return;
+    const cudaError_t status = cudaDeviceEnablePeerAccess(peer, 0);
+    if (status == cudaErrorPeerAccessAlreadyEnabled) {
+      cudaGetLastError();
+    } else {
+      CAUSTICA_CUDA_CHECK(status);
+    }
+  }
+
   int device_ = 0;
   DeviceInfo info_;
+  std::mutex peers_mutex_;
+  std::set<int> peers_tried_;
   cudaStream_t stream_ = nullptr;
   cudaMemPool_t pool_ = nullptr;
   void* staging_ = nullptr;  // pinned
@@ -468,8 +529,17 @@ bool cuda_device_available() {
   return count > 0;
 }
 
-std::unique_ptr<Backend> make_cuda_backend(size_t memory_budget_bytes) {
-  return std::make_unique<CudaBackend>(memory_budget_bytes);
+int cuda_device_count() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    cudaGetLastError();
+    return 0;
+  }
+  return count;
+}
+
+std::unique_ptr<Backend> make_cuda_backend(size_t memory_budget_bytes, int ordinal) {
+  return std::make_unique<CudaBackend>(memory_budget_bytes, ordinal);
 }
 
 }  // namespace caustica

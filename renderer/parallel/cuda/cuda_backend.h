@@ -12,9 +12,12 @@ namespace caustica {
 // True when the CUDA runtime finds a driver and at least one GPU. Never throws.
 bool cuda_device_available();
 
-// A backend on the current CUDA device: its own non-blocking stream, allocations from its own
-// stream-ordered pool counted against `memory_budget_bytes`, primitives on CUB. Throws
-// DeviceError when no device can be used.
-std::unique_ptr<Backend> make_cuda_backend(size_t memory_budget_bytes);
+// The GPUs the CUDA runtime sees (0 without a driver). Never throws.
+int cuda_device_count();
+
+// A backend on CUDA device `ordinal` (-1: the calling thread's current one): its own non-blocking
+// stream, allocations from its own stream-ordered pool counted against `memory_budget_bytes`,
+// primitives on CUB. Throws DeviceError when no device can be used.
+std::unique_ptr<Backend> make_cuda_backend(size_t memory_budget_bytes, int ordinal = -1);
 
 }  // namespace caustica

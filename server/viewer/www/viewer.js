@@ -8,6 +8,10 @@
   const token = params.get('token') || '';
   const requestedScene = params.get('scene') || '';
   const requestedPasses = Number.parseInt(params.get('passes') || '0', 10) || 0;
+  // JPEG strips per frame (1: one JPEG); absent: the server's default.
+  const requestedStrips = Number.parseInt(params.get('strips') || '0', 10) || 0;
+  const benchMode = params.get('bench');
+  const benchMoves = params.has('moves') ? Number(params.get('moves')) : 30;
   // The token stays in memory only: out of the address bar, the history and screenshots.
   if (params.has('token')) {
     params.delete('token');
@@ -57,7 +61,7 @@
     if (typeof event.data === 'string') {
       handleText(JSON.parse(event.data));
     } else {
-      handleFrame(event.data);
+      handleFrame(event.data, performance.now());
     }
   });
 
@@ -66,6 +70,8 @@
     const box = $('error');
     box.textContent = `${message.code}: ${message.message}`;
     box.hidden = false;
+    if (benchFailed) benchFailed(`${message.code}: ${message.message}`);
+    else if (benchMode !== null && !benchStarted) benchError(`${message.code}: ${message.message}`);
   }
 
   function handleText(message) {
@@ -113,7 +119,10 @@
   function openScene(id) {
     opened = true;
     $('error').hidden = true;
-    send({ type: 'open', scene: id, ...(requestedPasses ? { passes: requestedPasses } : {}) });
+    send({
+      type: 'open', scene: id, ...(requestedPasses ? { passes: requestedPasses } : {}),
+      ...(requestedStrips ? { strips: requestedStrips } : {}),
+    });
   }
   $('open-scene').addEventListener('click', () => openScene($('scene-list').value));
 
@@ -282,7 +291,8 @@
   let inFlight = 0;
   let queued = [];
   const pendingLatency = new Map();  // request id -> {sentAt, epoch}
-  const firstDrawn = new Map();      // lights epoch -> when its first frame was drawn
+  const firstDrawn = new Map();      // lights epoch -> its first frame drawn: when, and its timings
+  let latencyListener = null;        // the bench's, told of each latency measured
   const lightChanges = new Set(['move_light', 'set_intensity', 'set_emitter']);
 
   function change(message) {
@@ -335,18 +345,19 @@
   function resolveLatencies() {
     for (const [id, pending] of pendingLatency) {
       if (pending.epoch === null) continue;
-      let drawnAt = null;
-      for (const [epoch, at] of firstDrawn) {
-        if (epoch >= pending.epoch && (drawnAt === null || at < drawnAt)) drawnAt = at;
+      let drawn = null;
+      for (const [epoch, frame] of firstDrawn) {
+        if (epoch >= pending.epoch && (drawn === null || frame.drawnAt < drawn.drawnAt)) drawn = frame;
       }
-      if (drawnAt === null) continue;
-      const ms = Math.max(0, drawnAt - pending.sentAt);
+      if (drawn === null) continue;
+      const ms = Math.max(0, drawn.drawnAt - pending.sentAt);
       viewer.latencies.push(ms);
       pendingLatency.delete(id);
       const sorted = [...viewer.latencies].sort((a, b) => a - b);
       const median = sorted[Math.floor(sorted.length / 2)];
       $('latency').textContent = `drag → frame: last ${ms.toFixed(0)} ms, median ` +
         `${median.toFixed(0)} ms over ${sorted.length}`;
+      if (latencyListener) latencyListener({ ms, sentAt: pending.sentAt, ...drawn });
     }
   }
 
@@ -354,37 +365,67 @@
   // Only the newest frame waits for decoding, so a slow decode skips frames instead of lagging.
   let waitingFrame = null;
   let decoding = false;
-  function handleFrame(buffer) {
+  function handleFrame(buffer, arrivedAt) {
     const view = new DataView(buffer);
     const headerLength = view.getUint32(0, true);
     const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, headerLength)));
-    waitingFrame = { header, image: new Blob([new Uint8Array(buffer, 4 + headerLength)], { type: header.mime }) };
+    waitingFrame = { header, bytes: new Uint8Array(buffer, 4 + headerLength), arrivedAt };
     if (!decoding) drawFrames();
+  }
+  // Decodes and draws one frame; returns when decoding ended. createImageBitmap decodes off the
+  // main thread; the other decoders tried were no faster overall (docs/viewer.md, "Latency").
+  // A frame of strips is one JPEG per strip, all decoded at once (the browser runs the decodes
+  // concurrently) and drawn one under the other.
+  async function showFrame(header, bytes) {
+    const sizes = header.strip_bytes || [];
+    const parts = [];
+    if (sizes.length > 1) {
+      let offset = 0;
+      for (const size of sizes) {
+        parts.push(new Blob([bytes.subarray(offset, offset + size)], { type: header.mime }));
+        offset += size;
+      }
+    } else {
+      parts.push(new Blob([bytes], { type: header.mime }));
+    }
+    const bitmaps = await Promise.all(parts.map((part) => createImageBitmap(part)));
+    const decodedAt = performance.now();
+    const width = bitmaps[0].width;
+    const height = bitmaps.reduce((sum, bitmap) => sum + bitmap.height, 0);
+    if (canvas.width !== width || canvas.height !== height) {
+      canvas.width = width;
+      canvas.height = height;
+      fitCanvas();
+    }
+    let y = 0;
+    for (const bitmap of bitmaps) {
+      context2d.drawImage(bitmap, 0, y);
+      y += bitmap.height;
+      bitmap.close();
+    }
+    return decodedAt;
   }
   async function drawFrames() {
     decoding = true;
     while (waitingFrame) {
-      const { header, image } = waitingFrame;
+      const { header, bytes, arrivedAt } = waitingFrame;
       waitingFrame = null;
+      let decodedAt;
       try {
-        const bitmap = await createImageBitmap(image);
-        if (canvas.width !== bitmap.width || canvas.height !== bitmap.height) {
-          canvas.width = bitmap.width;
-          canvas.height = bitmap.height;
-          fitCanvas();
-        }
-        context2d.drawImage(bitmap, 0, 0);
-        bitmap.close();
+        decodedAt = await showFrame(header, bytes);
       } catch (error) {
         showError({ code: 'DECODE', message: `cannot decode a ${header.encoding} frame: ${error}` });
         continue;
       }
-      const now = performance.now();
+      const drawnAt = performance.now();
       viewer.framesDrawn += 1;
       viewer.lastFrame = header;
-      if (!firstDrawn.has(header.epochs.lights)) firstDrawn.set(header.epochs.lights, now);
+      if (!firstDrawn.has(header.epochs.lights)) {
+        firstDrawn.set(header.epochs.lights, { drawnAt, arrivedAt, decodedAt, header, bytes: bytes.length });
+      }
       resolveLatencies();
       showOverlay(header);
+      if (viewer.framesDrawn === 1 && benchMode !== null) runBench();
     }
     decoding = false;
   }
@@ -437,8 +478,7 @@
     if (!dragging) return;
     if (dragging.kind === 'light') {
       const { u, v } = imagePoint(event);
-      if (dragging.handle) placeHandle(dragging.handle, u, v);
-      change({ type: 'move_light', light: dragging.index, u, v });
+      dragLight(u, v);
     } else {
       const rect = canvas.getBoundingClientRect();
       const dx = (event.clientX - dragging.x) / rect.width;
@@ -448,6 +488,11 @@
       change({ type: 'orbit', dx, dy });
     }
   });
+  // A light drag's move to image position (u, v): what the pointer and the drag bench both call.
+  function dragLight(u, v) {
+    if (dragging.handle) placeHandle(dragging.handle, u, v);
+    change({ type: 'move_light', light: dragging.index, u, v });
+  }
   const endDrag = () => {
     dragging = null;
     if (!inFlight) showLights(viewer.lights);
@@ -460,4 +505,93 @@
     change({ type: 'zoom', steps: -event.deltaY / 100 });
   }, { passive: false });
 
+  // --- ?bench=drag&moves=N: moves the first draggable light N times as a drag does, one move at
+  // a time, each after the previous move's frame was drawn and presented, and logs one
+  // `caustica-drag-bench {...}` console line (scripts/viewer-latency reads it). ---
+  let benchFailed = null;
+  const median = (values) => {
+    const sorted = values.filter(Number.isFinite).sort((a, b) => a - b);
+    return sorted.length ? sorted[Math.floor(sorted.length / 2)] : null;
+  };
+  const round = (ms) => (ms === null ? null : Math.round(ms * 100) / 100);
+  const benchError = (message) => {
+    console.log(`caustica-drag-bench-error ${message}`);
+    document.title = 'caustica-drag-bench error';
+  };
+  if (benchMode !== null) {
+    if (benchMode !== 'drag') benchError(`bench=${benchMode}: the only bench is 'drag'`);
+    else if (!Number.isInteger(benchMoves) || benchMoves < 1 || benchMoves > 10000) {
+      benchError(`moves=${params.get('moves')}: give a whole number of moves from 1 to 10000`);
+    } else if (!requestedScene) benchError('bench=drag needs scene=ID');
+    else {
+      setTimeout(() => {
+        if (!viewer.framesDrawn) benchError(`no frame of scene ${requestedScene} within 120 s`);
+      }, 120000);
+    }
+  }
+  let benchStarted = false;
+  async function runBench() {
+    if (benchMode !== 'drag' || benchStarted || !Number.isInteger(benchMoves) || benchMoves < 1 ||
+      benchMoves > 10000) return;
+    benchStarted = true;
+    const light = viewer.lights.find((l) => l.draggable);
+    if (!light) {
+      benchError(`scene ${viewer.scene.scene.id} has no light a drag can move`);
+      return;
+    }
+    const nextFrame = () => new Promise((resolve) => requestAnimationFrame(() => resolve(performance.now())));
+    const start = handleAt(light);
+    const handle = $('handles').querySelector(`[data-index="${light.index}"]`);
+    dragging = { kind: 'light', index: light.index, handle };
+    const moves = [];
+    try {
+      for (let move = 0; move < benchMoves; ++move) {
+        const measured = new Promise((resolve, reject) => {
+          latencyListener = resolve;
+          benchFailed = reject;
+          setTimeout(() => reject(new Error(`move ${move + 1} showed no frame within 60 s`)), 60000);
+        });
+        // Small steps either side of where the handle was, as a slow drag makes.
+        const offset = 0.01 * (1 + (move % 3)) * (move % 2 ? -1 : 1);
+        dragLight(start.u + offset, start.v);
+        const frame = await measured;
+        const presentedAt = await nextFrame();
+        moves.push({
+          total_ms: frame.ms,
+          to_arrival_ms: frame.arrivedAt - frame.sentAt,
+          decode_ms: frame.decodedAt - frame.arrivedAt,
+          draw_ms: frame.drawnAt - frame.decodedAt,
+          present_ms: presentedAt - frame.drawnAt,
+          bytes: frame.bytes,
+          server: frame.header.timings,
+          header: frame.header,
+        });
+      }
+    } catch (error) {
+      benchError(String(error.message || error));
+      return;
+    } finally {
+      latencyListener = benchFailed = null;
+      endDrag();
+    }
+    const of = (key) => moves.map((m) => m[key]);
+    const server = {};
+    for (const key of Object.keys(moves[0].server)) {
+      server[key] = round(median(moves.map((m) => m.server[key])));
+    }
+    const last = moves[moves.length - 1].header;
+    const result = {
+      scene: viewer.scene.scene.id, moves: moves.length, width: last.width, height: last.height,
+      encoding: last.encoding, bytes: median(of('bytes')),
+      median_ms: round(median(of('total_ms'))), min_ms: round(Math.min(...of('total_ms'))),
+      max_ms: round(Math.max(...of('total_ms'))),
+      median_to_arrival_ms: round(median(of('to_arrival_ms'))), median_decode_ms: round(median(of('decode_ms'))),
+      median_draw_ms: round(median(of('draw_ms'))), median_present_ms: round(median(of('present_ms'))),
+      server_median_ms: server,
+      total_ms: of('total_ms').map(round),
+    };
+    viewer.bench = result;
+    console.log(`caustica-drag-bench ${JSON.stringify(result)}`);
+    document.title = 'caustica-drag-bench done';
+  }
 })();

@@ -1,6 +1,8 @@
 // A pass's photons traced in shares (paths [first, first + count) of the whole, as devices of a
-// multi-device frame trace them) are the whole pass's photons: merged by merge_photon_shares, the
+// multi-device frame trace them) are the whole pass's photons: merged by merge_traced_photons, the
 // same photons in the same order, bit for bit, with and without differentials and media.
+#include "renderer/photon/photon_shares.h"
+
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -13,19 +15,6 @@
 
 namespace caustica {
 namespace {
-
-// One kind of the shares' photons (or footprints), merged as a multi-device pass merges them.
-template <typename T>
-std::vector<T> merged(const std::vector<TracedPhotons>& shares, Buffer<T> TracedPhotons::*part,
-                      size_t TracedPhotons::*from_slots) {
-  std::vector<std::vector<T>> values;
-  std::vector<size_t> firsts;
-  for (const TracedPhotons& share : shares) {
-    values.push_back((share.*part).download());
-    firsts.push_back(share.*from_slots);
-  }
-  return merge_photon_shares<T>(values, firsts);
-}
 
 template <typename T>
 void expect_same_bytes(const std::vector<T>& a, const std::vector<T>& b, const char* what) {
@@ -58,20 +47,20 @@ void expect_shares_make_the_whole(const std::string& scene_name, bool differenti
     emitted += shares.back().emitted;
   }
   EXPECT_EQ(emitted, whole.emitted);
-  expect_same_bytes(merged(shares, &TracedPhotons::caustic, &TracedPhotons::caustic_from_slots),
-                    whole.caustic.download(), "caustic");
-  expect_same_bytes(merged(shares, &TracedPhotons::global, &TracedPhotons::global_from_slots),
-                    whole.global.download(), "global");
-  expect_same_bytes(merged(shares, &TracedPhotons::volume, &TracedPhotons::volume_from_slots),
-                    whole.volume.download(), "volume");
-  if (differentials) {
-    expect_same_bytes(
-        merged(shares, &TracedPhotons::caustic_footprints, &TracedPhotons::caustic_from_slots),
-        whole.caustic_footprints.download(), "caustic footprints");
-    expect_same_bytes(
-        merged(shares, &TracedPhotons::global_footprints, &TracedPhotons::global_from_slots),
-        whole.global_footprints.download(), "global footprints");
-  }
+  const TracedPhotons merged = merge_traced_photons(*backend, shares);
+  EXPECT_EQ(merged.emitted, whole.emitted);
+  EXPECT_EQ(merged.caustic_from_slots, whole.caustic_from_slots);
+  EXPECT_EQ(merged.global_from_slots, whole.global_from_slots);
+  EXPECT_EQ(merged.volume_from_slots, whole.volume_from_slots);
+  expect_same_bytes(merged.caustic.download(), whole.caustic.download(), "caustic");
+  expect_same_bytes(merged.global.download(), whole.global.download(), "global");
+  expect_same_bytes(merged.volume.download(), whole.volume.download(), "volume");
+  expect_same_bytes(merged.caustic_footprints.download(), whole.caustic_footprints.download(),
+                    "caustic footprints");
+  expect_same_bytes(merged.global_footprints.download(), whole.global_footprints.download(),
+                    "global footprints");
+  expect_same_bytes(merged.volume_footprints.download(), whole.volume_footprints.download(),
+                    "volume footprints");
 }
 
 TEST(PhotonShares, TwoEqualSharesAreTheWholePass) {
