@@ -576,6 +576,27 @@ absl::Status print_ray_camera(const BenchOptions& o, std::ostream& out) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<Scene> load_photon_scene(const BenchOptions& o) {
+  absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
+  if (!scene.ok()) return scene.status();
+  scene->camera.width = o.width;
+  scene->camera.height = o.height;
+  scene->settings.photons_per_pass = o.photons;
+  scene->settings.k_nearest = o.k;
+  return scene;
+}
+
+std::string photon_scene_label(const BenchOptions& o) {
+  return o.photon_scene.parent_path().filename().string() +
+         absl::StrFormat(" %dx%d %d photons k=%d", o.width, o.height, o.photons, o.k);
+}
+
+std::vector<Light> moved_lights(const Scene& scene, int i) {
+  std::vector<Light> lights = scene.lights;
+  for (Light& light : lights) light.position.x += (i % 2 == 0) ? 10.0f : -10.0f;
+  return lights;
+}
+
 void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings) {
   if (o.final_gather_rays != 0) settings.final_gather_rays = o.final_gather_rays;
   if (o.final_gather_seeds != 0) settings.final_gather_seeds = o.final_gather_seeds;

@@ -52,6 +52,14 @@ struct BenchOptions {
   std::vector<int> devices;
 };
 
+// The photon scene (--scene) at the benchmark's size, photons per pass and k.
+absl::StatusOr<Scene> load_photon_scene(const BenchOptions& options);
+// "NAME WxH P photons k=K": the photon scene as the benchmark lines name it.
+std::string photon_scene_label(const BenchOptions& options);
+// The scene's lights at step i of a light animation: moved 10 units along x and back, so that
+// every step is a real change.
+std::vector<Light> moved_lights(const Scene& scene, int i);
+
 // --final-gather-rays and --final-gather-seeds, where given, over the scene's settings.
 void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings);
 

@@ -8,7 +8,6 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "renderer/engine.h"
-#include "renderer/scene/load_scene.h"
 
 namespace caustica {
 namespace {
@@ -44,14 +43,6 @@ absl::StatusOr<std::unique_ptr<Engine>> engine_on(const BenchOptions& o, DeviceK
   if (absl::StatusOr<RebuildReport> loaded = (*engine)->load(scene); !loaded.ok())
     return loaded.status();
   return engine;
-}
-
-// The scene's lights at keyframe i: moved 10 units along x and back, so every keyframe is a real
-// change.
-std::vector<Light> moved_lights(const Scene& scene, int i) {
-  std::vector<Light> lights = scene.lights;
-  for (Light& light : lights) light.position.x += (i % 2 == 0) ? 10.0f : -10.0f;
-  return lights;
 }
 
 // Where a frame's time went: the medians of the engine's stages over the measured frames.
@@ -105,17 +96,11 @@ absl::Status multi_device_benchmarks(const BenchOptions& o, Reporter& report) {
   if (!kind.ok()) return kind.status();
   absl::StatusOr<std::vector<int>> devices = device_list(o, *kind);
   if (!devices.ok()) return devices.status();
-  absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
+  absl::StatusOr<Scene> scene = load_photon_scene(o);
   if (!scene.ok()) return scene.status();
-  scene->camera.width = o.width;
-  scene->camera.height = o.height;
-  scene->settings.k_nearest = o.k;
-  scene->settings.photons_per_pass = o.photons;
   scene->settings.estimator = o.estimator;
 
-  const std::string name =
-      o.photon_scene.parent_path().filename().string() +
-      absl::StrFormat(" %dx%d %u photons k=%u", o.width, o.height, o.photons, o.k);
+  const std::string name = photon_scene_label(o);
   const std::vector<std::vector<int>> setups = {{devices->front()}, *devices};
   std::vector<double> frames_per_s[2];
   for (size_t s = 0; s < setups.size(); ++s) {

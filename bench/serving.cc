@@ -131,35 +131,21 @@ absl::Status upload_benchmark(const BenchOptions& o, client::Connection& connect
   return absl::OkStatus();
 }
 
-// The scene's lights for step i of a light animation: moved 10 units along x and back, so that
-// every step is a real change.
+// The scene's lights at step i of a light animation (moved_lights), in their wire form.
 void add_moved_lights(const Scene& scene, int i,
                       google::protobuf::RepeatedPtrField<v1::Light>& lights) {
-  for (const Light& light : scene.lights) {
-    Light moved = light;
-    moved.position.x += (i % 2 == 0) ? 10.0f : -10.0f;
-    *lights.Add() = wire::encode_light(moved);
-  }
+  for (const Light& light : moved_lights(scene, i)) *lights.Add() = wire::encode_light(light);
 }
 
 // The benchmark's photon scene at its size, photons and k, uploaded.
 absl::StatusOr<std::pair<Scene, std::string>> upload_photon_scene(const BenchOptions& o,
                                                                   client::Connection& connection,
                                                                   const std::string& name) {
-  absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
+  absl::StatusOr<Scene> scene = load_photon_scene(o);
   if (!scene.ok()) return scene.status();
-  scene->camera.width = o.width;
-  scene->camera.height = o.height;
-  scene->settings.photons_per_pass = o.photons;
-  scene->settings.k_nearest = o.k;
   absl::StatusOr<std::string> id = upload(connection, *scene, name);
   if (!id.ok()) return id.status();
   return std::make_pair(*std::move(scene), *std::move(id));
-}
-
-std::string photon_scene_label(const BenchOptions& o) {
-  return o.photon_scene.parent_path().filename().string() +
-         absl::StrFormat(" %dx%d %d photons k=%d", o.width, o.height, o.photons, o.k);
 }
 
 // A light script played by the server (PlayAnimation, one stream): every keyframe moves the

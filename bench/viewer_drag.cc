@@ -27,7 +27,6 @@
 #include "client/connection.h"
 #include "client/embedded_server.h"
 #include "client/scene_upload.h"
-#include "renderer/scene/load_scene.h"
 
 namespace caustica {
 namespace {
@@ -400,12 +399,8 @@ absl::Status run_viewer_drag_benchmark(const BenchOptions& o, Reporter& bench_re
   if (!device_report.ok()) return device_report.status();
   Reporter& report = *device_report;
 
-  absl::StatusOr<Scene> scene = load_scene(o.photon_scene.string());
+  absl::StatusOr<Scene> scene = load_photon_scene(o);
   if (!scene.ok()) return scene.status();
-  scene->camera.width = o.width;
-  scene->camera.height = o.height;
-  scene->settings.photons_per_pass = o.photons;
-  scene->settings.k_nearest = o.k;
   grpc::ClientContext upload_context;
   absl::StatusOr<v1::SceneInfo> uploaded =
       client::upload_scene((*connection)->stub(), upload_context, *scene, "viewer_drag benchmark");

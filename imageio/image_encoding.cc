@@ -17,6 +17,7 @@
 #include <exception>
 #include <optional>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -196,19 +197,9 @@ absl::StatusOr<std::string> encode_png(int width, int height, std::span<const ui
 
 absl::StatusOr<std::string> encode_jpeg(int width, int height, std::span<const uint8_t> rgba8,
                                         int quality) {
-  if (absl::Status size = check_size(width, height, rgba8.size(), 4); !size.ok()) return size;
-  if (quality < 1 || quality > 100) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("JPEG quality ", quality, " is not in [1, 100]"));
-  }
-  unsigned char* buffer = nullptr;
-  unsigned long size = 0;
-  JpegError error{};
-  const bool ok = jpeg_compress_rgba(width, height, rgba8.data(), quality, &buffer, &size, &error);
-  std::string jpeg = ok ? std::string(reinterpret_cast<const char*>(buffer), size) : std::string();
-  std::free(buffer);
-  if (!ok) return absl::InternalError(absl::StrCat("JPEG encoding failed: ", error.message));
-  return jpeg;
+  absl::StatusOr<JpegStrips> whole = encode_jpeg_strips(width, height, rgba8, quality, 1);
+  if (!whole.ok()) return whole.status();
+  return std::move(whole->data);
 }
 
 absl::StatusOr<JpegStrips> encode_jpeg_strips(int width, int height, std::span<const uint8_t> rgba8,

@@ -220,12 +220,10 @@ struct Engine::State {
       d.backend->synchronize();
     });
     timings.photon_map_build_ms += elapsed_ms(t1);
-    for (const TracedPhotons& share : shares) {
-      emitted += share.emitted;
-    }
     caustic_count = 0;
     global_count = 0;
     for (const TracedPhotons& share : shares) {
+      emitted += share.emitted;
       caustic_count += share.caustic.size();
       global_count += share.global.size();
     }
@@ -419,10 +417,7 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
-      st.on_every_device([&](DeviceSlice& d, size_t) {
-        d.film.reset();
-        d.make_film(camera.width, camera.height);
-      });
+      st.on_every_device([&](DeviceSlice& d, size_t) { d.make_film(camera.width, camera.height); });
     } else {
       st.clear_films();
     }

@@ -170,23 +170,15 @@ size_t RenderService::tenant_memory_limit() const {
                              std::clamp(options_.tenant_memory_share, 0.0, 1.0));
 }
 
-size_t RenderService::memory_used() const {
-  size_t bytes = 0;
-  for (const auto& device : devices_) bytes += device->backend->bytes_in_use();
-  return bytes;
+size_t RenderService::sum_over_devices(size_t (Backend::*bytes)() const) const {
+  size_t sum = 0;
+  for (const auto& device : devices_) sum += (device->backend.get()->*bytes)();
+  return sum;
 }
 
-size_t RenderService::memory_peak() const {
-  size_t bytes = 0;
-  for (const auto& device : devices_) bytes += device->backend->peak_bytes();
-  return bytes;
-}
-
-size_t RenderService::memory_budget() const {
-  size_t bytes = 0;
-  for (const auto& device : devices_) bytes += device->backend->budget();
-  return bytes;
-}
+size_t RenderService::memory_used() const { return sum_over_devices(&Backend::bytes_in_use); }
+size_t RenderService::memory_peak() const { return sum_over_devices(&Backend::peak_bytes); }
+size_t RenderService::memory_budget() const { return sum_over_devices(&Backend::budget); }
 
 absl::StatusOr<std::vector<uint32_t>> RenderService::place(size_t bytes, const std::string& what) {
   std::lock_guard<std::mutex> lock(placement_mutex_);

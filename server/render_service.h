@@ -193,6 +193,8 @@ class RenderService final : public v1::RenderService::Service {
   // A new engine on `devices`.
   absl::StatusOr<std::unique_ptr<Engine>> create_engine(const std::vector<uint32_t>& devices) const;
   // Summed over every device: memory in use, peak and budget.
+  // One of the backends' byte counts summed over the devices.
+  size_t sum_over_devices(size_t (Backend::*bytes)() const) const;
   size_t memory_used() const;
   size_t memory_peak() const;
   size_t memory_budget() const;
