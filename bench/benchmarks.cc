@@ -281,7 +281,9 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
   }
   for (StructureKind kind : o.structures) {
     Reporter report = all.for_structure(structure_kind_name(kind));
-    resident.rebuild_structure(kind);
+    TriangleStructure built = resident.new_structure(kind);
+    resident.swap_structure(built);
+    built = TriangleStructure();  // the previous kind's, not kept while this one is measured
     if (wanted(o, "lbvh_build")) {
       // Everything the structure's traversal reads, built from the triangles in memory.
       Measurement s =

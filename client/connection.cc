@@ -27,6 +27,7 @@
 #include "absl/strings/str_split.h"
 #include "client/health_check.h"
 #include "proto/wire/api_version.h"
+#include "proto/wire/bearer_token.h"
 
 namespace caustica::client {
 namespace {
@@ -270,6 +271,12 @@ std::shared_ptr<grpc::Channel> make_channel(
 }
 
 absl::StatusOr<std::unique_ptr<Connection>> Connection::open(const ConnectOptions& options) {
+  // Checked before any call: gRPC aborts the process on a metadata value it cannot carry, such as
+  // a token read from a file with its line ending.
+  if (absl::Status token = wire::check_bearer_token(options.token, "--token ($CAUSTICA_TOKEN)");
+      !token.ok()) {
+    return token;
+  }
   absl::StatusOr<std::shared_ptr<grpc::ChannelCredentials>> credentials =
       channel_credentials(options);
   if (!credentials.ok()) return credentials.status();

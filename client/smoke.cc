@@ -1,7 +1,8 @@
 // caustica smoke: an end-to-end check of a server in seconds. Uploads a small Cornell box, renders
 // it, adds a point light and renders, moves the light (guarded by the expected lights epoch) and
-// streams two passes in small pieces. Every frame must have the requested size, some lit pixels
-// and the lights epoch of the latest update; moving the light must change the image.
+// streams two passes in the smallest pieces the server sends. Every frame must have the requested
+// size, some lit pixels and the lights epoch of the latest update; moving the light must change
+// the image.
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
@@ -19,7 +20,8 @@ namespace {
 
 using Stub = v1::RenderService::Stub;
 
-// Pieces this small split a 64x64 RGBA8 frame (16 KiB) into four, exercising reassembly.
+// Smaller than the server's smallest piece (docs/server.md), which it raises this to: every frame
+// larger than that piece arrives in pieces and exercises reassembly.
 constexpr uint32_t kSmokeChunkBytes = 4096;
 
 struct SmokeRun {

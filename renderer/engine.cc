@@ -123,11 +123,6 @@ struct DeviceSlice {
   std::optional<Film> film;  // none where the image has no rows for this device
   std::unique_ptr<Estimator> estimator;
 
-  void make_film(int width, int image_height) {
-    film.reset();
-    const int rows = bands.film_rows(image_height);
-    if (rows > 0) film.emplace(*backend, width, rows);
-  }
   void clear() {
     estimator.reset();
     resident.reset();
@@ -178,11 +173,55 @@ struct Engine::State {
     }
   }
 
-  void new_estimators(const RenderSettings& settings) {
-    on_every_device([&](DeviceSlice& d, size_t) {
-      d.estimator = make_estimator(*d.backend, estimator_options(settings, photons_per_leaf));
+  // Runs `make(slice)` for every device at once and returns what each made.
+  template <typename T, typename Make>
+  std::vector<T> make_on_every_device(Make&& make) {
+    std::vector<T> made(slices.size());
+    on_every_device([&](DeviceSlice& d, size_t i) { made[i] = make(d); });
+    return made;
+  }
+
+  // A change builds what it replaces beside what is in use, on every device, and swaps it in only
+  // once all of it is there: one that does not fit leaves everything as it was, and a swap back
+  // undoes it without allocating. The films, the estimators, the structures and the lighting:
+  std::vector<std::optional<Film>> new_films(int width, int height) {
+    return make_on_every_device<std::optional<Film>>([&](DeviceSlice& d) {
+      std::optional<Film> film;
+      const int rows = d.bands.film_rows(height);
+      if (rows > 0) film.emplace(*d.backend, width, rows);
+      return film;
     });
   }
+  void swap_films(std::vector<std::optional<Film>>& films) {
+    for (size_t i = 0; i < slices.size(); ++i) std::swap(slices[i].film, films[i]);
+  }
+  std::vector<std::unique_ptr<Estimator>> new_estimators(const RenderSettings& settings) {
+    return make_on_every_device<std::unique_ptr<Estimator>>([&](DeviceSlice& d) {
+      return make_estimator(*d.backend, estimator_options(settings, photons_per_leaf));
+    });
+  }
+  void swap_estimators(std::vector<std::unique_ptr<Estimator>>& estimators) {
+    for (size_t i = 0; i < slices.size(); ++i) slices[i].estimator.swap(estimators[i]);
+  }
+  std::vector<TriangleStructure> new_structures(StructureKind kind) {
+    return make_on_every_device<TriangleStructure>([&](DeviceSlice& d) {
+      TriangleStructure structure = d.resident->new_structure(kind);
+      d.backend->synchronize();
+      return structure;
+    });
+  }
+  void swap_structures(std::vector<TriangleStructure>& structures) {
+    for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_structure(structures[i]);
+  }
+  std::vector<ResidentScene::Lighting> new_lighting(const std::vector<Light>& lights,
+                                                    const std::vector<Material>& materials) {
+    return make_on_every_device<ResidentScene::Lighting>(
+        [&](DeviceSlice& d) { return d.resident->new_lighting(lights, materials); });
+  }
+  void swap_lighting(std::vector<ResidentScene::Lighting>& lighting) {
+    for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_lighting(lighting[i]);
+  }
+
   void drop_maps() {
     on_every_device([](DeviceSlice& d, size_t) { d.estimator->drop_maps(); });
   }
@@ -190,9 +229,8 @@ struct Engine::State {
   // Traces the photons of pass `pass` and has the estimators build their maps from them, adding
   // the cost to `timings`. On several devices each traces its share of the paths, and every
   // device's maps are built from all the shares merged in the whole pass's order.
-  void trace_pass_photons(uint32_t pass, StageTimings& timings, uint64_t& emitted,
-                          uint64_t& caustic_count, uint64_t& global_count) {
-    const RenderSettings& rs = scene.settings;
+  void trace_pass_photons(const RenderSettings& rs, uint32_t pass, StageTimings& timings,
+                          uint64_t& emitted, uint64_t& caustic_count, uint64_t& global_count) {
     const size_t devices = slices.size();
     PhotonTraceSettings trace{rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass};
     trace.differentials = first().estimator->needs_differentials();
@@ -230,13 +268,19 @@ struct Engine::State {
     last_photon_map_bytes = first().estimator->map_bytes();
   }
 
-  // The light-change pipeline: photons and maps for the film's next pass, reported; none for
-  // the path integrator, which traces no photons.
-  void prepare_photons(RebuildReport& report) {
+  // The light-change pipeline: photons and maps with `rs` for the first pass of the film a
+  // change restarts, reported; none for the path integrator, which traces no photons. The maps of
+  // a failed trace are dropped, so that no pass takes them for its own.
+  void prepare_photons(const RenderSettings& rs, RebuildReport& report) {
     drop_maps();  // frees the old maps before the new ones are allocated
-    if (scene.settings.integrator != Integrator::kPhoton) return;
-    trace_pass_photons(first().film->passes(), report.timings, report.photons_emitted,
-                       report.caustic_photons, report.global_photons);
+    if (rs.integrator != Integrator::kPhoton) return;
+    try {
+      trace_pass_photons(rs, 0, report.timings, report.photons_emitted, report.caustic_photons,
+                         report.global_photons);
+    } catch (...) {
+      drop_maps();
+      throw;
+    }
     report.rebuilt.push_back("photon_maps");
   }
 
@@ -360,9 +404,10 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
     });
     st.last_build_ms = elapsed_ms(start);
     st.scene = scene;
-    st.on_every_device(
-        [&](DeviceSlice& d, size_t) { d.make_film(scene.camera.width, scene.camera.height); });
-    st.new_estimators(scene.settings);
+    std::vector<std::optional<Film>> films = st.new_films(scene.camera.width, scene.camera.height);
+    st.swap_films(films);
+    std::vector<std::unique_ptr<Estimator>> estimators = st.new_estimators(scene.settings);
+    st.swap_estimators(estimators);
     ++st.epochs.geometry;
     ++st.epochs.lights;
     ++st.epochs.camera;
@@ -392,17 +437,22 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
   if (!materials.ok()) return materials.status();
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    st.drop_maps();
-    st.on_every_device([&](DeviceSlice& d, size_t) {
-      if (!emitters.empty()) d.resident->set_emission(*materials);
-      d.resident->set_lights(lights);
-      if (d.film) d.film->clear();
-    });
-    if (!emitters.empty()) st.scene.materials = *std::move(materials);
+    st.drop_maps();  // frees the old maps before the new lighting is allocated
+    std::vector<ResidentScene::Lighting> lighting = st.new_lighting(lights, *materials);
+    // The photons are traced in the new lighting before the films restart; when that fails, the
+    // old lighting goes back.
+    st.swap_lighting(lighting);
+    report.rebuilt = {"lights", "film"};
+    try {
+      st.prepare_photons(st.scene.settings, report);
+    } catch (...) {
+      st.swap_lighting(lighting);
+      throw;
+    }
+    st.clear_films();
+    st.scene.materials = *std::move(materials);
     st.scene.lights = lights;
     ++st.epochs.lights;
-    report.rebuilt = {"lights", "film"};
-    st.prepare_photons(report);
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
@@ -417,7 +467,8 @@ absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     if (camera.width != st.scene.camera.width || camera.height != st.scene.camera.height) {
-      st.on_every_device([&](DeviceSlice& d, size_t) { d.make_film(camera.width, camera.height); });
+      std::vector<std::optional<Film>> films = st.new_films(camera.width, camera.height);
+      st.swap_films(films);
     } else {
       st.clear_films();
     }
@@ -459,40 +510,50 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
       camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    // The new films first: when one does not fit, nothing has changed yet.
-    std::vector<std::optional<Film>> films(st.slices.size());
-    if (resize) {
-      st.on_every_device([&](DeviceSlice& d, size_t i) {
-        const int rows = d.bands.film_rows(camera.height);
-        if (rows > 0) films[i].emplace(*d.backend, camera.width, rows);
-      });
-    }
+    // Everything new first: when one part does not fit, nothing has changed yet.
+    std::vector<std::optional<Film>> films;
+    if (resize) films = st.new_films(camera.width, camera.height);
+    std::vector<std::unique_ptr<Estimator>> estimators;
+    if (estimator_change) estimators = st.new_estimators(settings);
+    std::vector<TriangleStructure> structures;
     if (structure_change) {
       // The photons traced ahead went through the old structure: they are traced again through
       // the new one, as after any geometry change.
       st.drop_maps();
       auto start = std::chrono::steady_clock::now();
-      st.on_every_device([&](DeviceSlice& d, size_t) {
-        d.resident->rebuild_structure(settings.structure);
-        d.backend->synchronize();
-      });
-      st.last_build_ms = elapsed_ms(start);
-      report.timings.structure_build_ms = st.last_build_ms;
+      structures = st.new_structures(settings.structure);
+      report.timings.structure_build_ms = elapsed_ms(start);
+    }
+    report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
+                                      : std::vector<std::string>{"film"};
+    // The photons are traced through the new structure for the new estimator; when that fails,
+    // the same swap puts the old ones back.
+    auto swap_new = [&] {
+      if (structure_change) st.swap_structures(structures);
+      if (estimator_change) st.swap_estimators(estimators);
+    };
+    swap_new();
+    if (photons_change || structure_change) {
+      try {
+        st.prepare_photons(settings, report);
+      } catch (...) {
+        swap_new();
+        throw;
+      }
+    }
+    st.scene.settings = settings;
+    if (structure_change) {
+      st.last_build_ms = report.timings.structure_build_ms;
       ++st.epochs.geometry;
     }
-    if (estimator_change) st.new_estimators(settings);
-    st.scene.settings = settings;
     if (resize) {
-      for (size_t i = 0; i < st.slices.size(); ++i) st.slices[i].film = std::move(films[i]);
+      st.swap_films(films);
       st.scene.camera = camera;
       ++st.epochs.camera;
     } else {
       st.clear_films();
     }
     ++st.epochs.settings;
-    report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}
-                                      : std::vector<std::string>{"film"};
-    if (photons_change || structure_change) st.prepare_photons(report);
     return absl::OkStatus();
   });
   if (!status.ok()) return status;
@@ -525,8 +586,8 @@ absl::StatusOr<PassReport> Engine::render(uint32_t passes, const Progress& progr
         st.last_photon_map_bytes = 0;
         st.drop_maps();
       } else if (!st.first().estimator->prepared_for(pass)) {
-        st.trace_pass_photons(pass, report.timings, report.photons_emitted, report.caustic_photons,
-                              report.global_photons);
+        st.trace_pass_photons(st.scene.settings, pass, report.timings, report.photons_emitted,
+                              report.caustic_photons, report.global_photons);
       }
 
       auto t0 = std::chrono::steady_clock::now();

@@ -110,6 +110,10 @@ struct SceneStats {
 
 // Not thread-safe: callers serialise every call on one engine. With several devices, each call
 // works on all of them at once, from a thread per device, and returns when all are done.
+// A change (set_lights, set_camera, set_settings) is all or nothing: refused by its checks or for
+// memory on any device, it returns the error and leaves the scene, the epochs, the films and what
+// a render draws as they were. What it replaces is built beside what is in use, so that for a
+// while both take memory.
 class Engine {
  public:
   static absl::StatusOr<std::unique_ptr<Engine>> create(const EngineOptions& options);
@@ -119,8 +123,7 @@ class Engine {
   absl::StatusOr<RebuildReport> load(const Scene& scene);
   // Replaces the non-geometry lights and applies `emitters` to the emissive materials (area
   // lights), then traces the photons of the next pass and builds both photon maps at once (the
-  // light-change pipeline), so the next render only gathers. Nothing changes when either is
-  // refused.
+  // light-change pipeline), so the next render only gathers.
   absl::StatusOr<RebuildReport> set_lights(const std::vector<Light>& lights,
                                            const std::vector<EmitterChange>& emitters = {});
   // Restarts accumulation; a new resolution reallocates the film.
@@ -128,8 +131,8 @@ class Engine {
   // Restarts accumulation; settings that change the photons re-trace them as set_lights does. A new
   // structure is built over the same triangles (a geometry change: its epoch moves, "geometry" is
   // reported) and the photons are traced through it. With a `size`, the film takes it as well
-  // (the camera's epoch moves too): the settings and the size are checked together and the new
-  // film allocated before anything changes, so a refused change leaves both as they were.
+  // (the camera's epoch moves too): the settings and the size are checked together, and change
+  // together or not at all.
   absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings,
                                              const ImageSize& size = {});
 

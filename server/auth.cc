@@ -21,6 +21,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "proto/wire/bearer_token.h"
 #include "server/log.h"
 
 namespace caustica::server {
@@ -69,15 +70,6 @@ std::string sha256(std::string_view data) {
     return {};
   }
   return std::string(reinterpret_cast<const char*>(digest), size);
-}
-
-// Tokens travel as header values and CSV fields: printable ASCII without spaces stays intact in
-// both.
-bool is_token_text(std::string_view token) {
-  for (const char c : token) {
-    if (c <= ' ' || c > '~') return false;
-  }
-  return true;
 }
 
 // The verdicts of the calls in progress, keyed by their server context. Each entry remembers the
@@ -154,8 +146,9 @@ class AuthInterceptor final : public grpc::experimental::Interceptor {
     if (!verdict.ok()) {
       const std::string message(verdict.status().message());
       refusal_.emplace(grpc::StatusCode::UNAUTHENTICATED, message);
-      log_line(LogLevel::kWarning,
-               absl::StrCat("refused ", method_, " from ", context_->peer(), ": ", message));
+      // The method is the request's path, as the client sent it.
+      log_line(LogLevel::kWarning, absl::StrCat("refused ", printable(method_), " from ",
+                                                context_->peer(), ": ", message));
     }
     verdicts().record(context_, this, std::move(verdict));
   }
@@ -283,8 +276,9 @@ absl::StatusOr<TokenTable> TokenTable::parse(std::string_view text, std::string_
       return refuse(absl::StrCat("token too short: ", token.size(), " characters, at least ",
                                  kMinTokenLength));
     }
-    if (!is_token_text(token)) {
-      return refuse("token has a character other than printable ASCII without spaces");
+    // Tokens travel as header values and CSV fields: visible ASCII stays intact in both.
+    if (absl::Status text = wire::check_bearer_token(token, "token"); !text.ok()) {
+      return refuse(std::string(text.message()));
     }
     if (!is_valid_tenant_name(tenant)) {
       return refuse(absl::StrCat("tenant '", av(tenant),

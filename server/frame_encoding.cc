@@ -131,23 +131,28 @@ absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int h
   return raw;
 }
 
-std::vector<v1::Frame> split_frame(const v1::Frame& header, std::string data,
-                                   size_t max_chunk_bytes) {
-  const size_t chunk = std::max<size_t>(max_chunk_bytes, 1);
-  const size_t total = data.size();
-  std::vector<v1::Frame> pieces;
+size_t frame_chunk_bytes(uint32_t requested, size_t max_message_bytes) {
+  const size_t limit = std::max(max_message_bytes, 2 * kFrameHeaderRoom) - kFrameHeaderRoom;
+  const size_t asked = requested == 0 ? kDefaultChunkBytes : size_t{requested};
+  return std::min(std::max(asked, kMinChunkBytes), limit);
+}
+
+bool for_each_frame_chunk(const v1::Frame& header, std::string_view data, size_t chunk_bytes,
+                          const std::function<bool(const v1::Frame&)>& write) {
+  const size_t chunk = std::max<size_t>(chunk_bytes, 1);
+  v1::Frame piece = header;
+  piece.set_data_size(data.size());
   size_t offset = 0;
   do {
-    const size_t size = std::min(chunk, total - offset);
-    v1::Frame& piece = pieces.emplace_back(header);
-    piece.set_data_size(total);
+    const size_t size = std::min(chunk, data.size() - offset);
     piece.set_data_offset(offset);
-    // A frame in one message takes the bytes without a copy.
-    piece.set_data(size == total ? std::move(data) : data.substr(offset, size));
+    // Reuses the piece's buffer: one chunk's bytes are held, whatever the frame's size.
+    piece.mutable_data()->assign(data.data() + offset, size);
     offset += size;
-    piece.set_last_chunk(offset == total);
-  } while (offset < total);
-  return pieces;
+    piece.set_last_chunk(offset == data.size());
+    if (!write(piece)) return false;
+  } while (offset < data.size());
+  return true;
 }
 
 }  // namespace caustica::server

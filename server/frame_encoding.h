@@ -6,10 +6,10 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string>
 #include <string_view>
-#include <vector>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.pb.h"
@@ -48,10 +48,25 @@ absl::StatusOr<std::string> encode_frame(const FrameSpec& spec, int width, int h
                                          std::span<const float> linear,
                                          v1::Frame* header = nullptr);
 
-// The messages that carry `data` under the header fields of `header`: pieces of at most
-// `max_chunk_bytes` (>= 1) of data, each with data_size, data_offset and last_chunk set. An empty
-// frame is one message.
-std::vector<v1::Frame> split_frame(const v1::Frame& header, std::string data,
-                                   size_t max_chunk_bytes);
+// Frame bytes per message of a stream whose request leaves max_chunk_bytes at 0.
+inline constexpr size_t kDefaultChunkBytes = size_t{4} << 20;
+// The fewest frame bytes a piece of a split frame carries, whatever max_chunk_bytes asks: smaller
+// pieces would cost more in the header fields each one repeats and in gRPC's work per message than
+// they carry, and one request could turn a frame into a message per byte.
+inline constexpr size_t kMinChunkBytes = size_t{16} << 10;
+// Room for a Frame's header fields next to its data within one message.
+inline constexpr size_t kFrameHeaderRoom = size_t{64} << 10;
+
+// The frame bytes per message for a request's max_chunk_bytes: `requested` (0: kDefaultChunkBytes)
+// raised to kMinChunkBytes, then lowered to what leaves kFrameHeaderRoom in `max_message_bytes`.
+size_t frame_chunk_bytes(uint32_t requested, size_t max_message_bytes);
+
+// Calls `write` with each message that carries `data` under the header fields of `header`, in
+// order: pieces of at most `chunk_bytes` (>= 1) of data, each with data_size, data_offset and
+// last_chunk set; an empty frame is one message. A piece is built only once `write` returned for
+// the one before, so a stream holds its frame and one piece, never all of a frame's pieces. Stops
+// at the first piece `write` refuses (returns false); whether it took them all.
+bool for_each_frame_chunk(const v1::Frame& header, std::string_view data, size_t chunk_bytes,
+                          const std::function<bool(const v1::Frame&)>& write);
 
 }  // namespace caustica::server

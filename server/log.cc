@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 
@@ -60,6 +61,10 @@ void log_line(LogLevel level, std::string_view text) {
       absl::StrFormat("%s.%03dZ %s %s\n", stamp, millis, level_tag(level), std::string(text));
   std::lock_guard<std::mutex> lock(write_mutex);
   std::fwrite(line.data(), 1, line.size(), stderr);
+}
+
+std::string printable(std::string_view text) {
+  return absl::CHexEscape(absl::string_view(text.data(), text.size()));
 }
 
 }  // namespace caustica::server

@@ -2,7 +2,6 @@
 
 #include <prometheus/collectable.h>
 #include <prometheus/counter.h>
-#include <prometheus/exposer.h>
 #include <prometheus/family.h>
 #include <prometheus/histogram.h>
 #include <prometheus/registry.h>
@@ -12,6 +11,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "server/http/http_server.h"
 
 namespace caustica::server {
 namespace {
@@ -105,20 +105,25 @@ ServerMetrics::ServerMetrics(std::function<ServerReadings()> read)
 ServerMetrics::~ServerMetrics() = default;
 
 absl::StatusOr<int> ServerMetrics::serve(const std::string& listen) {
-  try {
-    exposer_ = std::make_unique<prometheus::Exposer>(listen, 1);
-  } catch (const std::exception& e) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--metrics-listen: cannot listen on ", listen, ": ", e.what()));
-  }
-  exposer_->RegisterCollectable(registry_);
-  exposer_->RegisterCollectable(gauges_);
-  const std::vector<int> ports = exposer_->GetListeningPorts();
-  if (ports.empty()) {
-    exposer_.reset();
-    return absl::InvalidArgumentError(absl::StrCat("--metrics-listen: no port on ", listen));
-  }
-  return ports.front();
+  http::HttpRoutes routes;
+  routes.serve = [this](const http::HttpRequest& request) -> http::HttpResponse {
+    if (request.path != "/metrics") return http::plain_text_response(404, "see /metrics");
+    if (request.method != "GET" && request.method != "HEAD") {
+      return http::plain_text_response(405, "only GET and HEAD");
+    }
+    http::HttpResponse response;
+    response.content_type = "text/plain; version=0.0.4; charset=utf-8";
+    response.body = text();
+    return response;
+  };
+  http::HttpLimits limits;
+  limits.max_websockets = 0;
+  limits.io_threads = 1;
+  absl::StatusOr<std::unique_ptr<http::HttpServer>> server =
+      http::HttpServer::start(listen, "--metrics-listen", std::move(routes), limits);
+  if (!server.ok()) return server.status();
+  http_ = *std::move(server);
+  return http_->port();
 }
 
 void ServerMetrics::record_call(std::string_view method, absl::StatusCode code, double ms) {

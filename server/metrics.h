@@ -1,8 +1,8 @@
 // The server's Prometheus metrics (docs/server.md, "Metrics"), through prometheus-cpp: calls by
 // method and status code, latency histograms per call and per pipeline stage, and gauges read at
 // each scrape (memory in use, peak and budget, over all devices and per device, scenes, streams and
-// calls running). Served as text
-// on /metrics when the server is given --metrics-listen.
+// calls running). Served as text on /metrics when the server is given --metrics-listen, by the
+// same bounded HTTP server as the viewer (server/http).
 #pragma once
 
 #include <cstddef>
@@ -17,7 +17,6 @@
 #include "absl/status/statusor.h"
 
 namespace prometheus {
-class Exposer;
 class Registry;
 template <typename T>
 class Family;
@@ -26,6 +25,9 @@ class Histogram;
 }  // namespace prometheus
 
 namespace caustica::server {
+namespace http {
+class HttpServer;
+}
 
 // One device's gauges, labelled with its index.
 struct DeviceReadings {
@@ -70,7 +72,7 @@ class ServerMetrics {
   prometheus::Family<prometheus::Counter>* calls_;
   prometheus::Family<prometheus::Histogram>* call_seconds_;
   prometheus::Family<prometheus::Histogram>* stage_seconds_;
-  std::unique_ptr<prometheus::Exposer> exposer_;
+  std::unique_ptr<http::HttpServer> http_;
 };
 
 }  // namespace caustica::server

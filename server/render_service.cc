@@ -26,18 +26,23 @@ double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// Status messages quote what clients sent (an unknown scene id, a bad name), and travel back in a
+// trailer that clients refuse past a few kilobytes; so a message is cut to this length.
+constexpr size_t kMaxStatusMessageBytes = 1024;
+
 grpc::Status to_grpc(const absl::Status& status) {
   if (status.ok()) return grpc::Status::OK;
+  std::string message(status.message());
+  if (message.size() > kMaxStatusMessageBytes) {
+    message = absl::StrCat(message.substr(0, kMaxStatusMessageBytes), "... (",
+                           message.size(), " bytes in all)");
+  }
   // absl and gRPC share the canonical code numbers.
-  return grpc::Status(static_cast<grpc::StatusCode>(status.code()), std::string(status.message()));
+  return grpc::Status(static_cast<grpc::StatusCode>(status.code()), message);
 }
 
 // produce_frame's max_passes when only the target bounds the passes.
 constexpr uint32_t kAllPasses = std::numeric_limits<uint32_t>::max();
-
-constexpr size_t kDefaultChunkBytes = size_t{4} << 20;
-// Room for a Frame's header fields next to its data within one message.
-constexpr size_t kFrameHeaderRoom = size_t{64} << 10;
 
 std::string mib(size_t bytes) { return absl::StrFormat("%.1f MiB", bytes / 1048576.0); }
 
@@ -255,10 +260,11 @@ grpc::Status RenderService::serve(grpc::ServerContext* context, const char* meth
   const LogLevel level = status.ok() || absl::IsCancelled(status) || absl::IsNotFound(status)
                              ? LogLevel::kInfo
                              : LogLevel::kWarning;
+  // The scene id and the status (which may quote the request) are the client's own bytes.
   log_line(level, absl::StrFormat("%s scene=%s tenant=%s peer=%s %.2f ms %s", method,
-                                  scene_id.empty() ? "-" : scene_id,
+                                  scene_id.empty() ? "-" : printable(scene_id),
                                   tenant.ok() && !tenant->empty() ? *tenant : "-", context->peer(),
-                                  ms, status.ok() ? "OK" : status.ToString()));
+                                  ms, status.ok() ? "OK" : printable(status.ToString())));
   return to_grpc(status);
 }
 
@@ -411,20 +417,19 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
   return frame;
 }
 
-absl::Status RenderService::send_frame(grpc::ServerWriter<v1::Frame>* writer,
-                                       std::vector<v1::Frame>& pieces, uint64_t frame_number) {
-  for (v1::Frame& piece : pieces) {
-    piece.set_frame_number(frame_number);
-    if (!writer->Write(piece)) return absl::CancelledError("the client stopped reading frames");
-  }
+absl::Status RenderService::send_frame(grpc::ServerWriter<v1::Frame>* writer, EncodedFrame& frame,
+                                       size_t chunk_bytes, uint64_t frame_number) {
+  frame.header.set_frame_number(frame_number);
+  const bool written = for_each_frame_chunk(
+      frame.header, frame.data, chunk_bytes,
+      [writer](const v1::Frame& piece) { return writer->Write(piece); });
+  if (!written) return absl::CancelledError("the client stopped reading frames");
   ++frames_served_;
   return absl::OkStatus();
 }
 
 size_t RenderService::chunk_bytes(uint32_t requested) const {
-  const size_t limit =
-      std::max(options_.max_message_bytes, 2 * kFrameHeaderRoom) - kFrameHeaderRoom;
-  return std::min(requested == 0 ? kDefaultChunkBytes : size_t{requested}, limit);
+  return frame_chunk_bytes(requested, options_.max_message_bytes);
 }
 
 // --- scenes ---
@@ -579,8 +584,9 @@ size_t RenderService::restore_scenes() {
         ++restored;
       } else {
         registry_.keep_id(scene.id);
-        log_line(LogLevel::kError, absl::StrFormat("--data-dir: scene %s ('%s') not restored: %s",
-                                                   scene.id, scene.name, status.ToString()));
+        log_line(LogLevel::kError,
+                 absl::StrFormat("--data-dir: scene %s ('%s') not restored: %s", scene.id,
+                                 printable(scene.name), printable(status.ToString())));
       }
       ++restore_done_;
     }
@@ -821,10 +827,9 @@ grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
           absl::StatusOr<EncodedFrame> frame =
               produce_frame(context, entry, target, kAllPasses, spec);
           if (!frame.ok()) return frame.status();
-          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
           for (uint32_t i = 0; i < request->repeat_frames(); ++i) {
             if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
-            if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+            if (absl::Status sent = send_frame(writer, *frame, chunk, i); !sent.ok()) return sent;
           }
           return absl::OkStatus();
         }
@@ -835,8 +840,9 @@ grpc::Status RenderService::StreamFrames(grpc::ServerContext* context,
           absl::StatusOr<EncodedFrame> frame =
               produce_frame(context, entry, target, passes_per_frame, spec);
           if (!frame.ok()) return frame.status();
-          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
-          if (absl::Status sent = send_frame(writer, pieces, frame_number); !sent.ok()) return sent;
+          if (absl::Status sent = send_frame(writer, *frame, chunk, frame_number); !sent.ok()) {
+            return sent;
+          }
           if (frame->header.passes() >= target) return absl::OkStatus();
         }
       });
@@ -876,8 +882,7 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
           frame->header.set_photons_emitted(frame->header.photons_emitted() +
                                             report->photons_emitted());
           frame->header.set_keyframe(static_cast<uint32_t>(i));
-          std::vector<v1::Frame> pieces = split_frame(frame->header, std::move(frame->data), chunk);
-          if (absl::Status sent = send_frame(writer, pieces, i); !sent.ok()) return sent;
+          if (absl::Status sent = send_frame(writer, *frame, chunk, i); !sent.ok()) return sent;
         }
         return absl::OkStatus();
       });

@@ -210,10 +210,11 @@ class RenderService final : public v1::RenderService::Service {
   absl::StatusOr<EncodedFrame> produce_frame(grpc::ServerContext* context, SceneEntry& entry,
                                              uint32_t target, uint32_t max_passes,
                                              const FrameSpec& spec);
-  // Writes the pieces of one frame; CANCELLED when the client stopped reading.
-  absl::Status send_frame(grpc::ServerWriter<v1::Frame>* writer, std::vector<v1::Frame>& pieces,
-                          uint64_t frame_number);
-  // The chunk size for a request's max_chunk_bytes (0 = 4 MiB, clamped to the message limit).
+  // Writes one frame as `frame_number` in pieces of `chunk_bytes`, each built once the one before
+  // was written; CANCELLED when the client stopped reading.
+  absl::Status send_frame(grpc::ServerWriter<v1::Frame>* writer, EncodedFrame& frame,
+                          size_t chunk_bytes, uint64_t frame_number);
+  // The chunk size for a request's max_chunk_bytes (frame_chunk_bytes under the message limit).
   size_t chunk_bytes(uint32_t requested) const;
   void record_stages(const StageTimings& timings);
   // One run of `stage` ("queue", "render", ...), for GetStats' percentiles and /metrics.

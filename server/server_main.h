@@ -14,6 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/health_status.h"
+#include "server/heap_trimmer.h"
 #include "server/render_service.h"
 #include "server/viewer/viewer_http.h"
 
@@ -100,6 +101,8 @@ class Server {
   bool stopped_ = false;
   // Restores --data-dir's scenes while the server already answers (NOT_SERVING meanwhile).
   std::thread restore_thread_;
+  // Gives freed heap pages back, so that resident memory follows what is in use.
+  std::unique_ptr<HeapTrimmer> heap_trimmer_;
 };
 
 // Serves until SIGTERM/SIGINT. Returns the process exit code (0 after a signal, 1 when the server

@@ -1,6 +1,8 @@
 #include "renderer/resident/resident_scene.h"
 
 #include <cmath>
+#include <type_traits>
+#include <utility>
 
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/scene/density_grid.h"
@@ -36,6 +38,12 @@ DeviceLight to_device_light(const Light& l) {
   return d;
 }
 
+static_assert(std::is_nothrow_move_constructible_v<TriangleStructure> &&
+                  std::is_nothrow_move_assignable_v<TriangleStructure> &&
+                  std::is_nothrow_move_constructible_v<ResidentScene::Lighting> &&
+                  std::is_nothrow_move_assignable_v<ResidentScene::Lighting>,
+              "a swap that undoes a change cannot fail");
+
 // Turns per-item weights into a normalised CDF of size n + 1 in place; returns the total.
 float build_cdf(Backend& backend, Buffer<float>& weights_then_cdf, size_t n) {
   float* cdf = weights_then_cdf.data();
@@ -63,6 +71,26 @@ std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materi
   out.reserve(materials.size());
   for (const Material& m : materials) out.push_back({m.type, m.color, m.ior, emitted_radiance(m)});
   return out;
+}
+
+// The emission and power tables of `lighting`, whose lights are uploaded.
+void build_light_tables(Backend& backend, float scene_radius, ResidentScene::Lighting& lighting) {
+  const size_t n = lighting.lights.size();
+  const DeviceLight* lights = lighting.lights.data();
+  lighting.light_cdf.resize_discard(n + 1);
+  Buffer<uint8_t> is_area(backend, n);
+  write_light_weights(backend, lights, nullptr, n, scene_radius, lighting.light_cdf.data(),
+                      is_area.data());
+  lighting.total_power = build_cdf(backend, lighting.light_cdf, n);
+
+  lighting.area_light_index.resize_discard(n);
+  const size_t area_count =
+      backend.select_flagged(nullptr, is_area.data(), n, lighting.area_light_index.data());
+  lighting.area_light_index.resize_discard(area_count);
+  lighting.area_light_cdf.resize_discard(area_count + 1);
+  write_light_weights(backend, lights, lighting.area_light_index.data(), area_count, scene_radius,
+                      lighting.area_light_cdf.data(), nullptr);
+  lighting.area_light_power = build_cdf(backend, lighting.area_light_cdf, area_count);
 }
 
 }  // namespace
@@ -154,7 +182,6 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       triangle_medium.insert(triangle_medium.end(), m.triangle_count(), m.interior_medium);
   }
   r.scene_medium_ = media.empty() ? kVacuum : scene.medium;
-  std::vector<DeviceMaterial> materials = to_device_materials(scene.materials);
 
   r.triangles_.bind(backend);
   r.triangles_.upload(triangles);
@@ -164,70 +191,49 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.triangle_area_light_.upload(triangle_area_light);
   r.corner_normals_.bind(backend);
   r.corner_normals_.upload(corner_normals);
-  r.materials_.bind(backend);
-  r.materials_.upload(materials);
   r.media_.bind(backend);
   r.media_.upload(media);
   r.triangle_medium_.bind(backend);
   r.triangle_medium_.upload(triangle_medium);
-  r.lights_.bind(backend);
-  r.light_cdf_.bind(backend);
-  r.area_light_index_.bind(backend);
-  r.area_light_cdf_.bind(backend);
-  r.structure_ =
-      build_structure(backend, scene.settings.structure, r.triangles_.data(), uint32_t(n));
-  r.set_lights(scene.lights);
+  r.structure_ = r.new_structure(scene.settings.structure);
+  r.lighting_ = r.new_lighting(scene.lights, scene.materials);  // after the structure: its bounds
   return r;
 }
 
-void ResidentScene::rebuild_structure(StructureKind kind) {
-  const StructureKind previous = structure_.kind();
-  const uint32_t n = uint32_t(triangles_.size());
-  structure_ = TriangleStructure();  // frees the old one before the new one is built
-  try {
-    structure_ = build_structure(*backend_, kind, triangles_.data(), n);
-  } catch (const std::bad_alloc&) {
-    // The old structure fitted before: the scene keeps rendering with it.
-    structure_ = build_structure(*backend_, previous, triangles_.data(), n);
-    throw;
-  }
+TriangleStructure ResidentScene::new_structure(StructureKind kind) const {
+  return build_structure(*backend_, kind, triangles_.data(), uint32_t(triangles_.size()));
 }
 
-void ResidentScene::set_lights(std::span<const Light> lights) {
+void ResidentScene::swap_structure(TriangleStructure& structure) noexcept {
+  std::swap(structure_, structure);
+}
+
+ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> lights,
+                                                    std::span<const Material> materials) const {
   std::vector<DeviceLight> all;
   all.reserve(lights.size() + area_lights_host_.size());
   for (const Light& l : lights) all.push_back(to_device_light(l));
-  all.insert(all.end(), area_lights_host_.begin(), area_lights_host_.end());
-  lights_.upload(all);
-  rebuild_light_tables();
-}
-
-void ResidentScene::set_emission(std::span<const Material> materials) {
-  materials_.upload(to_device_materials(materials));
   for (size_t i = 0; i < area_lights_host_.size(); ++i) {
-    area_lights_host_[i].color = emitted_radiance(materials[area_light_materials_[i]]);
+    DeviceLight& area = all.emplace_back(area_lights_host_[i]);
+    area.color = emitted_radiance(materials[area_light_materials_[i]]);
   }
+  Lighting lighting;
+  lighting.materials.bind(*backend_);
+  lighting.lights.bind(*backend_);
+  lighting.light_cdf.bind(*backend_);
+  lighting.area_light_index.bind(*backend_);
+  lighting.area_light_cdf.bind(*backend_);
+  lighting.materials.upload(to_device_materials(materials));
+  lighting.lights.upload(all);
+  build_light_tables(*backend_, radius(), lighting);
+  return lighting;
 }
 
-void ResidentScene::rebuild_light_tables() {
-  Backend& backend = *backend_;
-  const size_t n = lights_.size();
-  const DeviceLight* lights = lights_.data();
-  const float scene_radius = radius();
+void ResidentScene::swap_lighting(Lighting& lighting) noexcept { std::swap(lighting_, lighting); }
 
-  light_cdf_.resize_discard(n + 1);
-  Buffer<uint8_t> is_area(backend, n);
-  write_light_weights(backend, lights, nullptr, n, scene_radius, light_cdf_.data(), is_area.data());
-  total_power_ = build_cdf(backend, light_cdf_, n);
-
-  area_light_index_.resize_discard(n);
-  const size_t area_count =
-      backend.select_flagged(nullptr, is_area.data(), n, area_light_index_.data());
-  area_light_index_.resize_discard(area_count);
-  area_light_cdf_.resize_discard(area_count + 1);
-  write_light_weights(backend, lights, area_light_index_.data(), area_count, scene_radius,
-                      area_light_cdf_.data(), nullptr);
-  area_light_power_ = build_cdf(backend, area_light_cdf_, area_count);
+size_t ResidentScene::Lighting::bytes() const {
+  return materials.bytes() + lights.bytes() + light_cdf.bytes() + area_light_index.bytes() +
+         area_light_cdf.bytes();
 }
 
 ResidentSceneView ResidentScene::view() const {
@@ -236,15 +242,15 @@ ResidentSceneView ResidentScene::view() const {
   v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
   v.material_ids = material_ids_.data();
   v.triangle_area_light = triangle_area_light_.data();
-  v.materials = materials_.data();
-  v.lights = lights_.data();
-  v.light_cdf = light_cdf_.data();
-  v.area_lights = area_light_index_.data();
-  v.area_light_cdf = area_light_cdf_.data();
-  v.light_count = uint32_t(lights_.size());
-  v.area_light_count = uint32_t(area_light_index_.size());
-  v.total_power = total_power_;
-  v.area_light_power = area_light_power_;
+  v.materials = lighting_.materials.data();
+  v.lights = lighting_.lights.data();
+  v.light_cdf = lighting_.light_cdf.data();
+  v.area_lights = lighting_.area_light_index.data();
+  v.area_light_cdf = lighting_.area_light_cdf.data();
+  v.light_count = uint32_t(lighting_.lights.size());
+  v.area_light_count = uint32_t(lighting_.area_light_index.size());
+  v.total_power = lighting_.total_power;
+  v.area_light_power = lighting_.area_light_power;
   if (!media_.empty()) {
     v.media.media = media_.data();
     v.media.triangle_medium = triangle_medium_.data();
@@ -260,8 +266,7 @@ size_t ResidentScene::bytes() const {
   size_t grid_bytes = 0;
   for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();
   return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() +
-         triangle_area_light_.bytes() + materials_.bytes() + lights_.bytes() + light_cdf_.bytes() +
-         area_light_index_.bytes() + area_light_cdf_.bytes() + media_.bytes() +
+         triangle_area_light_.bytes() + lighting_.bytes() + media_.bytes() +
          triangle_medium_.bytes() + structure_.stats().bytes + grid_bytes;
 }
 

@@ -136,16 +136,31 @@ CAUSTICA_HDI float spot_falloff(const DeviceLight& l, Vec3f direction_from_light
 
 class ResidentScene {
  public:
+  // The materials and every light as kernels read them: what a light change replaces as a whole.
+  struct Lighting {
+    Buffer<DeviceMaterial> materials;
+    Buffer<DeviceLight> lights;  // the non-geometric lights, then the area lights
+    Buffer<float> light_cdf;
+    Buffer<uint32_t> area_light_index;
+    Buffer<float> area_light_cdf;
+    float total_power = 0;
+    float area_light_power = 0;
+
+    size_t bytes() const;
+  };
+
   // Uploads geometry and materials and builds the triangle structure the scene's settings name.
   static ResidentScene upload(Backend& backend, const Scene& scene);
-  // Replaces the triangle structure by one of `kind` over the same triangles. When that runs out of
-  // memory the old kind is built again before the error goes on.
-  void rebuild_structure(StructureKind kind);
-  // Replaces the non-geometric lights (area lights follow the geometry and stay).
-  void set_lights(std::span<const Light> lights);
-  // Takes the materials' emission (the same materials as at upload, emission changed): the
-  // surfaces show it at once, and the area lights after the next set_lights.
-  void set_emission(std::span<const Material> materials);
+
+  // A change is built beside what is in use and then swapped in, so that one that runs out of
+  // memory leaves the scene as it was, and a swap back undoes one without allocating.
+  // A structure of `kind` over the same triangles.
+  TriangleStructure new_structure(StructureKind kind) const;
+  void swap_structure(TriangleStructure& structure) noexcept;
+  // `lights` (area lights follow the geometry and stay) with the emission of `materials`, the
+  // materials given at upload with their emission changed or not.
+  Lighting new_lighting(std::span<const Light> lights, std::span<const Material> materials) const;
+  void swap_lighting(Lighting& lighting) noexcept;
 
   ResidentSceneView view() const;
   const TriangleStructure& structure() const { return structure_; }
@@ -158,26 +173,20 @@ class ResidentScene {
   bool has_grid_media() const { return !grids_.empty(); }
 
  private:
-  void rebuild_light_tables();
-
   Backend* backend_ = nullptr;
-  std::vector<DeviceLight> area_lights_host_;   // from emissive triangles, fixed with geometry
-  std::vector<uint32_t> area_light_materials_;  // each area light's material
+  // From emissive triangles, fixed with the geometry but for their colour, the emission of their
+  // material (area_light_materials_), which new_lighting sets.
+  std::vector<DeviceLight> area_lights_host_;
+  std::vector<uint32_t> area_light_materials_;
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<uint32_t> material_ids_;
   Buffer<uint32_t> triangle_area_light_;
-  Buffer<DeviceMaterial> materials_;
-  Buffer<DeviceLight> lights_;
-  Buffer<float> light_cdf_;
-  Buffer<uint32_t> area_light_index_;
-  Buffer<float> area_light_cdf_;
+  Lighting lighting_;
   Buffer<DeviceMedium> media_;
   std::vector<Buffer<uint8_t>> grids_;  // the grid media's NanoVDB buffers, which media_ points at
   Buffer<uint32_t> triangle_medium_;    // only when there are media
   uint32_t scene_medium_ = kVacuum;
-  float total_power_ = 0;
-  float area_light_power_ = 0;
   double surface_area_ = 0;
   TriangleStructure structure_;
 };

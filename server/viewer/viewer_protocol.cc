@@ -9,6 +9,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "proto/wire/bearer_token.h"
 #include "server/viewer/viewer_geometry.h"
 
 namespace caustica::server::viewer {
@@ -206,6 +207,11 @@ absl::StatusOr<ViewerRequest> parse_request(std::string_view text) {
   switch (request.type) {
     case RequestType::kHello:
       ASSIGN_OR_RETURN_FIELD(request.token, string_field(message, type, "token", false));
+      // The session sends the token as gRPC metadata, which cannot carry every byte.
+      if (absl::Status token = wire::check_bearer_token(request.token, "hello.token");
+          !token.ok()) {
+        return token;
+      }
       break;
     case RequestType::kList:
       break;

@@ -33,7 +33,7 @@ enum class RequestType {
 struct ViewerRequest {
   RequestType type = RequestType::kHello;
   std::optional<int64_t> id;  // echoed in the reply, so the page can match replies to requests
-  std::string token;          // hello
+  std::string token;          // hello: visible ASCII only, so that it fits gRPC metadata
   std::string scene;          // open
   uint32_t passes = 0;        // open: the refinement target; 0: the server's default
   uint32_t strips = 0;        // open: JPEG strips per frame, up to 16; 0: the session's default
@@ -48,7 +48,8 @@ struct ViewerRequest {
 };
 
 // INVALID_ARGUMENT saying what is wrong: not JSON, not an object, a missing or unknown "type",
-// an unknown field, or a field of the wrong kind or range. `text` is one text message.
+// an unknown field, or a field of the wrong kind or range, a hello's token with a byte outside
+// visible ASCII included. `text` is one text message.
 absl::StatusOr<ViewerRequest> parse_request(std::string_view text);
 
 // The lights of the open scene as a session knows them: GetScene's lists with the lights epoch

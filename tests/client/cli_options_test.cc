@@ -13,6 +13,7 @@ namespace {
 
 using ::caustica::testing::CommandRun;
 using ::caustica::testing::run_client;
+using ::caustica::testing::run_command;
 using ::testing::HasSubstr;
 
 TEST(ClientOptions, UnknownStructureIsRefusedListingTheNames) {
@@ -81,6 +82,20 @@ TEST(ClientOptions, TlsFilesMustExistAndComeInPairs) {
   const CommandRun key_alone = run_client("scene list --tls-key /dev/null");
   EXPECT_NE(key_alone.exit_code, 0);
   EXPECT_THAT(key_alone.output, HasSubstr("--tls-cert"));
+}
+
+// gRPC aborts the client on a metadata value outside visible ASCII, such as a token read from a
+// file with its line ending; the client refuses it before connecting, naming the byte.
+TEST(ClientOptions, TokensOutsideVisibleAsciiAreRefusedBeforeAnyCall) {
+  const CommandRun from_environment =
+      run_command(std::string("CAUSTICA_TOKEN=\"$(printf 'abc\\r')\" '") + CAUSTICA_CLIENT_BIN +
+                  "' --server 127.0.0.1:1 scene list");
+  EXPECT_EQ(from_environment.exit_code, 1) << from_environment.output;
+  EXPECT_THAT(from_environment.output,
+              HasSubstr("--token ($CAUSTICA_TOKEN): byte 0x0d at offset 3 is not visible ASCII"));
+  const CommandRun from_flag = run_client("--server 127.0.0.1:1 --token 'caf\xc3\xa9' scene list");
+  EXPECT_EQ(from_flag.exit_code, 1) << from_flag.output;
+  EXPECT_THAT(from_flag.output, HasSubstr("byte 0xc3 at offset 3 is not visible ASCII"));
 }
 
 TEST(ClientOptions, VersionNamesTheReleaseAndTheApi) {

@@ -78,7 +78,7 @@ TEST(TokenTable, ErrorsNameTheFileAndLine) {
   EXPECT_THAT(parse_error(good + "0123456789abcdef9999,alice,admins\n"),
               HasSubstr("tokens.csv:2: too many fields"));
   EXPECT_THAT(parse_error(good + "0123456789abcdef\t9999,alice\n"),
-              HasSubstr("tokens.csv:2: token has a character"));
+              HasSubstr("tokens.csv:2: token: byte 0x09 at offset 16 is not visible ASCII"));
   EXPECT_THAT(parse_error("# nothing but comments\n\n"), HasSubstr("tokens.csv: no tokens"));
 }
 

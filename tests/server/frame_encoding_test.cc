@@ -6,6 +6,9 @@
 
 #include <cmath>
 #include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
 
 namespace caustica::server {
 namespace {
@@ -97,10 +100,11 @@ TEST(FrameEncoding, JpegStripsFillTheHeader) {
   EXPECT_EQ(header.strip_rows(0) + header.strip_rows(1) + header.strip_rows(2), 40u);
   EXPECT_EQ(header.strip_bytes(0) + header.strip_bytes(1) + header.strip_bytes(2), bytes->size());
   // Every piece of a split frame carries the strips, as the other header fields.
-  for (const v1::Frame& piece : split_frame(header, *bytes, 100)) {
+  for_each_frame_chunk(header, *bytes, 100, [](const v1::Frame& piece) {
     EXPECT_EQ(piece.strip_bytes_size(), 3);
     EXPECT_EQ(piece.strip_rows_size(), 3);
-  }
+    return true;
+  });
   spec.jpeg_strips = 1;
   v1::Frame single;
   bytes = encode_frame(spec, 8, 40, srgb8, {}, &single);
@@ -131,6 +135,17 @@ TEST(FrameEncoding, RawHalfIsLittleEndianHalves) {
   EXPECT_EQ(*raw, expected);
 }
 
+// Every piece of `data` that for_each_frame_chunk writes.
+std::vector<v1::Frame> frame_chunks(const v1::Frame& header, std::string_view data,
+                                    size_t chunk_bytes) {
+  std::vector<v1::Frame> pieces;
+  EXPECT_TRUE(for_each_frame_chunk(header, data, chunk_bytes, [&](const v1::Frame& piece) {
+    pieces.push_back(piece);
+    return true;
+  }));
+  return pieces;
+}
+
 TEST(FrameSplitting, PiecesCoverTheFrameInOrder) {
   v1::Frame header;
   header.set_frame_number(3);
@@ -138,7 +153,7 @@ TEST(FrameSplitting, PiecesCoverTheFrameInOrder) {
   std::string data(10, '\0');
   for (int i = 0; i < 10; ++i) data[i] = char('a' + i);
 
-  const std::vector<v1::Frame> pieces = split_frame(header, data, 4);
+  const std::vector<v1::Frame> pieces = frame_chunks(header, data, 4);
   ASSERT_EQ(pieces.size(), 3u);
   const uint64_t offsets[] = {0, 4, 8};
   const char* contents[] = {"abcd", "efgh", "ij"};
@@ -151,15 +166,58 @@ TEST(FrameSplitting, PiecesCoverTheFrameInOrder) {
     EXPECT_EQ(pieces[i].last_chunk(), i == 2);
   }
 
-  const std::vector<v1::Frame> whole = split_frame(header, data, 10);
+  const std::vector<v1::Frame> whole = frame_chunks(header, data, 10);
   ASSERT_EQ(whole.size(), 1u);
   EXPECT_EQ(whole[0].data(), data);
   EXPECT_TRUE(whole[0].last_chunk());
 
-  const std::vector<v1::Frame> empty = split_frame(header, "", 4);
+  const std::vector<v1::Frame> empty = frame_chunks(header, "", 4);
   ASSERT_EQ(empty.size(), 1u);
   EXPECT_EQ(empty[0].data_size(), 0u);
   EXPECT_TRUE(empty[0].last_chunk());
+}
+
+TEST(FrameSplitting, ChunkSizesAreClampedBetweenTheMinimumAndTheMessageLimit) {
+  const size_t message_limit = size_t{64} << 20;
+  EXPECT_EQ(frame_chunk_bytes(1, message_limit), kMinChunkBytes);
+  EXPECT_EQ(frame_chunk_bytes(kMinChunkBytes - 1, message_limit), kMinChunkBytes);
+  EXPECT_EQ(frame_chunk_bytes(100000, message_limit), 100000u);
+  EXPECT_EQ(frame_chunk_bytes(0, message_limit), kDefaultChunkBytes);
+  EXPECT_EQ(frame_chunk_bytes(64 << 20, size_t{1} << 20), (size_t{1} << 20) - kFrameHeaderRoom);
+}
+
+// A one-byte request on a frame of a few minimum pieces: pieces of the minimum, the last one
+// shorter, that put back together are the frame bit for bit.
+TEST(FrameSplitting, ATinyChunkSizeGivesPiecesOfTheMinimumThatReassemble) {
+  v1::Frame header;
+  header.set_frame_number(7);
+  header.set_width(256);
+  std::string data(3 * kMinChunkBytes + 5, '\0');
+  for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<char>(i * 131 + i / 7);
+
+  const std::vector<v1::Frame> pieces =
+      frame_chunks(header, data, frame_chunk_bytes(1, size_t{64} << 20));
+  ASSERT_EQ(pieces.size(), 4u);
+  std::string reassembled;
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    EXPECT_EQ(pieces[i].frame_number(), 7u);
+    EXPECT_EQ(pieces[i].width(), 256u);
+    EXPECT_EQ(pieces[i].data_size(), data.size());
+    EXPECT_EQ(pieces[i].data_offset(), reassembled.size());
+    EXPECT_EQ(pieces[i].data().size(), i < 3 ? kMinChunkBytes : 5u);
+    EXPECT_EQ(pieces[i].last_chunk(), i == 3);
+    reassembled += pieces[i].data();
+  }
+  EXPECT_TRUE(reassembled == data);
+}
+
+TEST(FrameSplitting, StopsAtThePieceTheWriterRefuses) {
+  const std::string data(10, 'x');
+  int written = 0;
+  EXPECT_FALSE(for_each_frame_chunk(v1::Frame(), data, 4, [&](const v1::Frame&) {
+    return ++written < 2;
+  }));
+  EXPECT_EQ(written, 2) << "no piece is built after the refused one";
 }
 
 }  // namespace

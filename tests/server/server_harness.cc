@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <thread>
 
@@ -143,6 +144,21 @@ ServerProcess::~ServerProcess() {
 
 std::unique_ptr<v1::RenderService::Stub> ServerProcess::stub() const {
   return v1::RenderService::NewStub(channel_);
+}
+
+uint64_t ServerProcess::resident_bytes() const {
+  std::ifstream status("/proc/" + std::to_string(pid_) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.starts_with("VmRSS:")) return std::stoull(line.substr(6)) * 1024;  // "  123 kB"
+  }
+  return 0;
+}
+
+int ServerProcess::logged_port(const std::string& what) const {
+  std::smatch match;
+  const std::string text = log();
+  if (!std::regex_search(text, match, std::regex(what + " on port ([0-9]+)"))) return 0;
+  return std::stoi(match[1]);
 }
 
 bool ServerProcess::running() {

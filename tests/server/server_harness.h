@@ -33,6 +33,11 @@ class ServerProcess {
   ~ServerProcess();
 
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
+  // Resident memory (VmRSS) of the running server; 0 once it is gone.
+  uint64_t resident_bytes() const;
+  // The port of a log line "... <what> on port N", e.g. "metrics"; 0 when the log has none.
+  int logged_port(const std::string& what) const;
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   std::shared_ptr<grpc::Channel> channel() const { return channel_; }
   std::unique_ptr<v1::RenderService::Stub> stub() const;

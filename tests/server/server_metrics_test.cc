@@ -40,13 +40,7 @@ class MetricsTest : public ServerTest {
     return {"--metrics-listen", "127.0.0.1:0"};
   }
 
-  // The port the server's log names for its metrics.
-  int metrics_port() const {
-    std::smatch m;
-    const std::string log = server_->log();
-    if (!std::regex_search(log, m, std::regex("metrics on port ([0-9]+)"))) return 0;
-    return std::stoi(m[1]);
-  }
+  int metrics_port() const { return server_->logged_port("metrics"); }
 };
 
 TEST_F(MetricsTest, MetricsShowCallsStagesAndMemoryAndPassPromtool) {

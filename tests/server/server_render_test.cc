@@ -112,13 +112,13 @@ TEST_F(ServerTest, LightUpdateChangesTheImageAndTheEpochs) {
 }
 
 TEST_F(ServerTest, StreamFramesRefinesProgressivelyInChunks) {
-  const std::string id = upload_scene(*stub_, cornell_box(16, 16, 2000, 16, 3));
+  const std::string id = upload_scene(*stub_, cornell_box(64, 64, 2000, 16, 3));
   v1::StreamFramesRequest request;
   request.set_scene_id(id);
   request.set_target_passes(3);
   request.set_passes_per_frame(1);
   *request.mutable_format() = frame_format(v1::RGBA32F_LINEAR);
-  request.set_max_chunk_bytes(1000);  // 4096-byte frames in 5 pieces
+  request.set_max_chunk_bytes(20000);  // 65536-byte frames in 4 pieces
   std::vector<StreamedFrame> frames;
   const grpc::Status status = stream_frames(*stub_, request, &frames);
   ASSERT_TRUE(status.ok()) << status.error_message();
@@ -126,8 +126,8 @@ TEST_F(ServerTest, StreamFramesRefinesProgressivelyInChunks) {
   for (size_t i = 0; i < frames.size(); ++i) {
     EXPECT_EQ(frames[i].header.frame_number(), i);
     EXPECT_EQ(frames[i].header.passes(), i + 1);
-    EXPECT_EQ(frames[i].pieces, 5);
-    EXPECT_EQ(frames[i].data.size(), 16u * 16u * 16u);
+    EXPECT_EQ(frames[i].pieces, 4);
+    EXPECT_EQ(frames[i].data.size(), 64u * 64u * 16u);
   }
   // The film now holds 3 passes: a unary frame at 3 passes resolves it without rendering more.
   v1::Frame unary;
@@ -135,6 +135,27 @@ TEST_F(ServerTest, StreamFramesRefinesProgressivelyInChunks) {
   EXPECT_EQ(unary.passes(), 3u);
   EXPECT_EQ(unary.data(), frames.back().data);
   EXPECT_NE(frames[0].data, frames[2].data) << "later passes refine the image";
+}
+
+// A chunk size of one byte would make a message of every byte of the frame, all held at once.
+TEST_F(ServerTest, StreamFramesRaisesATinyChunkSizeToTheMinimum) {
+  const std::string id = upload_scene(*stub_, cornell_box(256, 256, 500, 8, 1));
+  v1::StreamFramesRequest request;
+  request.set_scene_id(id);
+  *request.mutable_format() = frame_format(v1::RGBA32F_LINEAR);
+  request.set_max_chunk_bytes(1);
+  std::vector<StreamedFrame> frames;
+  const grpc::Status status = stream_frames(*stub_, request, &frames);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(frames.size(), 1u);
+  const size_t bytes = 256 * 256 * 16;
+  EXPECT_EQ(static_cast<size_t>(frames[0].pieces),
+            (bytes + server::kMinChunkBytes - 1) / server::kMinChunkBytes);
+  ASSERT_EQ(frames[0].data.size(), bytes);
+
+  v1::Frame unary;
+  ASSERT_TRUE(render_frame(*stub_, id, 1, frame_format(v1::RGBA32F_LINEAR), &unary).ok());
+  EXPECT_TRUE(frames[0].data == unary.data()) << "the pieces reassemble to the frame";
 }
 
 TEST_F(ServerTest, ConcurrentLightChangeRestartsAStream) {

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "server/frame_encoding.h"
 #include "server/viewer/viewer_session.h"
 #include "tests/server/server_harness.h"
 
@@ -100,7 +101,8 @@ class ViewerSessionTest : public ServerTest {
     scene_id_ = upload_scene(
         *stub_, small_scene_from(std::filesystem::path(CAUSTICA_SCENES_DIR) / "ring" / "scene.json",
                                  64, 48, 5000, 16, 1));
-    // Small pieces, so that every frame arrives in several messages to be put together.
+    // The smallest pieces the server sends (it raises this to kMinChunkBytes), so that larger
+    // frames arrive in several messages to be put together.
     session_ = std::make_unique<server::viewer::ViewerSession>(
         server_->channel(), sink_, server::viewer::ViewerOptions{.stream_chunk_bytes = 512});
   }
@@ -134,6 +136,34 @@ TEST_F(ViewerSessionTest, BadMessagesGetErrorsAndTheSessionCarriesOn) {
   const json missing = sink_.wait_text("error", &seen_);
   EXPECT_EQ(missing["code"], "NOT_FOUND");
   EXPECT_THAT(missing["message"].get<std::string>(), HasSubstr("GetScene: "));
+  expect_server_healthy(*server_);
+}
+
+// gRPC aborts the process on a metadata value outside visible ASCII, so such a token must be
+// refused before the session keeps it; a page that then says hello properly is served as usual.
+TEST_F(ViewerSessionTest, TokensOutsideVisibleAsciiAreRefusedAndTheSessionCarriesOn) {
+  const struct {
+    std::string token;
+    std::string refusal;
+  } cases[] = {{"é", "byte 0xc3 at offset 0"},          {"\n", "byte 0x0a at offset 0"},
+               {"\r\n", "byte 0x0d at offset 0"},       {"\t", "byte 0x09 at offset 0"},
+               {std::string(1, '\0'), "byte 0x00 at offset 0"}, {"\x7f", "byte 0x7f at offset 0"},
+               {"abc def", "byte 0x20 at offset 3"}};
+  for (const auto& [token, refusal] : cases) {
+    session_->handle_text(json({{"type", "hello"}, {"token", token}}).dump());
+    const json error = sink_.wait_text("error", &seen_);
+    EXPECT_EQ(error["code"], "INVALID_ARGUMENT") << refusal;
+    EXPECT_THAT(error["message"].get<std::string>(), HasSubstr("hello.token: " + refusal));
+  }
+  session_->handle_text(R"({"type":"list"})");
+  EXPECT_THAT(sink_.wait_text("error", &seen_)["message"].get<std::string>(), HasSubstr("hello"))
+      << "a refused hello greets nobody";
+
+  session_->handle_text(R"({"type":"hello","token":"any-token-in-development-mode"})");
+  ASSERT_EQ(sink_.wait_text("scenes", &seen_)["scenes"].size(), 1u);
+  session_->handle_text(json({{"type", "open"}, {"scene", scene_id_}, {"passes", 1}}).dump());
+  EXPECT_FALSE(sink_.wait_frame([](const json& frame) { return frame["passes"] == 1; }).is_null());
+  session_->close();
   expect_server_healthy(*server_);
 }
 
@@ -214,6 +244,19 @@ TEST_F(ViewerSessionTest, FramesRefineAndALightDragShowsInANewEpoch) {
   EXPECT_EQ(sink_.wait_text("updated", &seen_)["what"], "camera");
   session_->close();
   expect_server_healthy(*server_);
+}
+
+TEST_F(ViewerSessionTest, FramesOfSeveralPiecesArriveWhole) {
+  // The Cornell box's noisy first pass: a JPEG of several pieces.
+  const std::string id = upload_scene(*stub_, cornell_box(256, 256, 2000, 16, 1));
+  session_->handle_text(R"({"type":"hello"})");
+  session_->handle_text(json({{"type", "open"}, {"scene", id}, {"passes", 1}}).dump());
+  const json frame = sink_.wait_frame([](const json& frame) { return frame["passes"] == 1; });
+  ASSERT_FALSE(frame.is_null());
+  ASSERT_GT(frame["image_bytes"].get<size_t>(), server::kMinChunkBytes) << "one piece only";
+  EXPECT_TRUE(frame["image_whole"]);
+  EXPECT_TRUE(frame["strips_whole"]);
+  session_->close();
 }
 
 TEST_F(ViewerSessionTest, TheOpenMessageChoosesTheStripCount) {

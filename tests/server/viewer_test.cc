@@ -453,18 +453,6 @@ TEST(ViewerProtocol, PrefersJpegWhereTheApiHasIt) {
   }
 }
 
-TEST(ViewerHttp, ListenAddressesForCivetweb) {
-  EXPECT_EQ(*civetweb_listening_port("127.0.0.1:8080"), "127.0.0.1:8080");
-  EXPECT_EQ(*civetweb_listening_port("localhost:0"), "127.0.0.1:0");
-  EXPECT_EQ(*civetweb_listening_port(":8080"), "8080");
-  EXPECT_EQ(*civetweb_listening_port("0.0.0.0:80"), "80");
-  EXPECT_FALSE(civetweb_listening_port("8080").ok());
-  EXPECT_FALSE(civetweb_listening_port("127.0.0.1:http").ok());
-  EXPECT_FALSE(civetweb_listening_port("127.0.0.1:70000").ok());
-  EXPECT_THAT(std::string(civetweb_listening_port("[::1]:80").status().message()),
-              HasSubstr("IPv6"));
-}
-
 TEST(ViewerHttp, WebSocketsOnlyFromThePagesOwnOrigin) {
   EXPECT_TRUE(same_origin("http://127.0.0.1:8080", "127.0.0.1:8080"));
   EXPECT_TRUE(same_origin("HTTP://LocalHost:8080", "localhost:8080"));

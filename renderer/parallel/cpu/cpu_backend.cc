@@ -177,17 +177,19 @@ class CpuBackend final : public Backend {
   void* allocate_host(size_t bytes) override { return ::operator new(bytes, std::align_val_t(64)); }
   void deallocate_host(void* p) noexcept override { ::operator delete(p, std::align_val_t(64)); }
 
+  // An empty buffer's pointer is null, which the C library's copies must not be given even for
+  // no bytes: nothing is done then.
   void copy_to_device(void* dst, const void* src, size_t bytes) override {
-    std::memcpy(dst, src, bytes);
+    if (bytes > 0) std::memcpy(dst, src, bytes);
   }
   void copy_to_host(void* dst, const void* src, size_t bytes) override {
-    std::memcpy(dst, src, bytes);
+    if (bytes > 0) std::memcpy(dst, src, bytes);
   }
   void copy_on_device(void* dst, const void* src, size_t bytes) override {
-    std::memmove(dst, src, bytes);
+    if (bytes > 0) std::memmove(dst, src, bytes);
   }
   void fill_bytes(void* dst, uint8_t value, size_t bytes) override {
-    std::memset(dst, value, bytes);
+    if (bytes > 0) std::memset(dst, value, bytes);
   }
   void synchronize() override {}
 

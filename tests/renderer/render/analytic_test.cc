@@ -73,8 +73,10 @@ TEST(Determinism, SameSeedGivesBitIdenticalImage) {
   std::vector<float> a = render_small("cornell-caustics", 7, 2);
   std::vector<float> b = render_small("cornell-caustics", 7, 2);
   ASSERT_FALSE(a.empty());
+  ASSERT_EQ(a.size(), b.size());  // a failed render is empty, and memcmp would read past it
   EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(float)));
   std::vector<float> c = render_small("cornell-caustics", 8, 2);
+  ASSERT_EQ(a.size(), c.size());
   EXPECT_NE(0, std::memcmp(a.data(), c.data(), a.size() * sizeof(float)));
 }
 
