@@ -31,7 +31,6 @@
 #include "client/scene_upload.h"
 #include "proto/wire/scene_wire.h"
 #include "renderer/scene/load_scene.h"
-#include "server/live_heap.h"
 
 #ifndef CAUSTICA_SCENES_DIR
 #define CAUSTICA_SCENES_DIR "scenes"
@@ -238,12 +237,11 @@ Json memory_json(const std::vector<Sample>& samples, std::optional<uint64_t> Sam
   return j;
 }
 
-// The live heap, where the server reports it, is judged beside the resident memory, and instead
-// of it under AddressSanitizer (as the server of this build tree is), whose quarantine keeps
-// hundreds of megabytes of freed memory resident; unknown resident memory is not judged.
+// The server's own memory is judged by its live heap where it reports one, since resident memory
+// also holds what the allocator keeps of freed memory (AddressSanitizer's quarantine alone grows
+// it by hundreds of megabytes without a leak); unknown resident memory is not judged.
 bool host_memory_flat(std::optional<bool> rss_flat, std::optional<bool> heap_flat) {
-  if (!heap_flat) return rss_flat.value_or(true);
-  return *heap_flat && (kAddressSanitizer || rss_flat.value_or(true));
+  return heap_flat ? *heap_flat : rss_flat.value_or(true);
 }
 
 // A scene file's stem, or its directory's name for the usual "scene.json".
@@ -582,9 +580,7 @@ class Sampler {
   }
 
  private:
-  void add_locked(const Snapshot& s) {
-    samples_.push_back({s.rss, s.heap_bytes, s.device_bytes});
-  }
+  void add_locked(const Snapshot& s) { samples_.push_back({s.rss, s.heap_bytes, s.device_bytes}); }
 
   void run() {
     Clock::time_point next_progress = start_ + kProgressInterval;

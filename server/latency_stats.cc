@@ -16,7 +16,12 @@ double percentile(std::vector<double>& samples, double p) {
 void LatencyStats::record(std::string_view name, double ms) {
   std::lock_guard<std::mutex> lock(mutex_);
   auto it = series_.find(name);
-  if (it == series_.end()) it = series_.emplace(std::string(name), Series{}).first;
+  if (it == series_.end()) {
+    it = series_.emplace(std::string(name), Series{}).first;
+    // The whole window at once, so that the server's memory does not grow with its first samples
+    // (which a soak would read as a leak).
+    it->second.recent.reserve(window_);
+  }
   Series& s = it->second;
   if (s.recent.size() < window_) {
     s.recent.push_back(ms);

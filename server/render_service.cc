@@ -15,6 +15,7 @@
 #include "proto/wire/scene_wire.h"
 #include "server/auth.h"
 #include "server/engine_wire.h"
+#include "server/heap.h"
 #include "server/log.h"
 
 namespace caustica::server {
@@ -420,9 +421,9 @@ absl::StatusOr<RenderService::EncodedFrame> RenderService::produce_frame(
 absl::Status RenderService::send_frame(grpc::ServerWriter<v1::Frame>* writer, EncodedFrame& frame,
                                        size_t chunk_bytes, uint64_t frame_number) {
   frame.header.set_frame_number(frame_number);
-  const bool written = for_each_frame_chunk(
-      frame.header, frame.data, chunk_bytes,
-      [writer](const v1::Frame& piece) { return writer->Write(piece); });
+  const bool written =
+      for_each_frame_chunk(frame.header, frame.data, chunk_bytes,
+                           [writer](const v1::Frame& piece) { return writer->Write(piece); });
   if (!written) return absl::CancelledError("the client stopped reading frames");
   ++frames_served_;
   return absl::OkStatus();
@@ -957,6 +958,7 @@ grpc::Status RenderService::GetStats(grpc::ServerContext* context,
                  response->set_requests_served(requests_served_);
                  response->set_active_streams(active_streams_);
                  response->set_viewer_port(static_cast<uint32_t>(viewer_port_.load()));
+                 response->set_heap_bytes(live_heap_bytes());
                  for (const LatencySummary& s : latencies_.summaries()) {
                    v1::LatencySummary* out = response->add_latencies();
                    out->set_stage(s.name);

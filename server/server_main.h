@@ -14,7 +14,7 @@
 
 #include "absl/status/statusor.h"
 #include "server/health_status.h"
-#include "server/heap_trimmer.h"
+#include "server/heap.h"
 #include "server/render_service.h"
 #include "server/viewer/viewer_http.h"
 

@@ -4,12 +4,15 @@
 // that the engine then renders, bit for bit, the image it rendered before.
 #include <gtest/gtest.h>
 
-#include <cmath>
+#include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <ostream>
+#include <span>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -27,8 +30,7 @@ namespace {
 class FailingBackend final : public Backend {
  public:
   explicit FailingBackend(size_t memory_budget_bytes)
-      : Backend(memory_budget_bytes),
-        cpu_(make_cpu_backend(std::numeric_limits<size_t>::max())) {}
+      : Backend(memory_budget_bytes), cpu_(make_cpu_backend(std::numeric_limits<size_t>::max())) {}
 
   // The allocation after the next `successes` fails, and only that one; nullopt: none fails.
   void fail_after(std::optional<uint64_t> successes) {
@@ -173,9 +175,21 @@ TestEngine rendered_engine(const Scene& scene, size_t devices, size_t budget) {
   return t;
 }
 
-std::vector<float> image_of(Engine& engine) {
+// The image's values as their bits, so that images compare bit for bit.
+std::vector<uint32_t> image_of(Engine& engine) {
   const std::span<const float> image = engine.image_linear();
-  return {image.begin(), image.end()};
+  std::vector<uint32_t> bits(image.size());
+  std::transform(image.begin(), image.end(), bits.begin(),
+                 [](float v) { return std::bit_cast<uint32_t>(v); });
+  return bits;
+}
+
+// Whether any colour value is above zero (alpha is 1 everywhere): a black image proves nothing.
+bool lit(const std::vector<uint32_t>& image) {
+  for (size_t i = 0; i < image.size(); ++i) {
+    if (i % 4 != 3 && std::bit_cast<float>(image[i]) > 0) return true;
+  }
+  return false;
 }
 
 auto fields(const Camera& c) {
@@ -250,7 +264,7 @@ void expect_unchanged(const Observed& before, const Observed& after) {
 
 // After a refusal the film holds the image it held, and once restarted the engine renders it
 // again: nothing in the scene, the structure, the lights' tables or the estimator moved.
-void expect_same_images(TestEngine& t, const std::vector<float>& before) {
+void expect_same_images(TestEngine& t, const std::vector<uint32_t>& before) {
   Engine& e = *t.engine;
   EXPECT_EQ(image_of(e), before) << "the film changed";
   const absl::StatusOr<RebuildReport> restarted = e.set_camera(e.scene().camera);
@@ -264,7 +278,7 @@ using Change = std::function<absl::StatusOr<RebuildReport>(Engine&)>;
 
 // Applies `change` to `t`, which must refuse it with `code`, and checks that nothing changed.
 void expect_refused(TestEngine& t, const Change& change, absl::StatusCode code,
-                    const std::vector<float>& before_image) {
+                    const std::vector<uint32_t>& before_image) {
   const Observed before = observe(t);
   const absl::StatusOr<RebuildReport> refused = change(*t.engine);
   for (const auto& backend : t.backends) backend->fail_after(std::nullopt);
@@ -389,7 +403,8 @@ TEST_P(AllocationFailure, RefusesTheChangeAndKeepsTheImage) {
 
   TestEngine t = rendered_engine(scene, c.devices, kLargeBudget);
   ASSERT_TRUE(t.engine);
-  const std::vector<float> before = image_of(*t.engine);
+  const std::vector<uint32_t> before = image_of(*t.engine);
+  ASSERT_TRUE(lit(before));
   for (uint64_t n = 0; n < allocations; ++n) {
     SCOPED_TRACE(testing::Message() << "allocation " << n + 1 << " of " << allocations
                                     << " on device " << c.devices - 1 << " fails");
@@ -417,8 +432,7 @@ constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 // Changes refused by their checks, or by a memory budget too small for them.
 const std::vector<Refusal>& refusals() {
   static const std::vector<Refusal> cases = {
-      {"LightNotFinite",
-       [](Engine& e) { return e.set_lights({point_light(Vec3f(kNan, 0, 0))}); },
+      {"LightNotFinite", [](Engine& e) { return e.set_lights({point_light(Vec3f(kNan, 0, 0))}); },
        absl::StatusCode::kInvalidArgument},
       {"LightNegative",
        [](Engine& e) {
@@ -427,7 +441,8 @@ const std::vector<Refusal>& refusals() {
          return e.set_lights({l});
        },
        absl::StatusCode::kInvalidArgument},
-      {"SpotAngles", [](Engine& e) {
+      {"SpotAngles",
+       [](Engine& e) {
          Light l = point_light(Vec3f(200, 400, 250));
          l.type = LightType::kSpot;
          l.inner_angle_deg = 50;
@@ -436,10 +451,14 @@ const std::vector<Refusal>& refusals() {
        },
        absl::StatusCode::kInvalidArgument},
       {"UnknownEmitter",
-       [](Engine& e) { return e.set_lights({}, {{"lamp", Vec3f(1, 1, 1), std::nullopt}}); },
+       [](Engine& e) {
+         return e.set_lights({}, {{"lamp", Vec3f(1, 1, 1), std::nullopt}});
+       },
        absl::StatusCode::kInvalidArgument},
       {"EmitterNotFinite",
-       [](Engine& e) { return e.set_lights({}, {{"light", Vec3f(kNan, 1, 1), std::nullopt}}); },
+       [](Engine& e) {
+         return e.set_lights({}, {{"light", Vec3f(kNan, 1, 1), std::nullopt}});
+       },
        absl::StatusCode::kInvalidArgument},
       {"CameraNotFinite", camera_change([](Camera& c) { c.position.y = kNan; }),
        absl::StatusCode::kInvalidArgument},
@@ -482,16 +501,18 @@ TEST_P(Refused, RefusesTheChangeAndKeepsTheImage) {
   const auto& [r, devices] = GetParam();
   TestEngine t = rendered_engine(small_scene(r.fog), devices, kSmallBudget);
   ASSERT_TRUE(t.engine);
-  const std::vector<float> before = image_of(*t.engine);
+  const std::vector<uint32_t> before = image_of(*t.engine);
+  ASSERT_TRUE(lit(before));
   expect_refused(t, r.change, r.code, before);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Changes, Refused, ::testing::Combine(::testing::ValuesIn(refusals()), ::testing::Values(1, 2)),
-    [](const ::testing::TestParamInfo<std::tuple<Refusal, size_t>>& info) {
-      return std::string(std::get<0>(info.param).name) + "On" +
-             std::to_string(std::get<1>(info.param)) + "Devices";
-    });
+INSTANTIATE_TEST_SUITE_P(Changes, Refused,
+                         ::testing::Combine(::testing::ValuesIn(refusals()),
+                                            ::testing::Values(1, 2)),
+                         [](const ::testing::TestParamInfo<std::tuple<Refusal, size_t>>& info) {
+                           return std::string(std::get<0>(info.param).name) + "On" +
+                                  std::to_string(std::get<1>(info.param)) + "Devices";
+                         });
 
 }  // namespace
 }  // namespace caustica

@@ -1,0 +1,41 @@
+// The server's heap as its allocator sees it. Resident memory also holds what the allocator keeps
+// of freed memory: glibc's arenas keep what a burst of traffic freed (an oversized message
+// refused, a storm of connections), and AddressSanitizer's quarantine holds freed blocks by the
+// hundreds of megabytes. So GetStats reports the live heap, which a leak grows and nothing else
+// does, and a trimmer gives the freed pages back so that resident memory follows what is in use
+// (docs/reliability.md, "Hostile clients" and "Soak").
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+
+namespace caustica::server {
+
+// The bytes of live allocations; 0 where the allocator does not tell (neither AddressSanitizer's
+// nor glibc 2.33's or later). Blocks in AddressSanitizer's quarantine count as freed.
+uint64_t live_heap_bytes();
+
+// Gives the heap's free pages back to the operating system every `period` when more than
+// `min_free_bytes` are free.
+class HeapTrimmer {
+ public:
+  HeapTrimmer(std::chrono::milliseconds period, size_t min_free_bytes);
+  ~HeapTrimmer();
+  HeapTrimmer(const HeapTrimmer&) = delete;
+  HeapTrimmer& operator=(const HeapTrimmer&) = delete;
+
+  // Trims now when enough is free; whether it trimmed.
+  static bool trim_if_worth_it(size_t min_free_bytes);
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable stop_requested_;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace caustica::server
