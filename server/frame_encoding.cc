@@ -137,11 +137,20 @@ size_t frame_chunk_bytes(uint32_t requested, size_t max_message_bytes) {
   return std::min(std::max(asked, kMinChunkBytes), limit);
 }
 
-bool for_each_frame_chunk(const v1::Frame& header, std::string_view data, size_t chunk_bytes,
+bool for_each_frame_chunk(const v1::Frame& header, std::string& data, size_t chunk_bytes,
                           const std::function<bool(const v1::Frame&)>& write) {
   const size_t chunk = std::max<size_t>(chunk_bytes, 1);
   v1::Frame piece = header;
   piece.set_data_size(data.size());
+  if (data.size() <= chunk) {
+    // One message: the bytes are lent to it rather than copied, and taken back for the next send.
+    piece.set_data_offset(0);
+    piece.set_last_chunk(true);
+    piece.mutable_data()->swap(data);
+    const bool written = write(piece);
+    piece.mutable_data()->swap(data);
+    return written;
+  }
   size_t offset = 0;
   do {
     const size_t size = std::min(chunk, data.size() - offset);

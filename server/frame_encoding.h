@@ -65,8 +65,9 @@ size_t frame_chunk_bytes(uint32_t requested, size_t max_message_bytes);
 // order: pieces of at most `chunk_bytes` (>= 1) of data, each with data_size, data_offset and
 // last_chunk set; an empty frame is one message. A piece is built only once `write` returned for
 // the one before, so a stream holds its frame and one piece, never all of a frame's pieces. Stops
-// at the first piece `write` refuses (returns false); whether it took them all.
-bool for_each_frame_chunk(const v1::Frame& header, std::string_view data, size_t chunk_bytes,
+// at the first piece `write` refuses (returns false); whether it took them all. `data` is lent to
+// a frame of one piece and is as it was on return.
+bool for_each_frame_chunk(const v1::Frame& header, std::string& data, size_t chunk_bytes,
                           const std::function<bool(const v1::Frame&)>& write);
 
 }  // namespace caustica::server

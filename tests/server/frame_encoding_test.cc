@@ -139,7 +139,8 @@ TEST(FrameEncoding, RawHalfIsLittleEndianHalves) {
 std::vector<v1::Frame> frame_chunks(const v1::Frame& header, std::string_view data,
                                     size_t chunk_bytes) {
   std::vector<v1::Frame> pieces;
-  EXPECT_TRUE(for_each_frame_chunk(header, data, chunk_bytes, [&](const v1::Frame& piece) {
+  std::string bytes(data);
+  EXPECT_TRUE(for_each_frame_chunk(header, bytes, chunk_bytes, [&](const v1::Frame& piece) {
     pieces.push_back(piece);
     return true;
   }));
@@ -212,11 +213,10 @@ TEST(FrameSplitting, ATinyChunkSizeGivesPiecesOfTheMinimumThatReassemble) {
 }
 
 TEST(FrameSplitting, StopsAtThePieceTheWriterRefuses) {
-  const std::string data(10, 'x');
+  std::string data(10, 'x');
   int written = 0;
-  EXPECT_FALSE(for_each_frame_chunk(v1::Frame(), data, 4, [&](const v1::Frame&) {
-    return ++written < 2;
-  }));
+  EXPECT_FALSE(
+      for_each_frame_chunk(v1::Frame(), data, 4, [&](const v1::Frame&) { return ++written < 2; }));
   EXPECT_EQ(written, 2) << "no piece is built after the refused one";
 }
 

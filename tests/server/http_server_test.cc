@@ -116,7 +116,6 @@ class HttpServerTest : public ::testing::Test {
   // A GET through Beast's client on a new connection: the status and body, or the error.
   std::string get(const std::string& path, std::chrono::milliseconds timeout) {
     beast::tcp_stream stream(io_);
-    stream.expires_after(timeout);
     beast::error_code ec;
     stream.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), uint16_t(server_->port())),
                    ec);

@@ -145,9 +145,12 @@ TEST_F(ViewerSessionTest, TokensOutsideVisibleAsciiAreRefusedAndTheSessionCarrie
   const struct {
     std::string token;
     std::string refusal;
-  } cases[] = {{"é", "byte 0xc3 at offset 0"},          {"\n", "byte 0x0a at offset 0"},
-               {"\r\n", "byte 0x0d at offset 0"},       {"\t", "byte 0x09 at offset 0"},
-               {std::string(1, '\0'), "byte 0x00 at offset 0"}, {"\x7f", "byte 0x7f at offset 0"},
+  } cases[] = {{"é", "byte 0xc3 at offset 0"},
+               {"\n", "byte 0x0a at offset 0"},
+               {"\r\n", "byte 0x0d at offset 0"},
+               {"\t", "byte 0x09 at offset 0"},
+               {std::string(1, '\0'), "byte 0x00 at offset 0"},
+               {"\x7f", "byte 0x7f at offset 0"},
                {"abc def", "byte 0x20 at offset 3"}};
   for (const auto& [token, refusal] : cases) {
     session_->handle_text(json({{"type", "hello"}, {"token", token}}).dump());
