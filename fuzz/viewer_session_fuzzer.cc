@@ -55,8 +55,11 @@ class CheckingSink : public caustica::server::viewer::ViewerSink {
 // The bundled Cornell box, tiny: its area light is an emitter to switch, and without a point or
 // spot light the viewer offers its own light to drag. A directional light is one it cannot drag.
 caustica::Scene tiny_scene() {
+  // $CAUSTICA_SCENES_DIR, where set, for a binary run away from the source tree it was built in.
+  const char* scenes = std::getenv("CAUSTICA_SCENES_DIR");
   absl::StatusOr<caustica::Scene> scene =
-      caustica::load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-box/scene.json");
+      caustica::load_scene(std::filesystem::path(scenes != nullptr ? scenes : CAUSTICA_SCENES_DIR) /
+                           "cornell-box/scene.json");
   if (!scene.ok()) {
     std::fprintf(stderr, "viewer_session fuzzer: %s\n", scene.status().ToString().c_str());
     std::abort();

@@ -20,6 +20,9 @@ using GzFile = std::unique_ptr<gzFile_s, GzFileCloser>;
 
 // zlib takes chunk lengths as unsigned int; 4 MiB chunks keep the calls few without a big spike.
 constexpr size_t kChunkBytes = size_t{4} << 20;
+// zlib's input buffer for a large file, and its default for a small one.
+constexpr uintmax_t kGzBufferBytes = 256 * 1024;
+constexpr uintmax_t kMinGzBufferBytes = 8 * 1024;
 
 }  // namespace
 
@@ -37,13 +40,18 @@ absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
   if (file == nullptr) {
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": cannot open file"));
   }
-  gzbuffer(file.get(), 256 * 1024);
-
-  std::string bytes;
   // The on-disk size is exact for plain files and a lower bound for compressed ones. The first
   // read asks for that size and one byte more (to see the end), so that a small file costs a small
-  // buffer rather than a zero-filled 4 MiB one; reads then double up to kChunkBytes.
+  // buffer rather than a zero-filled 4 MiB one; reads then double up to kChunkBytes. zlib's own
+  // buffers (three times the size given here) grow with the file up to kGzBufferBytes, so that
+  // reading a small file does not allocate most of a megabyte.
   const uintmax_t disk_size = std::filesystem::file_size(path, ec);
+  gzbuffer(file.get(), static_cast<unsigned>(
+                           ec ? kGzBufferBytes
+                              : std::clamp<uintmax_t>(disk_size + 1, kMinGzBufferBytes,
+                                                      kGzBufferBytes)));
+
+  std::string bytes;
   size_t step = ec ? kChunkBytes
                    : static_cast<size_t>(std::clamp<uintmax_t>(disk_size + 1, 4096, kChunkBytes));
   size_t used = 0;
