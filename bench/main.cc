@@ -16,9 +16,10 @@ int main(int argc, char** argv) {
       "With --soak, a soak test of caustica-server instead: --clients clients cycle upload, light "
       "change, render, stream, cancelled stream and delete for --minutes after --warmup-minutes "
       "of warm-up, then --storm streams are opened and cancelled at once. One JSON line reports "
-      "per-call latency and errors, the "
+      "per-call latency and errors (every frame is compared with one rendered at the start), the "
       "server's memory at the start and the end, and \"pass\"; the exit status is 2 when it "
-      "did not pass. --scene, --width, --height, --photons and --device apply to it (default: "
+      "did not pass. With --hostile, every client also attacks every port of the server between "
+      "its cycles. --scene, --width, --height, --photons and --device apply to it (default: "
       "the bundled Cornell box at 64x64 with 1000 photons on a cpu server)."};
   app.add_option(
       "--mesh", options.mesh,
@@ -132,6 +133,16 @@ int main(int argc, char** argv) {
   app.add_option("--data-dir", soak.data_dir,
                  "soak: the started server keeps scenes in this directory (--data-dir), so the "
                  "soak covers storing them too; default: none")
+      ->needs(soak_flag)
+      ->excludes(server);
+  app.add_flag("--hostile", soak.hostile,
+               "soak: between its cycles every client also sends what no well-behaved client "
+               "sends, one class in turn: hostile strings in every field of a call, truncated, "
+               "garbage and oversized bytes on every port, WebSocket messages over the limit and "
+               "bad viewer tokens, slow and idle connections, and calls dropped midway. The "
+               "started server opens its health, metrics and viewer ports too; \"pass\" then also "
+               "needs every hostile probe answered as promised and every port answering within a "
+               "second after the storm")
       ->needs(soak_flag)
       ->excludes(server);
   app.add_option("--deadline", soak.deadline_s, "soak: seconds every call may take")

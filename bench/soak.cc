@@ -13,6 +13,7 @@
 #include <iostream>
 #include <latch>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -24,6 +25,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/strip.h"
+#include "bench/hostile_client.h"
 #include "client/connection.h"
 #include "client/embedded_server.h"
 #include "client/frame_stream.h"
@@ -61,9 +63,17 @@ constexpr auto kSampleInterval = std::chrono::seconds(2);
 constexpr double kFlatTolerance = 0.05;
 // How long the server may take to end its streams once their clients went away.
 constexpr auto kDrainTimeout = std::chrono::seconds(10);
+// When the server's heap counts as settled (wait_for_heap_to_settle).
+constexpr auto kSettleTimeout = std::chrono::seconds(10);
+constexpr auto kSettleInterval = std::chrono::milliseconds(500);
+constexpr double kSettledTolerance = 0.01;
 // A cycle that failed waits this long before the next, so that a dead server is not hammered.
 constexpr auto kErrorPause = std::chrono::milliseconds(200);
 constexpr auto kProgressInterval = std::chrono::seconds(30);
+// After the storm every port of a hostile soak's server must answer a plain request this fast;
+// each gets this long before it counts as not answering at all.
+constexpr auto kPortAnswerLimit = std::chrono::seconds(1);
+constexpr double kPortCheckDeadline_s = 5;
 
 enum CallKind { kUpload, kUpdateLights, kRender, kStream, kCancelledStream, kDelete, kCallKinds };
 constexpr std::array<const char*, kCallKinds> kCallNames = {"upload_scene",     "update_lights",
@@ -194,6 +204,22 @@ bool wait_for_streams(client::Connection& connection, uint32_t streams,
   }
 }
 
+// Waits until the server's live heap settled: what clients that just stopped left behind
+// (connections being closed, a large message being dropped) takes a moment to go. Settled means
+// two readings kSettleInterval apart within kSettledTolerance; gives up after kSettleTimeout.
+void wait_for_heap_to_settle(client::Connection& connection) {
+  const Clock::time_point give_up = Clock::now() + kSettleTimeout;
+  std::optional<uint64_t> last;
+  while (Clock::now() < give_up) {
+    absl::StatusOr<v1::Stats> stats = connection.call(&Stub::GetStats, v1::GetStatsRequest());
+    if (!stats.ok() || stats->heap_bytes() == 0) return;  // no heap to wait for
+    const double heap = double(stats->heap_bytes());
+    if (last && std::abs(heap - double(*last)) <= kSettledTolerance * double(*last)) return;
+    last = stats->heap_bytes();
+    std::this_thread::sleep_for(kSettleInterval);
+  }
+}
+
 Json optional_json(std::optional<uint64_t> v) { return v ? Json(*v) : Json(nullptr); }
 
 std::optional<double> relative_change(std::optional<uint64_t> from, std::optional<uint64_t> to) {
@@ -264,9 +290,11 @@ absl::Status check_frame(const v1::Frame& frame, const Scene& scene) {
   return absl::OkStatus();
 }
 
+using LightLists = std::array<std::vector<v1::Light>, 2>;
+
 // The two light lists a cycle alternates between: the scene's own lights and a point light in
 // the upper middle of the scene's bounds, moved sideways, so that every update is a real change.
-std::array<std::vector<v1::Light>, 2> light_lists(const Scene& scene) {
+LightLists light_lists(const Scene& scene) {
   Vec3f low(std::numeric_limits<float>::max()), high(std::numeric_limits<float>::lowest());
   for (const Mesh& mesh : scene.meshes) {
     for (const Vec3f& p : mesh.positions) {
@@ -281,7 +309,7 @@ std::array<std::vector<v1::Light>, 2> light_lists(const Scene& scene) {
   // About the irradiance the Cornell box's ceiling light gives its floor, for any scene size.
   const float diagonal2 = extent.x * extent.x + extent.y * extent.y + extent.z * extent.z;
   const float intensity = std::max(0.05f * diagonal2, 1.0f);
-  std::array<std::vector<v1::Light>, 2> lists;
+  LightLists lists;
   for (int i = 0; i < 2; ++i) {
     for (const Light& light : scene.lights) lists[i].push_back(wire::encode_light(light));
     Light moving;
@@ -294,13 +322,57 @@ std::array<std::vector<v1::Light>, 2> light_lists(const Scene& scene) {
   return lists;
 }
 
+// The frames of a fresh upload under each light list, by their passes, rendered once at the start.
+// Within a backend a render is deterministic (docs/architecture.md), so every frame a cycle gets
+// must equal the reference of its light list and passes byte for byte.
+using ReferenceFrames = std::array<std::map<uint32_t, std::string>, 2>;
+
+// A stream of this many passes covers every frame of a cycle, the cancelled stream's included.
+constexpr uint32_t kReferencePasses = 2 * kStreamPasses + 2;
+
+absl::StatusOr<ReferenceFrames> render_references(client::Connection& connection,
+                                                  const Scene& scene, const LightLists& lights) {
+  ReferenceFrames references;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    std::unique_ptr<grpc::ClientContext> upload_context = connection.new_context();
+    absl::StatusOr<v1::SceneInfo> info =
+        client::upload_scene(connection.stub(), *upload_context, scene, "soak reference");
+    if (!info.ok()) return info.status();
+    v1::UpdateLightsRequest update;
+    update.set_scene_id(info->scene_id());
+    for (const v1::Light& light : lights[i]) *update.add_lights() = light;
+    absl::Status status = connection.call(&Stub::UpdateLights, update).status();
+    if (status.ok()) {
+      v1::StreamFramesRequest request;
+      request.set_scene_id(info->scene_id());
+      request.set_target_passes(kReferencePasses);
+      request.set_passes_per_frame(1);
+      request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
+      std::unique_ptr<grpc::ClientContext> context = connection.new_context();
+      auto reader = connection.stub().StreamFrames(context.get(), request);
+      status = client::receive_frames(*context, *reader, [&](v1::Frame& frame) {
+        if (absl::Status s = check_frame(frame, scene); !s.ok()) return s;
+        references[i][frame.passes()] = std::move(*frame.mutable_data());
+        return absl::OkStatus();
+      });
+    }
+    v1::DeleteSceneRequest remove;
+    remove.set_scene_id(info->scene_id());
+    absl::Status deleted = connection.call(&Stub::DeleteScene, remove).status();
+    if (!status.ok()) return status;
+    if (!deleted.ok()) return deleted;
+  }
+  return references;
+}
+
 class SoakClient {
  public:
-  SoakClient(int index, const Scene& scene, const std::array<std::vector<v1::Light>, 2>& lights,
-             client::Connection& connection)
+  SoakClient(int index, const Scene& scene, const LightLists& lights,
+             const ReferenceFrames& references, client::Connection& connection)
       : name_(absl::StrCat("soak client ", index)),
         scene_(scene),
         lights_(lights),
+        references_(references),
         connection_(connection) {}
 
   // Upload, light change, render, stream, cancelled stream, delete. A failed step skips to the
@@ -308,6 +380,7 @@ class SoakClient {
   void cycle(ClientLog& log) {
     bool ok = true;
     std::string id;
+    const size_t lights = log.cycles % lights_.size();
     auto step = [&](CallKind kind, const std::function<absl::Status()>& call) {
       if (!ok) return;
       const Clock::time_point start = Clock::now();
@@ -316,10 +389,10 @@ class SoakClient {
       ok = status.ok();
     };
     step(kUpload, [&] { return upload(id); });
-    step(kUpdateLights, [&] { return update_lights(id, log.cycles); });
-    step(kRender, [&] { return render(id); });
-    step(kStream, [&] { return stream(id); });
-    step(kCancelledStream, [&] { return cancelled_stream(id); });
+    step(kUpdateLights, [&] { return update_lights(id, lights); });
+    step(kRender, [&] { return render(id, lights); });
+    step(kStream, [&] { return stream(id, lights); });
+    step(kCancelledStream, [&] { return cancelled_stream(id, lights); });
     if (!id.empty()) {
       ok = true;
       step(kDelete, [&] { return delete_scene(id); });
@@ -341,21 +414,43 @@ class SoakClient {
     return absl::OkStatus();
   }
 
-  absl::Status update_lights(const std::string& id, uint64_t step) {
+  absl::Status update_lights(const std::string& id, size_t lights) {
     v1::UpdateLightsRequest request;
     request.set_scene_id(id);
-    for (const v1::Light& light : lights_[step % 2]) *request.add_lights() = light;
+    for (const v1::Light& light : lights_[lights]) *request.add_lights() = light;
     return connection_.call(&Stub::UpdateLights, request).status();
   }
 
-  absl::Status render(const std::string& id) {
+  // The frame's size, and its pixels against the reference of its light list and passes.
+  absl::Status check(const v1::Frame& frame, size_t lights) const {
+    if (absl::Status s = check_frame(frame, scene_); !s.ok()) return s;
+    const std::map<uint32_t, std::string>& frames = references_[lights];
+    const auto reference = frames.find(frame.passes());
+    if (reference == frames.end()) {
+      return absl::DataLossError(
+          absl::StrFormat("a frame of %d passes, which the reference (to %d passes) lacks",
+                          frame.passes(), frames.empty() ? 0 : frames.rbegin()->first));
+    }
+    if (frame.data() != reference->second) {
+      const std::string& expected = reference->second;
+      size_t differ = 0;
+      for (size_t i = 0; i < expected.size(); ++i) differ += frame.data()[i] != expected[i];
+      return absl::DataLossError(absl::StrFormat(
+          "the frame of %d passes under light list %d differs from the reference in %d of %d "
+          "bytes",
+          frame.passes(), lights, differ, expected.size()));
+    }
+    return absl::OkStatus();
+  }
+
+  absl::Status render(const std::string& id, size_t lights) {
     v1::RenderFrameRequest request;
     request.set_scene_id(id);
     request.set_target_passes(1);
     request.mutable_format()->set_pixel_format(v1::RGBA8_SRGB);
     absl::StatusOr<v1::Frame> frame = connection_.call(&Stub::RenderFrame, request);
     if (!frame.ok()) return frame.status();
-    return check_frame(*frame, scene_);
+    return check(*frame, lights);
   }
 
   v1::StreamFramesRequest stream_request(const std::string& id, uint32_t target) const {
@@ -367,13 +462,13 @@ class SoakClient {
     return request;
   }
 
-  absl::Status stream(const std::string& id) {
+  absl::Status stream(const std::string& id, size_t lights) {
     std::unique_ptr<grpc::ClientContext> context = connection_.new_context();
     auto reader = connection_.stub().StreamFrames(context.get(), stream_request(id, kStreamPasses));
     uint32_t passes = 0;
     absl::Status status = client::receive_frames(*context, *reader, [&](v1::Frame& frame) {
       passes = frame.passes();
-      return check_frame(frame, scene_);
+      return check(frame, lights);
     });
     if (!status.ok()) return status;
     if (passes < kStreamPasses) {
@@ -384,13 +479,13 @@ class SoakClient {
   }
 
   // The client's cancellation after the first frame is the expected end, not an error.
-  absl::Status cancelled_stream(const std::string& id) {
+  absl::Status cancelled_stream(const std::string& id, size_t lights) {
     std::unique_ptr<grpc::ClientContext> context = connection_.new_context();
     auto reader =
         connection_.stub().StreamFrames(context.get(), stream_request(id, kEndlessPasses));
     bool cancelled = false;
     absl::Status status = client::receive_frames(*context, *reader, [&](v1::Frame& frame) {
-      if (absl::Status s = check_frame(frame, scene_); !s.ok()) return s;
+      if (absl::Status s = check(frame, lights); !s.ok()) return s;
       cancelled = true;
       return absl::CancelledError("cancelled by the client after the first frame");
     });
@@ -407,7 +502,8 @@ class SoakClient {
 
   const std::string name_;
   const Scene& scene_;
-  const std::array<std::vector<v1::Light>, 2>& lights_;
+  const LightLists& lights_;
+  const ReferenceFrames& references_;
   client::Connection& connection_;
   uint64_t errors_seen_ = 0;
 };
@@ -511,6 +607,40 @@ absl::StatusOr<StormResult> run_storm(client::Connection& connection, const Scen
     if (r.first_errors.size() < kFirstErrors) r.first_errors.push_back(s.ToString());
   }
   return r;
+}
+
+// What the hostile clients met, and how each port answered after the storm. Met means every class
+// ran, no probe met the unexpected, every port answered within kPortAnswerLimit, and the target
+// scene could be deleted at the end.
+Json hostile_json(const std::vector<HostileLogs>& logs, const std::vector<PortCheck>& checks,
+                  const absl::Status& target_deleted, bool* met) {
+  HostileLogs all;
+  for (const HostileLogs& client : logs) {
+    for (int k = 0; k < kHostileClasses; ++k) all[k].merge(client[k]);
+  }
+  *met = target_deleted.ok();
+  Json j;
+  for (int k = 0; k < kHostileClasses; ++k) {
+    const HostileLog& log = all[k];
+    j["classes"][kHostileClassNames[k]] = {{"actions", log.actions},
+                                           {"probes", log.probes},
+                                           {"refused", log.refused},
+                                           {"accepted", log.accepted},
+                                           {"busy", log.busy},
+                                           {"unexpected", log.unexpected},
+                                           {"first_unexpected", log.first_unexpected}};
+    *met = *met && log.actions > 0 && log.unexpected == 0;
+  }
+  const double limit_ms = std::chrono::duration<double, std::milli>(kPortAnswerLimit).count();
+  for (const PortCheck& check : checks) {
+    j["after_storm"][check.port] = {{"status", check.status.ok() ? "OK" : check.status.ToString()},
+                                    {"ms", rounded(check.ms)}};
+    *met = *met && check.status.ok() && check.ms < limit_ms;
+  }
+  j["answer_limit_ms"] = limit_ms;
+  j["target_deleted"] = target_deleted.ok() ? "OK" : target_deleted.ToString();
+  j["expectations_met"] = *met;
+  return j;
 }
 
 const char* serving_status_name(client::ServingStatus s) {
@@ -617,6 +747,10 @@ class Sampler {
 }  // namespace
 
 absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
+  if (o.hostile && !o.server.empty()) {
+    return absl::InvalidArgumentError(
+        "a hostile soak starts its own server (no --server), whose every port it attacks");
+  }
   const std::filesystem::path scene_file =
       o.scene.empty() ? std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-box/scene.json"
                       : o.scene;
@@ -625,23 +759,42 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   scene->camera.width = o.width;
   scene->camera.height = o.height;
   scene->settings.photons_per_pass = o.photons;
-  const std::array<std::vector<v1::Light>, 2> lights = light_lists(*scene);
+  const LightLists lights = light_lists(*scene);
   const std::string scene_label =
       absl::StrFormat("%s %dx%d %d photons", scene_name(scene_file), o.width, o.height, o.photons);
 
   std::unique_ptr<client::EmbeddedServer> server;
   std::string address = o.server;
   pid_t pid = o.server_pid;
+  // Every client holds one scene at a time; the storm and the health check add one each. Hostile
+  // clients add their target and, for a moment, each an upload of theirs the server accepted.
+  const int scenes_needed = o.clients + 2 + (o.hostile ? o.clients + 1 : 0);
+  HostilePorts ports;
   if (address.empty()) {
-    // Every client holds one scene at a time; the storm and the health check add one each.
-    absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> started = client::EmbeddedServer::start(
-        {.data_dir = o.data_dir,
-         .extra_args = {"--device", o.device, "--max-scenes", absl::StrCat(o.clients + 8),
-                        "--log-level", "warning"}});
+    std::vector<std::string> args = {"--device",     o.device,
+                                     "--max-scenes", absl::StrCat(scenes_needed + 6),
+                                     "--log-level",  "warning"};
+    std::vector<std::string> environment;
+    if (o.hostile) {
+      args.insert(args.end(), {"--max-message-mb", absl::StrCat(kHostileMaxMessageMb)});
+      // glibc counts the blocks each thread keeps for reuse (its tcache) as allocated, and the
+      // viewer's many handler threads fill theirs only slowly, which reads as a growing heap.
+      // Without those caches the heap GetStats reports is what is live.
+      environment.push_back("GLIBC_TUNABLES=glibc.malloc.tcache_count=0");
+    }
+    absl::StatusOr<std::unique_ptr<client::EmbeddedServer>> started =
+        client::EmbeddedServer::start({.data_dir = o.data_dir,
+                                       .extra_args = args,
+                                       .environment = environment,
+                                       .every_port = o.hostile});
     if (!started.ok()) return started.status();
     server = *std::move(started);
     address = server->address();
     pid = server->pid();
+    ports = {.grpc = server->port(),
+             .health = server->health_port(),
+             .metrics = server->metrics_port(),
+             .http = server->http_port()};
   }
   client::ConnectOptions connect;
   connect.server = address;
@@ -653,17 +806,33 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   absl::StatusOr<v1::Stats> before = connection.call(&Stub::GetStats, v1::GetStatsRequest());
   if (!before.ok()) return before.status();
   const uint32_t streams_before = before->active_streams();
-  if (before->max_scenes() < before->scenes() + uint32_t(o.clients) + 2) {
+  if (before->max_scenes() < before->scenes() + uint32_t(scenes_needed)) {
     return absl::FailedPreconditionError(absl::StrFormat(
         "the server holds %d of its %d scenes (--max-scenes); %d clients need %d more",
-        before->scenes(), before->max_scenes(), o.clients, o.clients + 2));
+        before->scenes(), before->max_scenes(), o.clients, scenes_needed));
   }
+  absl::StatusOr<ReferenceFrames> references = render_references(connection, *scene, lights);
+  if (!references.ok()) return references.status();
 
   // The clients share the connection: gRPC channels to one address share their transport anyway,
   // and the stub is safe to call from many threads.
   std::vector<std::unique_ptr<SoakClient>> clients;
   for (int i = 0; i < o.clients; ++i) {
-    clients.push_back(std::make_unique<SoakClient>(i, *scene, lights, connection));
+    clients.push_back(std::make_unique<SoakClient>(i, *scene, lights, *references, connection));
+  }
+  // The hostile clients share one target scene, which lives from here to the end.
+  std::string target;
+  std::vector<std::unique_ptr<HostileClient>> hostile;
+  std::vector<HostileLogs> hostile_logs(o.clients);
+  if (o.hostile) {
+    std::unique_ptr<grpc::ClientContext> context = connection.new_context();
+    absl::StatusOr<v1::SceneInfo> info =
+        client::upload_scene(connection.stub(), *context, *scene, "soak hostile target");
+    if (!info.ok()) return info.status();
+    target = info->scene_id();
+    for (int i = 0; i < o.clients; ++i) {
+      hostile.push_back(std::make_unique<HostileClient>(i, ports, target, *scene, o.deadline_s));
+    }
   }
 
   // The clients first cycle unmeasured (at least once each) until the server's pools, caches and
@@ -679,18 +848,22 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   std::vector<std::thread> threads;
   for (int i = 0; i < o.clients; ++i) {
     threads.emplace_back([&, i] {
+      // Hostile actions run in the warm-up too, so that what the server keeps for them is in the
+      // start's memory.
+      const auto cycle = [&](ClientLog& log) {
+        const uint64_t errors = log.errors();
+        clients[i]->cycle(log);
+        errors_seen += log.errors() - errors;
+        if (o.hostile) hostile[i]->act(hostile_logs[i]);
+      };
       do {
-        const uint64_t errors = warmup[i].errors();
-        clients[i]->cycle(warmup[i]);
-        errors_seen += warmup[i].errors() - errors;
+        cycle(warmup[i]);
       } while (Clock::now() < warmup_end);
       warmed.count_down();
       go.wait();
       while (Clock::now() < end) {
-        const uint64_t errors = timed[i].errors();
-        clients[i]->cycle(timed[i]);
+        cycle(timed[i]);
         ++cycles_done;
-        errors_seen += timed[i].errors() - errors;
       }
     });
   }
@@ -699,6 +872,7 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   std::cerr << absl::StrFormat("caustica-bench: soak: warm-up done, timing %g minutes\n",
                                o.minutes);
   wait_for_streams(connection, streams_before, drain);
+  wait_for_heap_to_settle(connection);
   const Snapshot start = snapshot(connection, pid);
   const Clock::time_point started = Clock::now();
   end = started + std::chrono::duration_cast<Clock::duration>(
@@ -709,6 +883,7 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   const double elapsed_s = std::chrono::duration<double>(Clock::now() - started).count();
   wait_for_streams(connection, streams_before, drain);
   sampler.stop();
+  wait_for_heap_to_settle(connection);
   const Snapshot finish = snapshot(connection, pid);
   sampler.add(finish);
 
@@ -727,6 +902,14 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   absl::StatusOr<client::ServingStatus> health = client::check_health(
       connection.channel(), std::chrono::system_clock::now() + std::chrono::seconds(5), false);
   const absl::Status fresh = render_fresh_scene(connection, *scene);
+  std::vector<PortCheck> port_checks;
+  absl::Status target_deleted;
+  if (o.hostile) {
+    port_checks = check_every_port(ports, kPortCheckDeadline_s);
+    v1::DeleteSceneRequest remove;
+    remove.set_scene_id(target);
+    target_deleted = connection.call(&Stub::DeleteScene, remove).status();
+  }
   const Snapshot after = snapshot(connection, pid);
 
   ClientLog all_warmup, all_timed;
@@ -811,9 +994,13 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
                               {"frames_served", after.stats->frames_served()},
                               {"memory_peak_bytes", after.stats->memory_peak_bytes()}};
   }
-  const bool pass = total_errors == 0 && memory_flat && healthy;
+  bool hostile_met = true;
+  report["hostile"] =
+      o.hostile ? hostile_json(hostile_logs, port_checks, target_deleted, &hostile_met) : nullptr;
+  const bool pass = total_errors == 0 && memory_flat && healthy && hostile_met;
   report["pass"] = pass;
-  out << report.dump() << "\n";
+  // Error messages may quote what a hostile client sent, which need not be UTF-8.
+  out << report.dump(-1, ' ', false, Json::error_handler_t::replace) << "\n";
   out.flush();
   return pass;
 }

@@ -1,7 +1,8 @@
 // The soak test (caustica-bench --soak): many clients cycle through a scene's whole life on one
 // caustica-server over loopback for a fixed time, then a storm of streams is opened and cancelled
 // at once. It reports per-call latency and errors, the server's resident and device memory at the
-// start and the end, and whether the server stayed healthy, as one JSON line.
+// start and the end, and whether the server stayed healthy, as one JSON line. Every frame is
+// compared with one rendered at the start for the same lights.
 #pragma once
 
 #include <sys/types.h>
@@ -32,10 +33,14 @@ struct SoakOptions {
   // empty: none.
   std::filesystem::path data_dir;
   double deadline_s = 60;  // of every call
+  // Every client also attacks every port of the server between its cycles (hostile_client.h);
+  // needs a started server, whose health, metrics and viewer ports are then open too.
+  bool hostile = false;
 };
 
 // Runs the soak and writes its report. Returns whether it passed (no errors, memory flat, the
-// server healthy after the storm), or an error when it could not run at all.
+// server healthy after the storm and, when hostile, every hostile probe answered as promised), or
+// an error when it could not run at all.
 absl::StatusOr<bool> run_soak(const SoakOptions& options, std::ostream& out);
 
 }  // namespace caustica

@@ -7,6 +7,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstdlib>
 #include <fstream>
@@ -121,8 +122,20 @@ absl::StatusOr<std::unique_ptr<EmbeddedServer>> EmbeddedServer::start(
     argv.push_back("--data-dir");
     argv.push_back(data_dir.string());
   }
+  // The server writes these before --port-file, so they are complete once that appears.
+  const std::array<std::pair<const char*, int EmbeddedServer::*>, 3> side_ports = {
+      {{"health", &EmbeddedServer::health_port_},
+       {"metrics", &EmbeddedServer::metrics_port_},
+       {"http", &EmbeddedServer::http_port_}}};
+  if (options.every_port) {
+    for (const auto& [name, member] : side_ports) {
+      argv.insert(argv.end(), {absl::StrCat("--", name, "-listen"), "127.0.0.1:0",
+                               absl::StrCat("--", name, "-port-file"),
+                               (*dir / absl::StrCat(name, "-port")).string()});
+    }
+  }
   argv.insert(argv.end(), options.extra_args.begin(), options.extra_args.end());
-  absl::StatusOr<pid_t> pid = spawn_process(argv, *dir / "server.log");
+  absl::StatusOr<pid_t> pid = spawn_process(argv, *dir / "server.log", options.environment);
   if (!pid.ok()) {
     std::filesystem::remove_all(*dir);
     return pid.status();
@@ -147,6 +160,17 @@ absl::StatusOr<std::unique_ptr<EmbeddedServer>> EmbeddedServer::start(
     std::this_thread::sleep_for(kPollInterval);
   }
   server->address_ = absl::StrCat("127.0.0.1:", *port);
+  server->port_ = *port;
+  if (options.every_port) {
+    for (const auto& [name, member] : side_ports) {
+      std::optional<int> side = read_port(*dir / absl::StrCat(name, "-port"));
+      if (!side) {
+        return absl::InternalError(absl::StrCat(binary.string(), " wrote no --", name,
+                                                "-port-file:\n", server->log_tail()));
+      }
+      server.get()->*member = *side;
+    }
+  }
   if (absl::Status s = server->wait_until_serving(give_up); !s.ok()) return s;
   return server;
 }

@@ -32,14 +32,19 @@ struct EmbeddedServerOptions {
   // another embedded server holds it (another command running now), this one keeps none and says
   // so on stderr.
   std::optional<std::filesystem::path> data_dir = std::nullopt;
-  std::vector<std::string> extra_args;  // appended to --listen and --port-file
+  std::vector<std::string> extra_args;        // appended to --listen and --port-file
+  std::vector<std::string> environment = {};  // "NAME=value", over the client's own environment
+  // Also open the health, metrics and viewer HTTP ports on free loopback ports, for clients that
+  // test every port the server can open.
+  bool every_port = false;
   std::chrono::seconds startup_timeout{60};
 };
 
 class EmbeddedServer {
  public:
-  // Starts the server with --listen 127.0.0.1:0 --port-file, waits for the port it chose and
-  // for its health to report SERVING. Errors carry the tail of the server's log.
+  // Starts the server with --listen 127.0.0.1:0 --port-file, waits for the port it chose (and
+  // with every_port the others') and for its health to report SERVING. Errors carry the tail of
+  // the server's log.
   static absl::StatusOr<std::unique_ptr<EmbeddedServer>> start(
       const EmbeddedServerOptions& options);
 
@@ -49,7 +54,12 @@ class EmbeddedServer {
   EmbeddedServer& operator=(const EmbeddedServer&) = delete;
 
   const std::string& address() const { return address_; }  // "127.0.0.1:PORT"
+  int port() const { return port_; }
   pid_t pid() const { return pid_; }
+  // With every_port, the other ports chosen; else 0.
+  int health_port() const { return health_port_; }
+  int metrics_port() const { return metrics_port_; }
+  int http_port() const { return http_port_; }
   // Where its scenes are kept; empty: nowhere (they go with the command).
   const std::filesystem::path& data_dir() const { return data_dir_; }
 
@@ -61,6 +71,7 @@ class EmbeddedServer {
   pid_t pid_;
   std::filesystem::path dir_;  // temporary: port file and server log
   std::string address_;
+  int port_ = 0, health_port_ = 0, metrics_port_ = 0, http_port_ = 0;
   std::filesystem::path data_dir_;
 };
 

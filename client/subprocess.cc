@@ -7,9 +7,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <string_view>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -27,13 +29,25 @@ int decode_wait_status(int status) {
 }  // namespace
 
 absl::StatusOr<pid_t> spawn_process(const std::vector<std::string>& argv,
-                                    const std::optional<std::filesystem::path>& log_path) {
+                                    const std::optional<std::filesystem::path>& log_path,
+                                    const std::vector<std::string>& environment) {
   if (argv.empty()) return absl::InvalidArgumentError("spawn_process: empty argv");
   // Everything the child needs is prepared before fork: between fork and exec only
   // async-signal-safe calls are allowed (gRPC has threads running by now).
   std::vector<char*> args;
   for (const std::string& arg : argv) args.push_back(const_cast<char*>(arg.c_str()));
   args.push_back(nullptr);
+  std::vector<char*> env;
+  for (const std::string& entry : environment) env.push_back(const_cast<char*>(entry.c_str()));
+  for (char** entry = environ; *entry != nullptr; ++entry) {
+    const std::string_view name(*entry, std::strcspn(*entry, "="));
+    const bool replaced =
+        std::any_of(environment.begin(), environment.end(), [&](const std::string& e) {
+          return e.size() > name.size() && e.starts_with(name) && e[name.size()] == '=';
+        });
+    if (!replaced) env.push_back(*entry);
+  }
+  env.push_back(nullptr);
   const std::string log = log_path ? log_path->string() : std::string();
   const pid_t parent = getpid();
 
@@ -49,7 +63,7 @@ absl::StatusOr<pid_t> spawn_process(const std::vector<std::string>& argv,
         dup2(fd, STDERR_FILENO);
       }
     }
-    execvp(args[0], args.data());
+    execvpe(args[0], args.data(), env.data());
     _exit(127);
   }
   return pid;

@@ -16,9 +16,11 @@
 namespace caustica::client {
 
 // Starts argv[0] (a path, or a name looked up on PATH) with `argv`. stdout and stderr go to
-// `log_path` when given (appended), else stay the CLI's own.
+// `log_path` when given (appended), else stay the CLI's own. `environment` ("NAME=value") is set
+// in the child's environment over the CLI's own.
 absl::StatusOr<pid_t> spawn_process(const std::vector<std::string>& argv,
-                                    const std::optional<std::filesystem::path>& log_path);
+                                    const std::optional<std::filesystem::path>& log_path,
+                                    const std::vector<std::string>& environment = {});
 
 // The exit status of `pid` once it ended, nullopt while it runs (non-blocking).
 std::optional<int> poll_exit(pid_t pid);

@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
   app.add_option("--metrics-listen", options.metrics_listen,
                  "host:port to serve Prometheus metrics on (/metrics); port 0 picks a free port; "
                  "off by default");
+  app.add_option("--metrics-port-file", options.metrics_port_file,
+                 "write the bound port of --metrics-listen to this file");
   app.add_option("--data-dir", options.data_dir,
                  "keep scenes in this directory (created if missing) and restore them at start; "
                  "without it scenes live only as long as the process");
@@ -83,6 +85,8 @@ int main(int argc, char** argv) {
                  "host:port of an extra plaintext port that serves only gRPC health checks, for "
                  "probes while --listen needs TLS or tokens; port 0 picks a free port; off by "
                  "default");
+  app.add_option("--health-port-file", options.health_port_file,
+                 "write the bound port of --health-listen to this file");
   app.add_option("--http-listen", options.http_listen,
                  "host:port of the browser viewer (plaintext HTTP and WebSocket; docs/viewer.md); "
                  "loopback unless --insecure; port 0 picks a free port; off by default");

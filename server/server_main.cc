@@ -262,6 +262,14 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
     }
     server->health_server_ = *std::move(health);
     server->health_.track(server->health_server_->server());
+    if (!options.health_port_file.empty()) {
+      if (absl::Status written = write_port_file(options.health_port_file, server->health_port(),
+                                                 "--health-port-file");
+          !written.ok()) {
+        server->shutdown();
+        return written;
+      }
+    }
     log_line(LogLevel::kInfo, absl::StrFormat("caustica-server: health on port %d (%s), plaintext",
                                               server->health_port(), options.health_listen));
   }
@@ -277,9 +285,13 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   // Metrics listen before the port file appears, so whoever waits for it can scrape at once.
   if (!options.metrics_listen.empty()) {
     absl::StatusOr<int> metrics_port = server->service_->metrics().serve(options.metrics_listen);
-    if (!metrics_port.ok()) {
+    absl::Status written =
+        metrics_port.ok() && !options.metrics_port_file.empty()
+            ? write_port_file(options.metrics_port_file, *metrics_port, "--metrics-port-file")
+            : metrics_port.status();
+    if (!written.ok()) {
       server->shutdown();
-      return metrics_port.status();
+      return written;
     }
     log_line(LogLevel::kInfo, absl::StrFormat("caustica-server: metrics on port %d (%s), /metrics",
                                               *metrics_port, options.metrics_listen));

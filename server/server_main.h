@@ -40,6 +40,7 @@ struct ServerOptions {
   double max_connection_age_s = 0;
   double max_connection_age_grace_s = 30;
   std::string metrics_listen;      // host:port for Prometheus' /metrics; empty: none
+  std::string metrics_port_file;   // when set, metrics_listen's bound port is written here
   std::string data_dir;            // durable scenes (scene_store.h); empty: none
   size_t max_tenant_scenes = 0;    // per tenant; 0: up to max_scenes
   double tenant_memory_share = 1;  // of memory_budget_bytes, per tenant
@@ -50,9 +51,10 @@ struct ServerOptions {
   std::string tls_cert;
   std::string tls_key;
   std::string tls_client_ca;
-  std::string tokens_file;    // `token,tenant` lines; empty: every caller is the default tenant
-  bool insecure = false;      // allow plaintext on an address other machines can reach
-  std::string health_listen;  // host:port of a plaintext, health-only server; empty: none
+  std::string tokens_file;       // `token,tenant` lines; empty: every caller is the default tenant
+  bool insecure = false;         // allow plaintext on an address other machines can reach
+  std::string health_listen;     // host:port of a plaintext, health-only server; empty: none
+  std::string health_port_file;  // when set, health_listen's bound port is written here
   // The browser viewer (docs/viewer.md): plaintext HTTP under the same loopback-or-insecure rule
   // as --listen; empty: none. Its bound port is written to http_port_file when set.
   std::string http_listen;
