@@ -36,6 +36,11 @@ int main(int argc, char** argv) {
   app.add_option("--max-message-mb", options.max_message_mb, "largest gRPC message in MiB")
       ->check(CLI::Range(1, 2047))
       ->capture_default_str();
+  app.add_option("--transport-memory-mb", options.transport_memory_mb,
+                 "MiB gRPC's transport may hold for all connections together (read buffers, "
+                 "messages being received); past it, buffers idle connections keep are released; "
+                 "at least twice --max-message-mb (default: 1024, or that where it is more)")
+      ->check(CLI::Range(2, 1 << 20));
   app.add_option("--log-level", options.log_level, "debug, info, warning or error")
       ->capture_default_str();
   app.add_option("--shutdown-grace", options.shutdown_grace_s,

@@ -1,5 +1,6 @@
 #include "server/server_main.h"
 
+#include <grpcpp/resource_quota.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 #include <pthread.h>
@@ -27,6 +28,14 @@
 
 namespace caustica::server {
 namespace {
+
+// --transport-memory-mb, or its default where it is 0.
+size_t transport_memory_bytes(const ServerOptions& options) {
+  const size_t mb = options.transport_memory_mb != 0
+                        ? options.transport_memory_mb
+                        : std::max<size_t>(1024, 2 * options.max_message_mb);
+  return mb << 20;
+}
 
 // Written beside the target and renamed, so a reader never sees a half-written port.
 absl::Status write_port_file(const std::string& path, int port,
@@ -164,6 +173,14 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   if (options.max_message_mb == 0 || options.max_message_mb > 2047) {
     return absl::InvalidArgumentError("--max-message-mb: must be in [1, 2047]");
   }
+  // Below two messages' worth, one upload and one frame in flight would already press the
+  // quota, and gRPC then cancels calls to free memory.
+  if (options.transport_memory_mb != 0 &&
+      options.transport_memory_mb < 2 * options.max_message_mb) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--transport-memory-mb: ", options.transport_memory_mb,
+        " is less than twice --max-message-mb (", options.max_message_mb, ")"));
+  }
   if (!(options.tenant_memory_share > 0 && options.tenant_memory_share <= 1)) {
     return absl::InvalidArgumentError("--tenant-memory-share: must be in (0, 1]");
   }
@@ -238,6 +255,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   builder.experimental().SetInterceptorCreators(std::move(interceptors));
   builder.SetMaxReceiveMessageSize(static_cast<int>(max_message_bytes));
   builder.SetMaxSendMessageSize(static_cast<int>(max_message_bytes));
+  // gRPC keeps the read buffers a large message made a connection grow for as long as the
+  // connection lives, and gives them back only under its resource quota's pressure, which an
+  // unsized quota never feels (docs/server.md, "Running it").
+  grpc::ResourceQuota quota("caustica-server transport");
+  quota.Resize(transport_memory_bytes(options));
+  builder.SetResourceQuota(quota);
   if (options.max_connection_age_s > 0) {
     const auto ms = [](double seconds) {
       return static_cast<int>(std::min(seconds * 1000, double{INT_MAX}));

@@ -32,6 +32,10 @@ struct ServerOptions {
   size_t max_scenes = 16;
   size_t memory_budget_bytes = size_t{8} << 30;  // per device
   size_t max_message_mb = 64;
+  // What gRPC's transport may hold for all connections together (read buffers, messages being
+  // received); past it, idle connections' buffers are released first. 0: the larger of 1024 and
+  // twice max_message_mb.
+  size_t transport_memory_mb = 0;
   std::string log_level = "info";
   double shutdown_grace_s = 5;  // how long running calls may finish before they are cancelled
   // Connections older than this are asked to go away (GOAWAY), so that clients behind a load

@@ -163,8 +163,9 @@ class HostileClientTest : public ServerTest {
 
   // One call of `method` with the serialized request `bytes`, through gRPC's generic stub so that
   // any method, unary or streaming, takes any bytes: the status, after at most three replies.
-  grpc::Status generic_call(const std::string& method, const std::string& bytes) {
-    grpc::GenericStub stub(server_->channel());
+  grpc::Status generic_call(const std::string& method, const std::string& bytes,
+                            std::shared_ptr<grpc::Channel> channel = nullptr) {
+    grpc::GenericStub stub(channel != nullptr ? channel : server_->channel());
     grpc::ClientContext context;
     set_deadline(context, 20);
     grpc::CompletionQueue queue;
@@ -308,6 +309,55 @@ TEST_F(HostileClientTest, TruncatedOversizedAndGarbageMessages) {
       }
     }
   });
+}
+
+// Connections that sent a message over the limit keep nothing of it once it is refused, however
+// long their client holds them open: gRPC grows a connection's read buffers for a large message
+// and keeps them, so without the transport's quota every connection a client opens pins some of
+// the server's memory.
+class RefusedMessageTest : public HostileClientTest {
+ protected:
+  std::vector<std::string> server_args() const override {
+    std::vector<std::string> args = HostileClientTest::server_args();
+    args.insert(args.end(), {"--max-message-mb", "4", "--transport-memory-mb", "8"});
+    return args;
+  }
+  // The server's live heap once it settled: the least of the readings over two seconds.
+  uint64_t settled_heap() {
+    uint64_t least = UINT64_MAX;
+    for (int i = 0; i < 20; ++i) {
+      v1::Stats stats;
+      grpc::ClientContext context;
+      EXPECT_TRUE(stub_->GetStats(&context, {}, &stats).ok());
+      least = std::min<uint64_t>(least, stats.heap_bytes());
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return least;
+  }
+};
+
+TEST_F(RefusedMessageTest, OpenConnectionsKeepNothingOfRefusedMessages) {
+  constexpr int kConnections = 8;
+  constexpr size_t kMessageBytes = size_t{6} << 20;
+  const uint64_t before = settled_heap();
+  std::vector<std::shared_ptr<grpc::Channel>> channels;
+  for (int i = 0; i < kConnections; ++i) {
+    // Channels with different arguments never share a connection.
+    grpc::ChannelArguments args;
+    args.SetInt("caustica.test.connection", i);
+    args.SetMaxSendMessageSize(-1);
+    channels.push_back(grpc::CreateCustomChannel(server_->address(),
+                                                 grpc::InsecureChannelCredentials(), args));
+    const grpc::Status status = generic_call("/caustica.v1.RenderService/UploadScene",
+                                             std::string(kMessageBytes, '\x0a'), channels.back());
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << status.error_message();
+  }
+  const uint64_t after = settled_heap();
+  // Less than one refused message's worth, for all the connections together.
+  EXPECT_LT(after, before + kMessageBytes)
+      << "live heap " << before << " bytes before, " << after << " with " << kConnections
+      << " connections open after a refused message each";
+  for (const auto& channel : channels) EXPECT_TRUE(health_serving(channel));
 }
 
 // One WebSocket message announced as 256 MiB, and four 512 MiB messages left unfinished: each is

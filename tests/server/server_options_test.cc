@@ -73,5 +73,17 @@ TEST(ParseDevices, BadValuesNameTheFlagAndTheValue) {
   EXPECT_FALSE(parse_devices("0", DeviceKind::kCuda, 0).ok());
 }
 
+TEST(ServerStart, TransportMemoryBelowTwoMessagesIsRefusedByName) {
+  ServerOptions options;
+  options.listen = "127.0.0.1:0";
+  options.device = "cpu";
+  options.max_message_mb = 64;
+  options.transport_memory_mb = 100;
+  absl::StatusOr<std::unique_ptr<Server>> server = Server::start(options);
+  ASSERT_FALSE(server.ok());
+  EXPECT_THAT(server.status().message(),
+              HasSubstr("--transport-memory-mb: 100 is less than twice --max-message-mb (64)"));
+}
+
 }  // namespace
 }  // namespace caustica::server
