@@ -19,6 +19,10 @@ namespace caustica::server {
 // nor glibc 2.33's or later). Blocks in AddressSanitizer's quarantine count as freed.
 uint64_t live_heap_bytes();
 
+// The server trims once this much of its heap is free: less would trim after every frame, whose
+// buffers are freed and taken again at once.
+inline constexpr size_t kServerTrimFreeBytes = size_t{16} << 20;
+
 // Gives the heap's free pages back to the operating system every `period` when more than
 // `min_free_bytes` are free.
 class HeapTrimmer {

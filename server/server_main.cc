@@ -275,7 +275,7 @@ absl::StatusOr<std::unique_ptr<Server>> Server::start(const ServerOptions& optio
   }
   server->health_.track(*server->server_);
   server->heap_trimmer_ =
-      std::make_unique<HeapTrimmer>(std::chrono::seconds(2), size_t{16} << 20);
+      std::make_unique<HeapTrimmer>(std::chrono::seconds(2), kServerTrimFreeBytes);
   if (!options.health_listen.empty()) {
     absl::StatusOr<std::unique_ptr<HealthServer>> health =
         HealthServer::start(options.health_listen);

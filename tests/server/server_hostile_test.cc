@@ -2,7 +2,8 @@
 // the viewer's HTTP and WebSocket): every string field of every call with control and non-ASCII
 // bytes, oversized and truncated messages, slow and idle connections beyond any worker count, and
 // abrupt disconnects. Afterwards the server must answer a health check within a second, and its
-// resident memory must come back within 10% of where it started (docs/reliability.md).
+// resident memory must come back within 10% of where it started, but for the free heap the server
+// keeps on purpose (docs/reliability.md).
 #include <gmock/gmock.h>
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/dynamic_message.h>
@@ -21,6 +22,7 @@
 #include <thread>
 
 #include "grpcpp/health_check_service_interface.h"
+#include "server/heap.h"
 #include "tests/server/server_harness.h"
 
 namespace caustica::testing {
@@ -103,10 +105,13 @@ class HostileClientTest : public ServerTest {
     return least;
   }
 
-  // Runs `attack` three times; after each the server must answer. After the last its memory must
-  // be within 10% of where it was after the second. The first rounds are the baseline because they
-  // leave behind what the allocator keeps for that kind of traffic (an arena per thread that took
-  // part), which is not a leak; a leak grows with every round.
+  // Runs `attack` three times; after each the server must answer. After the last, its resident
+  // memory must be within 10% of where it was after the second, give or take the free heap the
+  // server keeps on purpose (it trims only past kServerTrimFreeBytes). The first rounds are the
+  // baseline because they leave behind what the allocator keeps for that kind of traffic (an arena
+  // per thread that took part), which is not a leak; a leak grows with every round. The live heap
+  // is no measure here: the connection the attacks share keeps the read buffers a refused
+  // oversized message grew (within --transport-memory-mb), which count as live.
   void expect_survives(const std::function<void()>& attack) {
     uint64_t before_last = 0;
     for (int round = 0; round < 3; ++round) {
@@ -115,7 +120,7 @@ class HostileClientTest : public ServerTest {
       expect_answering();
     }
     const uint64_t last = settled_rss();
-    EXPECT_LE(double(last), 1.1 * double(before_last))
+    EXPECT_LE(double(last), 1.1 * double(before_last) + double(server::kServerTrimFreeBytes))
         << "resident memory " << last << " bytes after the last round, " << before_last
         << " before it (" << baseline_rss_ << " before all)";
   }
