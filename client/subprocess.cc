@@ -102,7 +102,9 @@ std::optional<std::filesystem::path> find_on_path(const std::string& name) {
   if (path == nullptr) return std::nullopt;
   for (absl::string_view dir : absl::StrSplit(path, ':', absl::SkipEmpty())) {
     const std::filesystem::path candidate = std::filesystem::path(std::string(dir)) / name;
-    if (access(candidate.c_str(), X_OK) == 0 && std::filesystem::is_regular_file(candidate)) {
+    std::error_code ignored;
+    if (access(candidate.c_str(), X_OK) == 0 &&
+        std::filesystem::is_regular_file(candidate, ignored)) {
       return candidate;
     }
   }

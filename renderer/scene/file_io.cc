@@ -26,15 +26,26 @@ constexpr uintmax_t kMinGzBufferBytes = 8 * 1024;
 
 }  // namespace
 
-absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
+absl::Status check_regular_file(const std::filesystem::path& path) {
+  // The error_code overload: the throwing one throws for a name too long.
   std::error_code ec;
   const std::filesystem::file_status status = std::filesystem::status(path, ec);
-  if (!std::filesystem::exists(status)) {
+  if (status.type() == std::filesystem::file_type::not_found) {
     return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  if (ec) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path.string(), ": cannot open file: ", ec.message()));
   }
   if (!std::filesystem::is_regular_file(status)) {
     return absl::InvalidArgumentError(absl::StrCat(path.string(), ": not a regular file"));
   }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> read_file(const std::filesystem::path& path) {
+  if (absl::Status file = check_regular_file(path); !file.ok()) return file;
+  std::error_code ec;
   // gzread passes non-gzip files through, so one path serves .ply and .ply.gz alike.
   GzFile file(gzopen(path.c_str(), "rb"));
   if (file == nullptr) {

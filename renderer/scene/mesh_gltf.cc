@@ -615,9 +615,7 @@ absl::Status reject_gltf1(const std::filesystem::path& path, const std::string& 
 }  // namespace
 
 absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path)) {
-    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
-  }
+  if (absl::Status file = check_regular_file(path); !file.ok()) return file;
   SCENE_RETURN_IF_ERROR(reject_gltf1(path, binary_gltf1_evidence(path)));
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(&ignore_image, nullptr);

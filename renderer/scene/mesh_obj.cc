@@ -226,9 +226,7 @@ class ObjMeshBuilder {
 }  // namespace
 
 absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
-  if (!std::filesystem::exists(path)) {
-    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
-  }
+  if (absl::Status file = check_regular_file(path); !file.ok()) return file;
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // we fan polygons ourselves, keeping face numbers for errors
   config.vertex_color = false;

@@ -251,6 +251,20 @@ std::vector<Edit> edits() {
       {"MissingAssimpFile",
        {add_shape(R"({"type": "mesh", "file": "model.stl", "material": "white"})")},
        {"shapes[2].file", "model.stl: file not found"}},
+      // A name longer than the file system takes: an error, where it used to throw
+      // std::filesystem's exception out of the OBJ and glTF loaders (found by fuzzing).
+      {"ObjNameTooLong",
+       {add_shape(R"({"type": "mesh", "file": ")" + std::string(300, 'n') +
+                  R"(.obj", "material": "white"})")},
+       {"shapes[2].file", "File name too long"}},
+      {"GltfNameTooLong",
+       {add_shape(R"({"type": "mesh", "file": ")" + std::string(300, 'n') +
+                  R"(.gltf", "material": "white"})")},
+       {"shapes[2].file", "File name too long"}},
+      {"PlyNameTooLong",
+       {add_shape(R"({"type": "mesh", "file": ")" + std::string(300, 'n') +
+                  R"(.ply", "material": "white"})")},
+       {"shapes[2].file", "File name too long"}},
       {"ZeroScale",
        {add_shape(
            R"({"type": "mesh", "file": "../meshes/quad_tri_le.ply", "material": "white", "transform": {"scale": [1, 0, 1]}})")},
