@@ -292,6 +292,15 @@ absl::Status check_frame(const v1::Frame& frame, const Scene& scene) {
 
 using LightLists = std::array<std::vector<v1::Light>, 2>;
 
+// Replaces the lights of scene `id` with `lights`.
+absl::Status set_lights(client::Connection& connection, const std::string& id,
+                        const std::vector<v1::Light>& lights) {
+  v1::UpdateLightsRequest request;
+  request.set_scene_id(id);
+  for (const v1::Light& light : lights) *request.add_lights() = light;
+  return connection.call(&Stub::UpdateLights, request).status();
+}
+
 // The two light lists a cycle alternates between: the scene's own lights and a point light in
 // the upper middle of the scene's bounds, moved sideways, so that every update is a real change.
 LightLists light_lists(const Scene& scene) {
@@ -338,10 +347,7 @@ absl::StatusOr<ReferenceFrames> render_references(client::Connection& connection
     absl::StatusOr<v1::SceneInfo> info =
         client::upload_scene(connection.stub(), *upload_context, scene, "soak reference");
     if (!info.ok()) return info.status();
-    v1::UpdateLightsRequest update;
-    update.set_scene_id(info->scene_id());
-    for (const v1::Light& light : lights[i]) *update.add_lights() = light;
-    absl::Status status = connection.call(&Stub::UpdateLights, update).status();
+    absl::Status status = set_lights(connection, info->scene_id(), lights[i]);
     if (status.ok()) {
       v1::StreamFramesRequest request;
       request.set_scene_id(info->scene_id());
@@ -415,10 +421,7 @@ class SoakClient {
   }
 
   absl::Status update_lights(const std::string& id, size_t lights) {
-    v1::UpdateLightsRequest request;
-    request.set_scene_id(id);
-    for (const v1::Light& light : lights_[lights]) *request.add_lights() = light;
-    return connection_.call(&Stub::UpdateLights, request).status();
+    return set_lights(connection_, id, lights_[lights]);
   }
 
   // The frame's size, and its pixels against the reference of its light list and passes.
