@@ -10,12 +10,14 @@
 // it, and every input starts from the same state.
 #include <grpcpp/grpcpp.h>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <oneapi/tbb/global_control.h>
 #include <string>
 #include <string_view>
 
@@ -88,6 +90,11 @@ class Fixture {
         caustica::server::ServiceOptions{});
     grpc::ServerBuilder builder;
     builder.RegisterService(service_.get());
+    // gRPC sizes the sync server's completion queues and pollers by the machine's cores; with a
+    // process per core (scripts/fuzz's FUZZ_JOBS) that is hundreds of threads switching.
+    builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::NUM_CQS, 1);
+    builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MIN_POLLERS, 1);
+    builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::MAX_POLLERS, 2);
     // Without a token file every caller is the default tenant, but handlers still ask the
     // interceptor for the verdict.
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
@@ -101,6 +108,17 @@ class Fixture {
   }
 
   const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
+
+  // Ends every call still running (a viewer session's stream ends on the client's side first) and
+  // joins the server's threads, so that the leak check at exit sees no call half done.
+  void shut_down() {
+    stub_.reset();
+    channel_.reset();
+    server_->Shutdown(std::chrono::system_clock::now());
+    server_->Wait();
+    server_.reset();
+    service_.reset();
+  }
   const std::string& scene_id() const { return scene_id_; }
 
   // Uploads the scene again when the last input changed it (or deleted it).
@@ -152,7 +170,8 @@ class Fixture {
   std::string epochs_;  // the serialized epochs of the scene as uploaded
 };
 
-// Never destroyed: gRPC's threads may still run while static destructors would.
+// Shut down at exit (LLVMFuzzerInitialize) but never destroyed: gRPC's own threads may still run
+// while static destructors would.
 Fixture* fixture = nullptr;
 
 std::string with_scene_id(std::string_view line, const std::string& scene_id) {
@@ -176,7 +195,15 @@ extern "C" const char* __lsan_default_suppressions() { return "leak:_dlerror_run
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   // A line per call would bury libFuzzer's report and take much of the time.
   caustica::server::set_log_level(caustica::server::LogLevel::kError);
+  // scripts/fuzz runs a process per core (FUZZ_JOBS); renders of every process on every core
+  // would spend the time switching threads. The CPU backend's results do not depend on it.
+  static oneapi::tbb::global_control one_thread(oneapi::tbb::global_control::max_allowed_parallelism,
+                                                1);
   fixture = new Fixture();
+  // libFuzzer ends with exit(); LeakSanitizer's check runs after this, as its handler was
+  // installed first. Without it, calls that were still running on other threads at exit were
+  // reported as leaks when 16 processes ended at once.
+  std::atexit([] { fixture->shut_down(); });
   return 0;
 }
 
