@@ -110,9 +110,15 @@ int main(int argc, char** argv) {
       ->needs(soak_flag)
       ->capture_default_str();
   app.add_option("--warmup-minutes", soak.warmup_minutes,
-                 "soak: minutes of unmeasured cycling first (at least one cycle per client), so "
-                 "that the start's memory is the server's steady state")
+                 "soak: minutes of unmeasured cycling first (and --warmup-cycles per client at "
+                 "least), so that the start's memory is the server's steady state")
       ->check(CLI::NonNegativeNumber)
+      ->needs(soak_flag)
+      ->capture_default_str();
+  app.add_option("--warmup-cycles", soak.warmup_cycles,
+                 "soak: cycles each client makes in the warm-up at least, however long they take "
+                 "(a slow build, a sanitizer's, reaches fewer in --warmup-minutes)")
+      ->check(CLI::Range(1, 1000000))
       ->needs(soak_flag)
       ->capture_default_str();
   app.add_option("--storm", soak.storm,

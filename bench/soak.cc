@@ -859,9 +859,7 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
         errors_seen += log.errors() - errors;
         if (o.hostile) hostile[i]->act(hostile_logs[i]);
       };
-      do {
-        cycle(warmup[i]);
-      } while (Clock::now() < warmup_end);
+      for (int n = 0; n < o.warmup_cycles || Clock::now() < warmup_end; ++n) cycle(warmup[i]);
       warmed.count_down();
       go.wait();
       while (Clock::now() < end) {
@@ -929,6 +927,7 @@ absl::StatusOr<bool> run_soak(const SoakOptions& o, std::ostream& out) {
   report["server_started"] = server != nullptr;
   report["clients"] = o.clients;
   report["warmup_minutes"] = o.warmup_minutes;
+  report["warmup_cycles"] = o.warmup_cycles;
   report["minutes"] = o.minutes;
   report["elapsed_s"] = rounded(elapsed_s);
   report["cycles"] = all_timed.cycles;

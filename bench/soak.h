@@ -19,8 +19,10 @@ namespace caustica {
 struct SoakOptions {
   int clients = 64;
   double minutes = 10;  // of cycling after the warm-up; fractions allowed
-  // Of unmeasured cycling first (at least one cycle a client), until the server's memory settled.
+  // Of unmeasured cycling first, until the server's memory settled: at least this long, and at
+  // least this many cycles a client (with --hostile, each followed by one hostile action).
   double warmup_minutes = 2;
+  int warmup_cycles = 1;
   int storm = 256;  // streams opened and cancelled at once afterwards; 0 skips the storm
   std::filesystem::path scene;  // empty: the bundled Cornell box
   // Small, with few photons, so that a CPU server keeps up with every client.
