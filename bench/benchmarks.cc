@@ -481,18 +481,18 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(*scene); !loaded.ok()) return loaded.status();
     Measurement m = measure(o, (*engine)->backend(), [&] { (void)(*engine)->render(1); });
-    report.line("frame",
-                name + absl::StrFormat(" %dx%d k=%d %s", o.width, o.height, o.k,
-                                       estimator_kind_name(o.estimator)),
-                m.median, "ms", &m, o.runs);
+    report.line(
+        "frame",
+        name + absl::StrFormat(" %dx%d k=%d %s", o.width, o.height, o.k, kind_name(o.estimator)),
+        m.median, "ms", &m, o.runs);
     // Light change to finished frame: new lights, then one pass (photons, maps, render).
     std::vector<Light> lights = scene->lights;
     Measurement change = measure(o, (*engine)->backend(), [&] {
       (void)(*engine)->set_lights(lights);
       (void)(*engine)->render(1);
     });
-    report.line("light_change_to_frame", name + " " + estimator_kind_name(o.estimator),
-                change.median, "ms", &change, o.runs);
+    report.line("light_change_to_frame", name + " " + kind_name(o.estimator), change.median, "ms",
+                &change, o.runs);
 
     // The k-nearest render pass alone on maps already built: camera rays, specular chains, shadow
     // rays and both gathers, as the frame target counts it.

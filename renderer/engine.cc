@@ -84,7 +84,7 @@ absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
   if (rs.integrator == Integrator::kPath) return absl::OkStatus();
   if (rs.estimator != EstimatorKind::kKnn && rs.estimator != EstimatorKind::kVkde) {
     return absl::UnimplementedError(absl::StrCat(
-        "media: the ", estimator_kind_name(rs.estimator),
+        "media: the ", kind_name(rs.estimator),
         " estimator does not render participating media yet; the knn and vkde estimators and the "
         "path integrator do"));
   }
@@ -98,16 +98,20 @@ absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
 
 // The estimator the settings name, with the engine's leaf-size knob.
 EstimatorOptions estimator_options(const RenderSettings& rs, uint32_t photons_per_leaf) {
-  return {rs.estimator,    rs.k_nearest,         photons_per_leaf,
-          rs.sppm_alpha,   rs.sppm_radius,       rs.vkde_spread,
-          rs.final_gather, rs.final_gather_rays, rs.final_gather_seeds};
+  return {.kind = rs.estimator,
+          .k_nearest = rs.k_nearest,
+          .photons_per_leaf = photons_per_leaf,
+          .sppm_alpha = rs.sppm_alpha,
+          .sppm_radius = rs.sppm_radius,
+          .vkde_spread = rs.vkde_spread,
+          .final_gather = rs.final_gather,
+          .final_gather_rays = rs.final_gather_rays,
+          .final_gather_seeds = rs.final_gather_seeds};
 }
 
+// Whether a settings change keeps the estimator: the options it is made from, all of them.
 bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
-  return a.estimator == b.estimator && a.sppm_alpha == b.sppm_alpha &&
-         a.sppm_radius == b.sppm_radius && a.vkde_spread == b.vkde_spread &&
-         a.final_gather == b.final_gather && a.final_gather_rays == b.final_gather_rays &&
-         a.final_gather_seeds == b.final_gather_seeds;
+  return estimator_options(a, 0) == estimator_options(b, 0);
 }
 
 // Rows per band when an image is dealt to several devices (RowBands): a multiple of the 8 x 4

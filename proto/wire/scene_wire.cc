@@ -69,6 +69,34 @@ constexpr std::pair<StructureKind, v1::Structure> kWireStructures[] = {
 };
 static_assert(std::size(kWireStructures) == std::size(kStructureKinds));
 
+// The settings' tables (scene/setting_kinds.h) number their kinds as the proto does.
+static_assert(kinds_match_proto<Integrator>(v1::Integrator_ARRAYSIZE));
+static_assert(kinds_match_proto<EstimatorKind>(v1::Estimator_ARRAYSIZE));
+static_assert(kinds_match_proto<SppmRadius>(v1::SppmRadius_ARRAYSIZE));
+static_assert(kinds_match_proto<DensityKernel>(v1::DensityKernel_ARRAYSIZE));
+
+template <typename Proto, typename Enum>
+Proto encode_kind(Enum value) {
+  return static_cast<Proto>(kind_wire(value));
+}
+
+// A setting's kind from its proto number into `*out`: 0 keeps it, a number of no kind is an error
+// that names the field.
+template <typename Enum>
+absl::Status decode_kind(int wire, std::string_view field, std::string_view name, Enum* out) {
+  if (wire == 0) return absl::OkStatus();
+  const std::optional<Enum> kind = kind_from_wire<Enum>(static_cast<uint32_t>(wire));
+  if (!kind) {
+    const std::string_view what = SettingKinds<Enum>::what;
+    const bool vowel = std::string_view("aeiou").find(what.front()) != std::string_view::npos;
+    return invalid(join_field(field, name),
+                   absl::StrCat(wire, " is not ", vowel ? "an " : "a ",
+                                absl::string_view(what.data(), what.size())));
+  }
+  *out = *kind;
+  return absl::OkStatus();
+}
+
 // One material for the whole mesh: the header names it, and no id per triangle is sent.
 bool has_one_material(const Mesh& mesh) {
   return std::all_of(mesh.material_ids.begin(), mesh.material_ids.end(),
@@ -211,17 +239,7 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_photons_per_pass(s.photons_per_pass);
   out.set_k_nearest(s.k_nearest);
   out.set_max_radius(s.max_radius);
-  switch (s.kernel) {
-    case DensityKernel::kUniform:
-      out.set_kernel(v1::UNIFORM);
-      break;
-    case DensityKernel::kCone:
-      out.set_kernel(v1::CONE);
-      break;
-    case DensityKernel::kEpanechnikov:
-      out.set_kernel(v1::EPANECHNIKOV);
-      break;
-  }
+  out.set_kernel(encode_kind<v1::DensityKernel>(s.kernel));
   out.set_max_depth(s.max_depth);
   out.set_max_photon_bounces(s.max_photon_bounces);
   out.set_area_light_samples(s.area_light_samples);
@@ -234,25 +252,16 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_final_gather(s.final_gather);
   out.set_final_gather_rays(s.final_gather_rays);
   out.set_final_gather_seeds(s.final_gather_seeds);
-  out.set_sppm_radius(s.sppm_radius == SppmRadius::kGlobal ? v1::SPPM_RADIUS_GLOBAL
-                                                           : v1::SPPM_RADIUS_PIXEL);
+  out.set_sppm_radius(encode_kind<v1::SppmRadius>(s.sppm_radius));
   return out;
 }
 
 v1::Integrator encode_integrator(Integrator integrator) {
-  return integrator == Integrator::kPath ? v1::PATH : v1::PHOTON;
+  return encode_kind<v1::Integrator>(integrator);
 }
 
 v1::Estimator encode_estimator(EstimatorKind estimator) {
-  switch (estimator) {
-    case EstimatorKind::kSppm:
-      return v1::SPPM;
-    case EstimatorKind::kVkde:
-      return v1::VKDE;
-    case EstimatorKind::kKnn:
-      break;
-  }
-  return v1::KNN;
+  return encode_kind<v1::Estimator>(estimator);
 }
 
 v1::Structure encode_structure(StructureKind kind) {
@@ -442,20 +451,8 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
   if (in.has_photons_per_pass()) s.photons_per_pass = in.photons_per_pass();
   if (in.has_k_nearest()) s.k_nearest = in.k_nearest();
   if (in.has_max_radius()) s.max_radius = in.max_radius();
-  switch (in.kernel()) {
-    case v1::KERNEL_UNSPECIFIED:
-      break;
-    case v1::UNIFORM:
-      s.kernel = DensityKernel::kUniform;
-      break;
-    case v1::CONE:
-      s.kernel = DensityKernel::kCone;
-      break;
-    case v1::EPANECHNIKOV:
-      s.kernel = DensityKernel::kEpanechnikov;
-      break;
-    default:
-      return invalid(join_field(field, "kernel"), absl::StrCat(in.kernel(), " is not a kernel"));
+  if (absl::Status status = decode_kind(in.kernel(), field, "kernel", &s.kernel); !status.ok()) {
+    return status;
   }
   if (in.has_max_depth()) s.max_depth = in.max_depth();
   if (in.has_max_photon_bounces()) s.max_photon_bounces = in.max_photon_bounces();
@@ -469,52 +466,22 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
     }
     s.structure = *structure;
   }
-  switch (in.integrator()) {
-    case v1::INTEGRATOR_UNSPECIFIED:
-      break;
-    case v1::PHOTON:
-      s.integrator = Integrator::kPhoton;
-      break;
-    case v1::PATH:
-      s.integrator = Integrator::kPath;
-      break;
-    default:
-      return invalid(join_field(field, "integrator"),
-                     absl::StrCat(in.integrator(), " is not an integrator"));
+  if (absl::Status status = decode_kind(in.integrator(), field, "integrator", &s.integrator);
+      !status.ok()) {
+    return status;
   }
-  switch (in.estimator()) {
-    case v1::ESTIMATOR_UNSPECIFIED:
-      break;
-    case v1::KNN:
-      s.estimator = EstimatorKind::kKnn;
-      break;
-    case v1::SPPM:
-      s.estimator = EstimatorKind::kSppm;
-      break;
-    case v1::VKDE:
-      s.estimator = EstimatorKind::kVkde;
-      break;
-    default:
-      return invalid(join_field(field, "estimator"),
-                     absl::StrCat(in.estimator(), " is not an estimator"));
+  if (absl::Status status = decode_kind(in.estimator(), field, "estimator", &s.estimator);
+      !status.ok()) {
+    return status;
   }
   if (in.has_sppm_alpha()) s.sppm_alpha = in.sppm_alpha();
   if (in.has_vkde_spread()) s.vkde_spread = in.vkde_spread();
   if (in.has_final_gather()) s.final_gather = in.final_gather();
   if (in.has_final_gather_rays()) s.final_gather_rays = in.final_gather_rays();
   if (in.has_final_gather_seeds()) s.final_gather_seeds = in.final_gather_seeds();
-  switch (in.sppm_radius()) {
-    case v1::SPPM_RADIUS_UNSPECIFIED:
-      break;
-    case v1::SPPM_RADIUS_PIXEL:
-      s.sppm_radius = SppmRadius::kPixel;
-      break;
-    case v1::SPPM_RADIUS_GLOBAL:
-      s.sppm_radius = SppmRadius::kGlobal;
-      break;
-    default:
-      return invalid(join_field(field, "sppm_radius"),
-                     absl::StrCat(in.sppm_radius(), " is not a radius rule"));
+  if (absl::Status status = decode_kind(in.sppm_radius(), field, "sppm_radius", &s.sppm_radius);
+      !status.ok()) {
+    return status;
   }
   return s;
 }

@@ -64,6 +64,10 @@ constexpr const char* structure_kind_name(StructureKind kind) {
   return "unknown";
 }
 
+// Whether the structure answers batches of rays only (ray_queries.h), with no view that traces one
+// ray at a time: what the path integrator needs.
+constexpr bool answers_batches_only(StructureKind kind) { return kind == StructureKind::kDacrt; }
+
 inline std::optional<StructureKind> parse_structure_kind(std::string_view name) {
   for (StructureKind kind : kStructureKinds) {
     if (name == structure_kind_name(kind)) return kind;

@@ -14,12 +14,12 @@
 #include <memory>
 
 #include "renderer/parallel/backend.h"
-#include "renderer/photon/estimator_kind.h"
 #include "renderer/photon/photon_tracer.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/film.h"
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
+#include "renderer/scene/setting_kinds.h"
 
 namespace caustica {
 
@@ -37,6 +37,10 @@ struct EstimatorOptions {
   bool final_gather = false;
   uint32_t final_gather_rays = 256;
   uint32_t final_gather_seeds = 0;  // 0: the default (final_gather.h)
+
+  // Every option compared, so that a new one cannot be left out of the engine's test of whether
+  // a settings change needs a new estimator.
+  bool operator==(const EstimatorOptions&) const = default;
 };
 
 class Estimator {

@@ -1,17 +1,16 @@
 // The density kernels that weigh a photon by its distance in a radiance estimate: uniform, cone and
 // Epanechnikov (Jensen 2001 sec. 7.2; Fabianowski 2011 sec. 5.3). Named DensityKernel in a code
-// base where kernels also run on GPUs. A leaf header: the scene's settings name their kernel from
-// here, as they name their structure from accel/structure_kind.h.
+// base where kernels also run on GPUs; the enum and its names are the scene's settings'
+// (scene/setting_kinds.h).
 #pragma once
 
 #include <cmath>
 #include <cstdint>
 
 #include "renderer/base/hd.h"
+#include "renderer/scene/setting_kinds.h"
 
 namespace caustica {
-
-enum class DensityKernel : uint32_t { kUniform = 0, kCone = 1, kEpanechnikov = 2 };
 
 // Kernel weight at normalised distance x = d / r in [0, 1], scaled so that it integrates to
 // pi r^2 over the disk like the uniform kernel does.

@@ -18,8 +18,8 @@
 
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/parallel/backend.h"
-#include "renderer/photon/estimator_kind.h"
 #include "renderer/photon/photon_map.h"
+#include "renderer/scene/setting_kinds.h"
 
 namespace caustica {
 

@@ -10,9 +10,8 @@
 
 #include "renderer/accel/structure_kind.h"
 #include "renderer/base/vec.h"
-#include "renderer/photon/density_kernel.h"
-#include "renderer/photon/estimator_kind.h"
 #include "renderer/scene/affine.h"
+#include "renderer/scene/setting_kinds.h"
 
 namespace caustica {
 
@@ -113,12 +112,6 @@ struct Camera {
   int width = 512;
   int height = 512;
 };
-
-// How a pass estimates the light reaching the camera: `kPhoton`, camera rays through their
-// specular chains to diffuse hits gathered from the photon maps (render/whitted.h), or `kPath`,
-// unbiased path tracing with next-event estimation (render/path_tracer.h), the reference the
-// photon mapper is checked against.
-enum class Integrator : uint32_t { kPhoton = 0, kPath = 1 };
 
 struct RenderSettings {
   uint32_t photons_per_pass = 200000;  // photons emitted per pass (global and caustic together)

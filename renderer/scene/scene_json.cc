@@ -120,6 +120,18 @@ absl::Status read_choice(JsonObject& object, const char* key, const char* what,
                        absl::StrCat("unknown ", what, " '", name, "' (expected ", expected, ")"));
 }
 
+// A setting of several kinds (scene/setting_kinds.h) by the name `key` holds, when it is there.
+template <typename Enum>
+absl::Status read_kind(JsonObject& object, const char* key, Enum* out) {
+  if (!object.has(key)) return absl::OkStatus();
+  std::string name;
+  SCENE_RETURN_IF_ERROR(object.read(key, kRequired, &name));
+  const std::optional<Enum> kind = parse_kind<Enum>(name);
+  if (!kind) return invalid_field(object.field_path(key), unknown_kind_message<Enum>(name));
+  *out = *kind;
+  return absl::OkStatus();
+}
+
 class SceneReader {
  public:
   explicit SceneReader(const std::filesystem::path& base_dir) : base_dir_(base_dir) {}
@@ -178,13 +190,7 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(object.read_integer("photons", kOptional, &s.photons_per_pass));
     SCENE_RETURN_IF_ERROR(object.read_integer("k", kOptional, &s.k_nearest));
     SCENE_RETURN_IF_ERROR(object.read("max_radius", kOptional, &s.max_radius));
-    if (object.has("kernel")) {
-      SCENE_RETURN_IF_ERROR(read_choice(object, "kernel", "kernel",
-                                        {std::pair{"uniform", DensityKernel::kUniform},
-                                         {"cone", DensityKernel::kCone},
-                                         {"epanechnikov", DensityKernel::kEpanechnikov}},
-                                        &s.kernel));
-    }
+    SCENE_RETURN_IF_ERROR(read_kind(object, "kernel", &s.kernel));
     SCENE_RETURN_IF_ERROR(object.read_integer("max_depth", kOptional, &s.max_depth));
     SCENE_RETURN_IF_ERROR(
         object.read_integer("max_photon_bounces", kOptional, &s.max_photon_bounces));
@@ -192,22 +198,8 @@ class SceneReader {
         object.read_integer("area_light_samples", kOptional, &s.area_light_samples));
     SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));
     SCENE_RETURN_IF_ERROR(object.read_integer("seed", kOptional, &s.seed));
-    if (object.has("integrator")) {
-      SCENE_RETURN_IF_ERROR(read_choice(
-          object, "integrator", "integrator",
-          {std::pair{"photon", Integrator::kPhoton}, {"path", Integrator::kPath}}, &s.integrator));
-    }
-    if (object.has("estimator")) {
-      std::string estimator;
-      SCENE_RETURN_IF_ERROR(object.read("estimator", kRequired, &estimator));
-      const std::optional<EstimatorKind> kind = parse_estimator_kind(estimator);
-      if (!kind) {
-        return invalid_field(
-            object.field_path("estimator"),
-            absl::StrCat("unknown estimator '", estimator, "' (expected knn, sppm or vkde)"));
-      }
-      s.estimator = *kind;
-    }
+    SCENE_RETURN_IF_ERROR(read_kind(object, "integrator", &s.integrator));
+    SCENE_RETURN_IF_ERROR(read_kind(object, "estimator", &s.estimator));
     SCENE_RETURN_IF_ERROR(object.read("sppm_alpha", kOptional, &s.sppm_alpha));
     SCENE_RETURN_IF_ERROR(object.read("vkde_spread", kOptional, &s.vkde_spread));
     SCENE_RETURN_IF_ERROR(object.read("final_gather", kOptional, &s.final_gather));
@@ -215,12 +207,7 @@ class SceneReader {
         object.read_integer("final_gather_rays", kOptional, &s.final_gather_rays));
     SCENE_RETURN_IF_ERROR(
         object.read_integer("final_gather_seeds", kOptional, &s.final_gather_seeds));
-    if (object.has("sppm_radius")) {
-      SCENE_RETURN_IF_ERROR(
-          read_choice(object, "sppm_radius", "radius rule",
-                      {std::pair{"pixel", SppmRadius::kPixel}, {"global", SppmRadius::kGlobal}},
-                      &s.sppm_radius));
-    }
+    SCENE_RETURN_IF_ERROR(read_kind(object, "sppm_radius", &s.sppm_radius));
     if (object.has("structure")) {
       std::string structure;
       SCENE_RETURN_IF_ERROR(object.read("structure", kRequired, &structure));

@@ -74,14 +74,19 @@ absl::Status validate_settings(const RenderSettings& s) {
     return invalid_field("settings.max_radius",
                          absl::StrCat(s.max_radius, " is not a finite number >= 0"));
   }
-  if (static_cast<uint32_t>(s.kernel) > static_cast<uint32_t>(DensityKernel::kEpanechnikov)) {
-    return invalid_field("settings.kernel", "is not a known kernel");
-  }
-  if (static_cast<uint32_t>(s.integrator) > static_cast<uint32_t>(Integrator::kPath)) {
+  if (!is_known_kind(s.kernel)) return invalid_field("settings.kernel", "is not a known kernel");
+  if (!is_known_kind(s.integrator)) {
     return invalid_field("settings.integrator", "is not a known integrator");
   }
-  if (static_cast<uint32_t>(s.estimator) > static_cast<uint32_t>(EstimatorKind::kVkde)) {
+  if (!is_known_kind(s.estimator)) {
     return invalid_field("settings.estimator", "is not a known estimator");
+  }
+  if (s.integrator == Integrator::kPath && answers_batches_only(s.structure)) {
+    return invalid_field(
+        "settings.structure",
+        absl::StrCat("the path integrator traces one ray at a time, and the structure ",
+                     structure_kind_name(s.structure),
+                     " answers batches only: choose another structure or integrator"));
   }
   if (!(s.sppm_alpha > 0 && s.sppm_alpha < 1)) {
     return invalid_field(
@@ -94,16 +99,15 @@ absl::Status validate_settings(const RenderSettings& s) {
                                       kMaxVkdeSpread, "] (0: automatic)"));
   }
   if (s.final_gather && s.integrator == Integrator::kPhoton && s.estimator != EstimatorKind::kKnn) {
-    return invalid_field(
-        "settings.final_gather",
-        absl::StrCat("is for the knn estimator; ", estimator_kind_name(s.estimator),
-                     " gathers its indirect light itself"));
+    return invalid_field("settings.final_gather",
+                         absl::StrCat("is for the knn estimator; ", kind_name(s.estimator),
+                                      " gathers its indirect light itself"));
   }
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.final_gather_rays", s.final_gather_rays, 1, kMaxFinalGatherRays));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.final_gather_seeds", s.final_gather_seeds, 0, kMaxFinalGatherSeeds));
-  if (static_cast<uint32_t>(s.sppm_radius) > static_cast<uint32_t>(SppmRadius::kGlobal)) {
+  if (!is_known_kind(s.sppm_radius)) {
     return invalid_field("settings.sppm_radius", "is not a known radius rule");
   }
   SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));

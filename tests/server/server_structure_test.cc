@@ -207,8 +207,9 @@ TEST_F(ServerTest, EveryEstimatorRendersEveryBundledScene) {
       set_deadline(context);
       return stub_->UpdateSettings(&context, request, &report);
     };
-    for (EstimatorKind kind : kEstimatorKinds) {
-      SCOPED_TRACE(estimator_kind_name(kind));
+    for (const SettingKind<EstimatorKind>& estimator : kEstimatorKinds) {
+      const EstimatorKind kind = estimator.value;
+      SCOPED_TRACE(estimator.name);
       Scene scene = small_scene(file, kDefaultStructure);
       scene.settings.estimator = kind;
       if (!media_support(scene, scene.settings).ok()) {
@@ -220,8 +221,7 @@ TEST_F(ServerTest, EveryEstimatorRendersEveryBundledScene) {
         EXPECT_EQ(get_scene(*stub_, switched_id).settings().estimator(), v1::KNN);
         continue;
       }
-      const std::string id =
-          upload_scene(*stub_, scene, absl::StrCat(name, "-", estimator_kind_name(kind)));
+      const std::string id = upload_scene(*stub_, scene, absl::StrCat(name, "-", kind_name(kind)));
       EXPECT_EQ(get_scene(*stub_, id).settings().estimator(), wire::encode_estimator(kind));
       const std::string uploaded = render_linear(*stub_, id);
       ASSERT_FALSE(uploaded.empty());

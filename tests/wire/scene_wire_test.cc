@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -239,6 +240,38 @@ TEST(SceneWire, IntegratorRoundTripsAndUnspecifiedKeepsTheCurrentOne) {
   EXPECT_EQ(applied.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(applied.status().message()),
               ::testing::HasSubstr("update.settings.integrator: 7 is not an integrator"));
+}
+
+// Each kind of a setting's table (scene/setting_kinds.h) has the proto's value of its number, named
+// as the kind is (scene_wire.cc asserts at compile time that the numbers are the proto's), and
+// round-trips through encode_settings and apply_settings.
+template <typename Enum>
+void expect_kinds_match_proto(const google::protobuf::EnumDescriptor& proto,
+                              Enum RenderSettings::*field) {
+  SCOPED_TRACE(proto.full_name());
+  for (const SettingKind<Enum>& kind : SettingKinds<Enum>::kinds) {
+    SCOPED_TRACE(kind.name);
+    const google::protobuf::EnumValueDescriptor* value = proto.FindValueByNumber(int(kind.wire));
+    ASSERT_NE(value, nullptr);
+    std::string expected = kind.name;
+    for (char& c : expected) c = c == '-' ? '_' : char(std::toupper(static_cast<unsigned char>(c)));
+    // The proto's names carry a prefix where the bare name would clash (SPPM_RADIUS_PIXEL).
+    EXPECT_TRUE(value->name() == expected || value->name().ends_with("_" + expected))
+        << value->name() << " against " << expected;
+    RenderSettings settings;
+    settings.*field = kind.value;
+    absl::StatusOr<RenderSettings> back =
+        apply_settings(encode_settings(settings), RenderSettings{}, "settings");
+    ASSERT_TRUE(back.ok()) << back.status();
+    EXPECT_EQ((*back).*field, kind.value);
+  }
+}
+
+TEST(SceneWire, SettingKindsAreTheProtosValuesByName) {
+  expect_kinds_match_proto(*v1::Integrator_descriptor(), &RenderSettings::integrator);
+  expect_kinds_match_proto(*v1::Estimator_descriptor(), &RenderSettings::estimator);
+  expect_kinds_match_proto(*v1::SppmRadius_descriptor(), &RenderSettings::sppm_radius);
+  expect_kinds_match_proto(*v1::DensityKernel_descriptor(), &RenderSettings::kernel);
 }
 
 TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {

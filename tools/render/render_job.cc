@@ -66,7 +66,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
                            cam.height);
   } else {
     log << absl::StrFormat(
-        "estimator    %s%s\n", estimator_kind_name(rs.estimator),
+        "estimator    %s%s\n", kind_name(rs.estimator),
         rs.final_gather
             ? absl::StrFormat(", final gathering with %d rays a seed", rs.final_gather_rays)
             : "");

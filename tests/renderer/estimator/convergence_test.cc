@@ -55,7 +55,7 @@ std::vector<ImageError> errors_after(const std::string& scene_name, EstimatorKin
     done = p;
     errors.push_back(image_error(engine->image_linear(), reference, kSide, kSide, kDirectLight));
     std::printf("%s %s%s after %u passes: worst region %.2f%%, image mean / reference %.4f\n",
-                scene_name.c_str(), estimator_kind_name(estimator),
+                scene_name.c_str(), kind_name(estimator),
                 final_gather ? " with final gathering" : "", p, 100 * errors.back().worst_region,
                 errors.back().mean_ratio);
     for (int r = 0; r < kErrorRegionsPerSide * kErrorRegionsPerSide; ++r)

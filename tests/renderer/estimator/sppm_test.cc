@@ -69,7 +69,7 @@ Scene small_caustics(const std::string& estimator) {
   scene->camera.width = 40;
   scene->camera.height = 32;
   scene->settings.photons_per_pass = 20000;
-  scene->settings.estimator = *parse_estimator_kind(estimator);
+  scene->settings.estimator = *parse_kind<EstimatorKind>(estimator);
   return *scene;
 }
 

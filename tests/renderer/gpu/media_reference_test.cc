@@ -54,9 +54,9 @@ void expect_near_reference(const std::string& name, std::initializer_list<Estima
     ASSERT_EQ(image.size(), reference.size());
     const ImageError error = image_error(image, reference, kSize, kSize);
     std::printf("%s: %s, worst region %.4f, mean ratio %.4f\n", name.c_str(),
-                estimator_kind_name(e.estimator), error.worst_region, error.mean_ratio);
-    EXPECT_LT(error.worst_region, e.worst_region) << estimator_kind_name(e.estimator);
-    EXPECT_NEAR(error.mean_ratio, 1.0, 0.01) << estimator_kind_name(e.estimator);
+                kind_name(e.estimator), error.worst_region, error.mean_ratio);
+    EXPECT_LT(error.worst_region, e.worst_region) << kind_name(e.estimator);
+    EXPECT_NEAR(error.mean_ratio, 1.0, 0.01) << kind_name(e.estimator);
   }
 }
 
