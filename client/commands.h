@@ -72,7 +72,8 @@ struct ViewOptions {
   bool open = true;   // start the desktop's browser (xdg-open) when there is a display
 };
 absl::Status run_view(const GlobalOptions& global, const ViewOptions& options, std::ostream& out);
-// The page's address: http://HOST:PORT/?scene=ID, with &token=TOKEN when one is given.
+// The page's address: http://HOST:PORT/?scene=ID, with &token=TOKEN when one is given, both
+// percent-encoded.
 std::string viewer_url(const std::string& host, uint32_t port, const std::string& scene_id,
                        const std::string& token);
 

@@ -2,10 +2,12 @@
 // the embedded server, that server starts with its viewer and serves until Ctrl-C.
 #include <signal.h>
 
+#include <cctype>
 #include <cstdlib>
 #include <iostream>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "client/commands.h"
 #include "client/result_output.h"
 #include "client/scene_source.h"
@@ -30,13 +32,27 @@ void open_in_browser(const std::string& url) {
     std::cerr << "caustica: cannot open a browser: " << opened.status().message() << "\n";
 }
 
+// `value` for a URL's query, every byte but RFC 3986's unreserved ones as %XX: a token may hold
+// '&', '#', '+' or '%', which the page's URLSearchParams would otherwise split or decode.
+std::string query_value(const std::string& value) {
+  std::string out;
+  for (const unsigned char c : value) {
+    if (std::isalnum(c) || c == '-' || c == '.' || c == '_' || c == '~') {
+      out += char(c);
+    } else {
+      absl::StrAppend(&out, absl::StrFormat("%%%02X", c));
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string viewer_url(const std::string& host, uint32_t port, const std::string& scene_id,
                        const std::string& token) {
-  std::string url = absl::StrCat("http://", host, ":", port, "/?scene=", scene_id);
+  std::string url = absl::StrCat("http://", host, ":", port, "/?scene=", query_value(scene_id));
   // The page removes the token from the address bar as soon as it has read it.
-  if (!token.empty()) absl::StrAppend(&url, "&token=", token);
+  if (!token.empty()) absl::StrAppend(&url, "&token=", query_value(token));
   return url;
 }
 
