@@ -217,7 +217,8 @@ TEST_F(HttpServerTest, SlowHeadersNeitherBlockOthersNorStayOpen) {
     asio::write(socket, asio::buffer(std::string_view("X")));
   }
   int closed = 0;
-  for (tcp::socket& socket : slow) closed += read_until_closed(socket, std::chrono::seconds(5)) ? 1 : 0;
+  for (tcp::socket& socket : slow)
+    closed += read_until_closed(socket, std::chrono::seconds(5)) ? 1 : 0;
   EXPECT_EQ(closed, 40);
   for (int i = 0; i < 200 && server_->connections() > 0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -238,6 +239,9 @@ TEST_F(HttpServerTest, TheConnectionLimitEvictsTheOldestIdleConnection) {
   EXPECT_EQ(get("/", std::chrono::seconds(2)), "200 GET /\n");
   ASSERT_TRUE(read_until_closed(idle.front(), std::chrono::seconds(2)).has_value())
       << "the oldest idle connection was not the one evicted";
+  // The GET's own connection closes once answered, but the server may count it a moment longer;
+  // counted, it would take the place of the eighth WebSocket below.
+  while (server_->connections() > 7) std::this_thread::sleep_for(std::chrono::milliseconds(5));
 
   std::vector<std::unique_ptr<websocket::stream<tcp::socket>>> open;
   for (int i = 0; i < 8; ++i) open.push_back(open_websocket());
@@ -250,8 +254,8 @@ TEST_F(HttpServerTest, TheConnectionLimitEvictsTheOldestIdleConnection) {
 TEST_F(HttpServerTest, HeadersAndBodiesOverTheirLimitsAreRefused) {
   start({});
   tcp::socket large = connect();
-  asio::write(large, asio::buffer("GET / HTTP/1.1\r\nX-Pad: " + std::string(20000, 'a') +
-                                  "\r\n\r\n"));
+  asio::write(large,
+              asio::buffer("GET / HTTP/1.1\r\nX-Pad: " + std::string(20000, 'a') + "\r\n\r\n"));
   std::optional<std::string> answer = read_until_closed(large, std::chrono::seconds(2));
   ASSERT_TRUE(answer.has_value());
   EXPECT_THAT(*answer, HasSubstr("431"));
