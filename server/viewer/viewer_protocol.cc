@@ -158,6 +158,15 @@ nlohmann::json epochs_json(const v1::Epochs& epochs) {
           {"settings", epochs.settings()}};
 }
 
+std::optional<int64_t> refused_request_id(std::string_view text) {
+  if (text.size() > kMaxControlMessageBytes) return std::nullopt;
+  const json message = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!message.is_object() || !message.contains("id") || !message.at("id").is_number_integer()) {
+    return std::nullopt;
+  }
+  return message.at("id").get<int64_t>();
+}
+
 absl::StatusOr<ViewerRequest> parse_request(std::string_view text) {
   if (text.size() > kMaxControlMessageBytes) {
     return absl::InvalidArgumentError(absl::StrCat("message of ", text.size(),

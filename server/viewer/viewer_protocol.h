@@ -51,6 +51,9 @@ struct ViewerRequest {
 // an unknown field, or a field of the wrong kind or range, a hello's token with a byte outside
 // visible ASCII included. `text` is one text message.
 absl::StatusOr<ViewerRequest> parse_request(std::string_view text);
+// The integer "id" of a message parse_request refused, where it has one, so that the page can
+// match the error to what it sent.
+std::optional<int64_t> refused_request_id(std::string_view text);
 
 // The lights of the open scene as a session knows them: GetScene's lists with the lights epoch
 // they belong to and, for a scene without a point or spot light, the point light the viewer

@@ -65,7 +65,7 @@ void ViewerSession::handle_binary() {
 void ViewerSession::handle_text(std::string_view text) {
   absl::StatusOr<ViewerRequest> request = parse_request(text);
   if (!request.ok()) {
-    sink_.send_text(error_message(request.status()));
+    sink_.send_text(error_message(request.status(), refused_request_id(text)));
     return;
   }
   if (absl::Status done = handle(*request); !done.ok()) {

@@ -124,6 +124,11 @@ TEST_F(ViewerSessionTest, BadMessagesGetErrorsAndTheSessionCarriesOn) {
   const json unknown = sink_.wait_text("error", &seen_);
   EXPECT_THAT(unknown["message"].get<std::string>(),
               HasSubstr("hello.tokn: unknown field (hello takes type, id, token)"));
+  EXPECT_EQ(unknown["id"], 5) << "a refused message's error carries its id";
+  session_->handle_text(R"({"type":"zoom","steps":"far","id":6})");
+  EXPECT_EQ(sink_.wait_text("error", &seen_)["id"], 6);
+  session_->handle_text(R"({"type":"zoom","steps":1,"id":"seven"})");
+  EXPECT_FALSE(sink_.wait_text("error", &seen_).contains("id")) << "an id that is not an integer";
   session_->handle_binary();
   EXPECT_THAT(sink_.wait_text("error", &seen_)["message"].get<std::string>(),
               HasSubstr("binary messages are not accepted"));
