@@ -76,10 +76,11 @@ absl::Status no_cuda_backend() {
 // and vkde estimators; sppm would render a scene with media as if they were not there.
 absl::Status media_support(const Scene& scene, const RenderSettings& rs) {
   if (scene.media.empty()) return absl::OkStatus();
-  if (rs.structure == StructureKind::kDacrt) {
+  if (answers_batches_only(rs.structure)) {
     return absl::UnimplementedError(
-        "media: the dacrt structure answers ray batches only, and the ray queues do not trace "
-        "through participating media yet; choose another structure");
+        absl::StrCat("media: the ", structure_kind_name(rs.structure),
+                     " structure answers ray batches only, and the ray queues do not trace through "
+                     "participating media yet; choose another structure"));
   }
   if (rs.integrator == Integrator::kPath) return absl::OkStatus();
   if (rs.estimator != EstimatorKind::kKnn && rs.estimator != EstimatorKind::kVkde) {

@@ -1,13 +1,5 @@
 #include "server/heap.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define CAUSTICA_ADDRESS_SANITIZER 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define CAUSTICA_ADDRESS_SANITIZER 1
-#endif
-#endif
-
 #if defined(CAUSTICA_ADDRESS_SANITIZER)
 // GCC ships the runtime's function without the header that declares it.
 extern "C" size_t __sanitizer_get_current_allocated_bytes();

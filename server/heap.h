@@ -13,7 +13,23 @@
 #include <mutex>
 #include <thread>
 
+#if defined(__SANITIZE_ADDRESS__)
+#define CAUSTICA_ADDRESS_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define CAUSTICA_ADDRESS_SANITIZER 1
+#endif
+#endif
+
 namespace caustica::server {
+
+// Whether this build runs under AddressSanitizer (GCC's and clang's ways of saying so), whose
+// quarantine makes resident memory no measure of what is in use.
+#if defined(CAUSTICA_ADDRESS_SANITIZER)
+inline constexpr bool kUnderAddressSanitizer = true;
+#else
+inline constexpr bool kUnderAddressSanitizer = false;
+#endif
 
 // The bytes of live allocations; 0 where the allocator does not tell (neither AddressSanitizer's
 // nor glibc 2.33's or later). Blocks in AddressSanitizer's quarantine count as freed.

@@ -8,8 +8,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <iterator>
 #include <optional>
-#include <span>
 #include <string>
 #include <string_view>
 
@@ -24,14 +24,21 @@ struct SettingKind {
   uint32_t wire;
 };
 
+// Each enum's table (`kinds`), and what a kind of it is called in messages (`what`, as in
+// "unknown estimator 'x'").
+template <typename Enum>
+struct SettingKinds;
+
 // How a pass estimates the light reaching the camera: kPhoton, camera rays through their specular
 // chains to diffuse hits gathered from the photon maps (render/whitted.h), or kPath, unbiased path
 // tracing with next-event estimation (render/path_tracer.h), the reference the photon mapper is
 // checked against.
 enum class Integrator : uint32_t { kPhoton = 0, kPath = 1 };
-inline constexpr SettingKind<Integrator> kIntegrators[] = {
-    {Integrator::kPhoton, "photon", 1},
-    {Integrator::kPath, "path", 2},
+template <>
+struct SettingKinds<Integrator> {
+  static constexpr const char* what = "integrator";
+  static constexpr SettingKind<Integrator> kinds[] = {{Integrator::kPhoton, "photon", 1},
+                                                      {Integrator::kPath, "path", 2}};
 };
 
 // The density estimators a pass can gather the photons with; the estimators themselves sit
@@ -42,52 +49,36 @@ inline constexpr SettingKind<Integrator> kIntegrators[] = {
 // kVkde: variable kernel density estimation (Fabianowski 2011), every photon's own anisotropic
 // kernel from its photon differentials, gathered by point from a hierarchy over their supports.
 enum class EstimatorKind : uint32_t { kKnn = 0, kSppm = 1, kVkde = 2 };
-inline constexpr SettingKind<EstimatorKind> kEstimatorKinds[] = {
-    {EstimatorKind::kKnn, "knn", 1},
-    {EstimatorKind::kSppm, "sppm", 2},
-    {EstimatorKind::kVkde, "vkde", 3},
+template <>
+struct SettingKinds<EstimatorKind> {
+  static constexpr const char* what = "estimator";
+  static constexpr SettingKind<EstimatorKind> kinds[] = {{EstimatorKind::kKnn, "knn", 1},
+                                                         {EstimatorKind::kSppm, "sppm", 2},
+                                                         {EstimatorKind::kVkde, "vkde", 3}};
 };
+inline constexpr auto& kEstimatorKinds = SettingKinds<EstimatorKind>::kinds;
 
 // How SPPM's radii shrink: kPixel, Hachisuka and Jensen's rule from each pixel's photon count;
 // kGlobal, Knaus and Zwicker's (2011) one sequence r_i^2 = r_1^2 prod (j + alpha) / (j + 1) for
 // every pixel, each pass an independent estimate.
 enum class SppmRadius : uint32_t { kPixel = 0, kGlobal = 1 };
-inline constexpr SettingKind<SppmRadius> kSppmRadii[] = {
-    {SppmRadius::kPixel, "pixel", 1},
-    {SppmRadius::kGlobal, "global", 2},
+template <>
+struct SettingKinds<SppmRadius> {
+  static constexpr const char* what = "radius rule";
+  static constexpr SettingKind<SppmRadius> kinds[] = {{SppmRadius::kPixel, "pixel", 1},
+                                                      {SppmRadius::kGlobal, "global", 2}};
 };
 
 // The density kernels that weigh a photon by its distance (photon/density_kernel.h has their
 // weights).
 enum class DensityKernel : uint32_t { kUniform = 0, kCone = 1, kEpanechnikov = 2 };
-inline constexpr SettingKind<DensityKernel> kDensityKernels[] = {
-    {DensityKernel::kUniform, "uniform", 1},
-    {DensityKernel::kCone, "cone", 2},
-    {DensityKernel::kEpanechnikov, "epanechnikov", 3},
-};
-
-// Each enum's table, and what its kind is called in messages ("unknown estimator 'x'").
-template <typename Enum>
-struct SettingKinds;
-template <>
-struct SettingKinds<Integrator> {
-  static constexpr std::span<const SettingKind<Integrator>> kinds = kIntegrators;
-  static constexpr const char* what = "integrator";
-};
-template <>
-struct SettingKinds<EstimatorKind> {
-  static constexpr std::span<const SettingKind<EstimatorKind>> kinds = kEstimatorKinds;
-  static constexpr const char* what = "estimator";
-};
-template <>
-struct SettingKinds<SppmRadius> {
-  static constexpr std::span<const SettingKind<SppmRadius>> kinds = kSppmRadii;
-  static constexpr const char* what = "radius rule";
-};
 template <>
 struct SettingKinds<DensityKernel> {
-  static constexpr std::span<const SettingKind<DensityKernel>> kinds = kDensityKernels;
   static constexpr const char* what = "kernel";
+  static constexpr SettingKind<DensityKernel> kinds[] = {
+      {DensityKernel::kUniform, "uniform", 1},
+      {DensityKernel::kCone, "cone", 2},
+      {DensityKernel::kEpanechnikov, "epanechnikov", 3}};
 };
 
 // The row of `value`; null for a value outside the table (a number cast from bad input).
@@ -135,10 +126,10 @@ constexpr std::optional<Enum> kind_from_wire(uint32_t wire) {
 // The names for a refusal or --help: "knn, sppm or vkde".
 template <typename Enum>
 std::string kind_names() {
-  const std::span<const SettingKind<Enum>> kinds = SettingKinds<Enum>::kinds;
+  const auto& kinds = SettingKinds<Enum>::kinds;
   std::string out;
-  for (size_t i = 0; i < kinds.size(); ++i) {
-    out += i == 0 ? "" : i + 1 == kinds.size() ? " or " : ", ";
+  for (size_t i = 0; i < std::size(kinds); ++i) {
+    out += i == 0 ? "" : i + 1 == std::size(kinds) ? " or " : ", ";
     out += kinds[i].name;
   }
   return out;
@@ -155,9 +146,9 @@ std::string unknown_kind_message(std::string_view name) {
 // enum of `proto_values` values (the proto's ARRAYSIZE, its 0 included) exactly.
 template <typename Enum>
 constexpr bool kinds_match_proto(size_t proto_values) {
-  const std::span<const SettingKind<Enum>> kinds = SettingKinds<Enum>::kinds;
-  if (kinds.size() + 1 != proto_values) return false;
-  for (size_t i = 0; i < kinds.size(); ++i)
+  const auto& kinds = SettingKinds<Enum>::kinds;
+  if (std::size(kinds) + 1 != proto_values) return false;
+  for (size_t i = 0; i < std::size(kinds); ++i)
     if (kinds[i].wire != i + 1) return false;
   return true;
 }

@@ -346,6 +346,15 @@ grpc::Status play_animation(v1::RenderService::Stub& stub, const v1::PlayAnimati
       frames);
 }
 
+void delete_scene(v1::RenderService::Stub& stub, const std::string& scene_id) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::DeleteSceneRequest request;
+  request.set_scene_id(scene_id);
+  v1::DeleteSceneResponse response;
+  EXPECT_TRUE(stub.DeleteScene(&context, request, &response).ok());
+}
+
 grpc::Status get_scene_status(v1::RenderService::Stub& stub, const std::string& scene_id) {
   grpc::ClientContext context;
   set_deadline(context);

@@ -125,6 +125,8 @@ grpc::Status play_animation(v1::RenderService::Stub& stub, const v1::PlayAnimati
                             std::vector<StreamedFrame>* frames);
 // GetScene of a scene that must exist.
 v1::SceneInfo get_scene(v1::RenderService::Stub& stub, const std::string& scene_id);
+// DeleteScene of a scene that must exist.
+void delete_scene(v1::RenderService::Stub& stub, const std::string& scene_id);
 // GetScene's status alone.
 grpc::Status get_scene_status(v1::RenderService::Stub& stub, const std::string& scene_id);
 // ListScenes, which must succeed.

@@ -28,18 +28,6 @@
 namespace caustica::testing {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kUnderAddressSanitizer = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kUnderAddressSanitizer = true;
-#else
-constexpr bool kUnderAddressSanitizer = false;
-#endif
-#else
-constexpr bool kUnderAddressSanitizer = false;
-#endif
-
 namespace asio = boost::asio;
 namespace beast = boost::beast;
 namespace bhttp = boost::beast::http;
@@ -133,7 +121,7 @@ class HostileClientTest : public ServerTest {
     }
     // AddressSanitizer's quarantine keeps freed blocks resident by the hundred megabytes, so under
     // the sanitizer the rounds only have to be survived.
-    if (kUnderAddressSanitizer) return;
+    if (server::kUnderAddressSanitizer) return;
     const uint64_t last = settled_rss();
     EXPECT_LE(double(last), 1.1 * double(before_last) + double(server::kServerTrimFreeBytes))
         << "resident memory " << last << " bytes after the last round, " << before_last

@@ -8,13 +8,13 @@
 #include <google/protobuf/descriptor.h>
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "proto/wire/scene_wire.h"
+#include "renderer/render/image_error.h"
 #include "renderer/scene/scene.h"
 #include "tests/server/server_harness.h"
 
@@ -107,14 +107,7 @@ bool on_cpu() {
 }
 
 double relative_rmse(const std::vector<float>& reference, const std::vector<float>& image) {
-  double difference = 0, norm = 0;
-  for (size_t i = 0; i < reference.size() && i < image.size(); ++i) {
-    if (i % 4 == 3) continue;  // alpha
-    const double d = double(image[i]) - reference[i];
-    difference += d * d;
-    norm += double(reference[i]) * reference[i];
-  }
-  return norm > 0 ? std::sqrt(difference / norm) : std::sqrt(difference);
+  return image_error(image, reference, kWidth, kHeight).relative_rmse;
 }
 
 grpc::Status update_settings(v1::RenderService::Stub& stub, const std::string& id,
@@ -126,15 +119,6 @@ grpc::Status update_settings(v1::RenderService::Stub& stub, const std::string& i
   grpc::ClientContext context;
   set_deadline(context);
   return stub.UpdateSettings(&context, request, &report);
-}
-
-void delete_scene(v1::RenderService::Stub& stub, const std::string& id) {
-  v1::DeleteSceneRequest request;
-  request.set_scene_id(id);
-  v1::DeleteSceneResponse response;
-  grpc::ClientContext context;
-  set_deadline(context);
-  EXPECT_TRUE(stub.DeleteScene(&context, request, &response).ok());
 }
 
 TEST_F(ServerTest, EverySettingTakesEffectOrIsRefusedByName) {

@@ -93,15 +93,6 @@ void expect_structure(const v1::SceneInfo& info, StructureKind kind) {
   EXPECT_GT(info.structure_sah_cost(), 1);
 }
 
-void delete_scene(v1::RenderService::Stub& stub, const std::string& scene_id) {
-  grpc::ClientContext context;
-  set_deadline(context);
-  v1::DeleteSceneRequest request;
-  request.set_scene_id(scene_id);
-  v1::DeleteSceneResponse response;
-  EXPECT_TRUE(stub.DeleteScene(&context, request, &response).ok());
-}
-
 // Both ways of choosing a structure, for every bundled scene and every kind: uploaded with the
 // kind in its settings, and switched to it by UpdateSettings after an lbvh4 upload. Each image
 // must match lbvh4's, and the two ways must agree bit for bit, since the film restarts at pass 0
