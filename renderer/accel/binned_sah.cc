@@ -267,6 +267,464 @@ class BinOrder {
   int current_ = 0;
 };
 
+// What the stages of one build share, in the backend's memory and copied by value into their
+// launches: per sorted position the triangle there (a position of the source) and its box, moved
+// together as nodes sort; the tree's nodes; the word the root's index goes to (kNoNode while the
+// per-node stage is to build the root); and the list of nodes left to the per-node stage.
+struct StageArrays {
+  uint32_t* order;
+  Aabb* box;
+  BvhNode* nodes;
+  uint32_t* root;
+  SmallSubtree* small;
+  uint32_t* small_count;
+
+  // Leaves the positions of `s` to the per-node stage.
+  CAUSTICA_HDI void leave_small(const SmallSubtree& s) const {
+    small[atomic_fetch_add(small_count, 1u)] = s;
+  }
+};
+
+// The buffers behind a build's StageArrays.
+struct StageBuffers {
+  StageBuffers(Backend& backend, uint32_t count)
+      : orders(backend, count),
+        boxes(backend, count),
+        root_word(backend, 1),
+        small_list(backend, count / 2 + 1),
+        small_counter(backend, 1) {}
+
+  Buffer<uint32_t> orders;
+  Buffer<Aabb> boxes;
+  Buffer<uint32_t> root_word;
+  Buffer<SmallSubtree> small_list;
+  Buffer<uint32_t> small_counter;
+};
+
+// The arrays of `buffers` as a build starts: every sorted position holds its own triangle of
+// `source` and that triangle's box, the root is unset and no node is left to the per-node stage.
+StageArrays start_stages(Backend& backend, Bvh& bvh, const TriangleVertices* source,
+                         StageBuffers& buffers) {
+  const StageArrays a{buffers.orders.data(),     buffers.boxes.data(),
+                      bvh.nodes.data(),          buffers.root_word.data(),
+                      buffers.small_list.data(), buffers.small_counter.data()};
+  uint32_t* order = a.order;
+  Aabb* box = a.box;
+  parallel_for(backend, "binned_sah_boxes", bvh.leaf_count, [=] CAUSTICA_HD(size_t i) {
+    order[i] = uint32_t(i);
+    box[i] = triangle_bounds(source[i]);
+  });
+  backend.fill_bytes(a.root, 0xff, sizeof(uint32_t));  // kNoNode
+  backend.fill_bytes(a.small_count, 0, sizeof(uint32_t));
+  return a;
+}
+
+// The `segment_count` segments in position order, for a build over `count` sorted triangles.
+Buffer<SmallSubtree> sorted_segments(Backend& backend, const SmallSubtree* segments,
+                                     uint32_t segment_count, uint32_t count) {
+  Buffer<uint32_t> segment_keys(backend, segment_count), segment_index(backend, segment_count);
+  uint32_t* seg_key = segment_keys.data();
+  uint32_t* seg_index = segment_index.data();
+  parallel_for(backend, "binned_sah_segment_keys", segment_count, [=] CAUSTICA_HD(size_t i) {
+    seg_key[i] = segments[i].first;
+    seg_index[i] = uint32_t(i);
+  });
+  backend.sort_pairs(seg_key, seg_index, segment_count, int(bits_for(count)));
+  Buffer<SmallSubtree> sorted(backend, segment_count);
+  SmallSubtree* seg = sorted.data();
+  parallel_for(backend, "binned_sah_segment_order", segment_count,
+               [=] CAUSTICA_HD(size_t i) { seg[i] = segments[seg_index[i]]; });
+  return sorted;
+}
+
+// The box and the centroid box of the one segment `seg`, as a build from the root has, into its
+// cell by two reductions: every chunk would flush into the one cell, and chunks long enough to
+// keep those flushes few leave a GPU idle. Returns the segment's box.
+Aabb reduce_only_segment(Backend& backend, const SmallSubtree* seg, const Aabb* box,
+                         BinCell* seg_cell) {
+  SmallSubtree only;
+  backend.copy_to_host(&only, seg, sizeof(SmallSubtree));
+  const uint32_t n = only.last - only.first + 1;
+  Buffer<Aabb> centroid_boxes(backend, n);
+  Aabb* centroid_box = centroid_boxes.data();
+  const Aabb* range = box + only.first;
+  parallel_for(backend, "binned_sah_root_centroids", n, [=] CAUSTICA_HD(size_t i) {
+    const Vec3f c = range[i].center();
+    centroid_box[i] = Aabb{c, c};
+  });
+  const Aabb b = backend.reduce_bounds(range, n), c = backend.reduce_bounds(centroid_box, n);
+  BinCell cell;
+  cell.count = n;
+  for (int a = 0; a < 3; ++a) {
+    cell.lower[a] = ordered_bits(b.lower[a]);
+    cell.upper[a] = ordered_bits(b.upper[a]);
+    cell.centroid_lower[a] = ordered_bits(c.lower[a]);
+    cell.centroid_upper[a] = ordered_bits(c.upper[a]);
+  }
+  backend.copy_to_device(seg_cell, &cell, sizeof(BinCell));
+  return b;
+}
+
+// The box and the centroid box of each of the `segment_count` segments `seg` (in position order)
+// into its cell, reduced over chunks of the `count` sorted positions.
+void reduce_segment_bins(Backend& backend, const SmallSubtree* seg, uint32_t segment_count,
+                         uint32_t count, const Aabb* box, BinCell* seg_cell) {
+  parallel_for(backend, "binned_sah_segment_clear", segment_count,
+               [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
+  // Segments hold at most the hybrid's cut of triangles, so short chunks flush into each cell a
+  // few hundred times at most.
+  const size_t chunks = (size_t(count) + kBinReductionChunk - 1) / kBinReductionChunk;
+  parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
+    const uint32_t begin = uint32_t(c * kBinReductionChunk);
+    const uint32_t end = begin + kBinReductionChunk < count ? begin + kBinReductionChunk : count;
+    uint32_t run = kNoNode;
+    RunningBin running;
+    // The last segment starting at or before p, found once and then followed along the chunk.
+    uint32_t last_started = node_holding(seg, segment_count, begin);
+    for (uint32_t p = begin; p < end; ++p) {
+      const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
+      if (next < segment_count && seg[next].first <= p) last_started = next;
+      const uint32_t j =
+          last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
+      if (j != run) {
+        if (run != kNoNode) running.flush_into(seg_cell[run]);
+        run = j;
+      }
+      if (j != kNoNode) running.add(box[p]);
+    }
+    if (run != kNoNode) running.flush_into(seg_cell[run]);
+  });
+}
+
+// Segments too small or too degenerate to bin go to the per-node stage at once; the others become
+// the first level's nodes, in position order, in `level_nodes`. Returns how many those are.
+uint32_t first_level_nodes(Backend& backend, const BinnedSahSchedule& schedule,
+                           const SmallSubtree* seg, uint32_t segment_count, const BinCell* seg_cell,
+                           const StageArrays& a, Buffer<LargeNode>& level_nodes) {
+  Buffer<uint32_t> large_flags(backend, segment_count);
+  uint32_t* large_slot = large_flags.data();
+  parallel_for(backend, "binned_sah_segment_split", segment_count, [=] CAUSTICA_HD(size_t j) {
+    Aabb b, centroids;
+    read_bin(seg_cell[j], b, centroids);
+    const SmallSubtree s = seg[j];
+    large_slot[j] = stays_large(schedule, s.last - s.first + 1, centroids, false) ? 1u : 0u;
+    if (!large_slot[j]) a.leave_small(s);
+  });
+  const uint32_t node_count = backend.exclusive_scan(large_slot, large_slot, segment_count);
+  level_nodes.resize_discard(node_count);
+  LargeNode* first_level = level_nodes.data();
+  parallel_for(backend, "binned_sah_segment_nodes", segment_count, [=] CAUSTICA_HD(size_t j) {
+    Aabb b, centroids;
+    read_bin(seg_cell[j], b, centroids);
+    const SmallSubtree s = seg[j];
+    const uint32_t size = s.last - s.first + 1;
+    if (stays_large(schedule, size, centroids, false))
+      first_level[large_slot[j]] = {
+          s.first, s.last, s.parent, s.side, b, centroids, schedule.bins_for(size)};
+  });
+  return node_count;
+}
+
+// The first data-parallel level's nodes from the segments, in `level_nodes`, the box and the
+// centroid box of each segment reduced over its sorted positions (one bin per segment) deciding
+// which start there. Returns the level's node count.
+uint32_t start_from_segments(Backend& backend, Bvh& bvh, const SmallSubtree* segments,
+                             uint32_t segment_count, bool root_listed,
+                             const BinnedSahSchedule& schedule, const StageArrays& a,
+                             Buffer<LargeNode>& level_nodes) {
+  const Buffer<SmallSubtree> sorted =
+      sorted_segments(backend, segments, segment_count, bvh.leaf_count);
+  const SmallSubtree* seg = sorted.data();
+  Buffer<BinCell> segment_cells(backend, segment_count);
+  BinCell* seg_cell = segment_cells.data();
+  if (segment_count == 1) {
+    const Aabb b = reduce_only_segment(backend, seg, a.box, seg_cell);
+    // When the root is that segment, its box is the tree's bounds.
+    if (root_listed) bvh.bounds = b;
+  } else {
+    reduce_segment_bins(backend, seg, segment_count, bvh.leaf_count, a.box, seg_cell);
+  }
+  return first_level_nodes(backend, schedule, seg, segment_count, seg_cell, a, level_nodes);
+}
+
+// The low bits of a level's (node << bits | bin) keys, which number a node's bins, the huge one
+// included. Throws std::invalid_argument when the keys of `count` triangles need more than 32 bits.
+int key_bin_bits_for(const BinnedSahSchedule& schedule, uint32_t count) {
+  const int key_bin_bits = int(bits_for(schedule.max_bins() + 1));
+  // A level's nodes are disjoint and each holds more than the per-node limit, which bounds their
+  // number and so the key's node bits.
+  const uint32_t most_nodes = count / (schedule.per_node_limit() + 1) + 1;
+  if (int(bits_for(most_nodes)) + key_bin_bits > 32) {
+    throw std::invalid_argument(
+        "binned-sah stages " + binned_sah_stages_text(schedule) + ": " + std::to_string(count) +
+        " triangles make more (node, bin) keys than 32 bits hold; raise the per-node limit or "
+        "use fewer bins");
+  }
+  return key_bin_bits;
+}
+
+// One data-parallel level as its launches see it: its nodes, in position order, the sorted
+// positions of their triangles (`m` of them), and the bits of a key that number a node's bins.
+struct Level {
+  const LargeNode* nodes;
+  uint32_t node_count;
+  uint32_t* pos;
+  uint32_t m;
+  int key_bin_bits;
+  bool last;  // past it the nodes still large go to the per-node stage
+};
+
+// The positions of the first level's nodes' triangles, in order, into `element_pos` (a position's
+// node follows from it, node_holding, which saves a second compaction per level); returns how
+// many.
+uint32_t first_level_elements(Backend& backend, const LargeNode* first_level, uint32_t first_count,
+                              uint32_t count, uint8_t* kept, uint32_t* element_pos) {
+  parallel_for(backend, "binned_sah_elements", count, [=] CAUSTICA_HD(size_t p) {
+    const uint32_t j = node_holding(first_level, first_count, uint32_t(p));
+    kept[p] = j != kNoNode && p <= first_level[j].last;
+  });
+  return uint32_t(backend.select_flagged(nullptr, kept, count, element_pos));
+}
+
+// Bins each node's triangles along its longest centroid axis (the node's cells cleared on the way),
+// then puts every node's triangles in bin order: a stable order, with nodes numbered in position
+// order, so each node's triangles stay within its positions. The keys stay sorted in `bin_order`,
+// the triangles and boxes in that order in `moved_order` and `moved_box`.
+void bin_and_reorder(Backend& backend, const Level& level, BinnedSahReorder reorder,
+                     BinOrder& bin_order, const StageArrays& a, BinCell* cell,
+                     uint32_t* moved_order, Aabb* moved_box) {
+  const LargeNode* level_node = level.nodes;
+  const uint32_t node_count = level.node_count, m = level.m;
+  const int key_bin_bits = level.key_bin_bits;
+  const uint32_t* pos = level.pos;
+  uint32_t* order = a.order;
+  Aabb* box = a.box;
+  {
+    uint32_t* key = bin_order.keys();
+    uint32_t* value = bin_order.values();
+    parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
+      const uint32_t p = pos[i];
+      const uint32_t j = node_holding(level_node, node_count, p);
+      const LargeNode& n = level_node[j];
+      key[i] = j << key_bin_bits | BinMap::of(n).bin(box[p], n.box.half_area());
+      value[i] = uint32_t(i);
+      if (p - n.first <= n.bins) clear_bin(cell[p]);
+    });
+  }
+  bin_order.sort(reorder, level_node, node_count, m, key_bin_bits);
+  const uint32_t* value = bin_order.values();
+  parallel_for(backend, "binned_sah_gather", m, [=] CAUSTICA_HD(size_t i) {
+    moved_order[i] = order[pos[value[i]]];
+    moved_box[i] = box[pos[value[i]]];
+  });
+  parallel_for(backend, "binned_sah_scatter", m, [=] CAUSTICA_HD(size_t i) {
+    order[pos[i]] = moved_order[i];
+    box[pos[i]] = moved_box[i];
+  });
+}
+
+// The bins' counts and bounds, over chunks of the elements sorted by their keys `key`.
+void reduce_level_bins(Backend& backend, const Level& level, const uint32_t* key,
+                       const Aabb* moved_box, BinCell* cell) {
+  const LargeNode* level_node = level.nodes;
+  const uint32_t m = level.m;
+  const int key_bin_bits = level.key_bin_bits;
+  const uint32_t bin_mask = (1u << key_bin_bits) - 1u;
+  auto cell_of = [=] CAUSTICA_HD(uint32_t k) {
+    return level_node[k >> key_bin_bits].first + (k & bin_mask);
+  };
+  const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
+  parallel_for(backend, "binned_sah_bins", chunks, [=] CAUSTICA_HD(size_t c) {
+    const uint32_t begin = uint32_t(c * kBinReductionChunk);
+    const uint32_t end = begin + kBinReductionChunk < m ? begin + kBinReductionChunk : m;
+    uint32_t run_key = key[begin];
+    RunningBin running;
+    for (uint32_t i = begin; i < end; ++i) {
+      if (key[i] != run_key) {
+        running.flush_into(cell[cell_of(run_key)]);
+        run_key = key[i];
+      }
+      running.add(moved_box[i]);
+    }
+    running.flush_into(cell[cell_of(run_key)]);
+  });
+}
+
+// Each node's split into `split_of`; its slot, leaf children and small children are written at
+// once, and its large children counted in `more` for the next level.
+void split_level_nodes(Backend& backend, const Level& level, const BinnedSahSchedule& schedule,
+                       const BinCell* cell, const StageArrays& a, NodeSplit* split_of,
+                       uint32_t* more) {
+  const LargeNode* level_node = level.nodes;
+  const bool last_level = level.last;
+  BvhNode* nodes = a.nodes;
+  uint32_t* root = a.root;
+  parallel_for(backend, "binned_sah_split", level.node_count, [=] CAUSTICA_HD(size_t j) {
+    const LargeNode n = level_node[j];
+    const NodeSplit s = sweep_bins(n, cell + n.first);
+    split_of[j] = s;
+    more[j] = 0;
+    if (!s.binned) {
+      // The root stays unset, which tells the host that the per-node stage builds it.
+      if (n.parent != kNoParent)
+        nodes[n.parent].child[n.side] = BvhChild{n.box.lower, kNoNode, n.box.upper};
+      a.leave_small({n.parent, n.side, n.first, n.last});
+      return;
+    }
+    if (n.parent == kNoParent) {
+      *root = s.mid;
+    } else {
+      nodes[n.parent].child[n.side] = BvhChild{n.box.lower, s.mid, n.box.upper};
+    }
+    uint32_t large = 0;
+    const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
+    const Aabb child_box[2] = {s.left, s.right};
+    const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
+    for (uint32_t side = 0; side < 2; ++side) {
+      const uint32_t size = last[side] - first[side] + 1;
+      const Aabb& b = child_box[side];
+      if (stays_large(schedule, size, child_centroids[side], last_level)) {
+        ++large;
+      } else if (size == 1) {
+        nodes[s.mid].child[side] = BvhChild{b.lower, kLeafFlag | first[side], b.upper};
+      } else {
+        // The per-node stage reads the range's box from its slot.
+        nodes[s.mid].child[side] = BvhChild{b.lower, kNoNode, b.upper};
+        a.leave_small({s.mid, side, first[side], last[side]});
+      }
+    }
+    more[j] = large;
+  });
+}
+
+// The next level's nodes, the large children in position order, into `next_nodes`, each placed by
+// the scan of the counts in `more`; `child_next` gets each child's index among them, or kNoNode.
+// Returns how many there are.
+uint32_t next_level_nodes(Backend& backend, const Level& level, const BinnedSahSchedule& schedule,
+                          const NodeSplit* split_of, uint32_t* more, Buffer<LargeNode>& next_nodes,
+                          Buffer<uint32_t>& child_next) {
+  const LargeNode* level_node = level.nodes;
+  const uint32_t node_count = level.node_count;
+  const bool last_level = level.last;
+  const uint32_t next_count = backend.exclusive_scan(more, more, node_count);
+  next_nodes.resize_discard(next_count);
+  child_next.resize_discard(2 * size_t(node_count));
+  LargeNode* next_node_list = next_nodes.data();
+  uint32_t* child_index = child_next.data();
+  parallel_for(backend, "binned_sah_next_nodes", node_count, [=] CAUSTICA_HD(size_t j) {
+    const LargeNode n = level_node[j];
+    const NodeSplit s = split_of[j];
+    if (!s.binned) {
+      child_index[2 * j] = child_index[2 * j + 1] = kNoNode;
+      return;
+    }
+    uint32_t slot = more[j];
+    const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
+    const Aabb child_box[2] = {s.left, s.right};
+    const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
+    for (uint32_t side = 0; side < 2; ++side) {
+      const uint32_t size = last[side] - first[side] + 1;
+      if (stays_large(schedule, size, child_centroids[side], last_level)) {
+        next_node_list[slot] = {first[side],
+                                last[side],
+                                s.mid,
+                                side,
+                                child_box[side],
+                                child_centroids[side],
+                                schedule.bins_for(size)};
+        child_index[2 * j + side] = slot++;
+      } else {
+        child_index[2 * j + side] = kNoNode;
+      }
+    }
+  });
+  return next_count;
+}
+
+// The positions of the large children's elements, in position order, into `next_pos`; returns how
+// many.
+uint32_t partition_elements(Backend& backend, const Level& level, const uint32_t* key,
+                            const NodeSplit* split_of, const uint32_t* child_index, uint8_t* kept,
+                            uint32_t* next_pos) {
+  const uint32_t* pos = level.pos;
+  const int key_bin_bits = level.key_bin_bits;
+  parallel_for(backend, "binned_sah_partition", level.m, [=] CAUSTICA_HD(size_t i) {
+    const uint32_t j = key[i] >> key_bin_bits;
+    const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
+    kept[i] = child_index[2 * j + side] != kNoNode;
+  });
+  return uint32_t(backend.select_flagged(level.pos, kept, level.m, next_pos));
+}
+
+// The data-parallel levels over `count` sorted triangles, from the first level's `node_count`
+// nodes in `level_nodes` until every node has gone to a leaf or to the per-node stage.
+void data_parallel_levels(Backend& backend, uint32_t count, const BinnedSahSchedule& schedule,
+                          const StageArrays& a, Buffer<LargeNode>& level_nodes,
+                          uint32_t node_count) {
+  // Per element of the stage (a triangle of a large node): its position.
+  Buffer<uint32_t> element_pos(backend, count);
+  Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count);
+  Buffer<uint8_t> keep(backend, count);
+  uint32_t element_count = first_level_elements(backend, level_nodes.data(), node_count, count,
+                                                keep.data(), element_pos.data());
+  Buffer<uint32_t> moved_orders(backend, count);
+  Buffer<Aabb> moved_boxes(backend, count);
+  // A node's cells start at its first position (LargeNode), so one cell a position covers every
+  // level.
+  Buffer<BinCell> cells(backend, count);
+  Buffer<NodeSplit> splits(backend, 0);
+  Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
+  Buffer<LargeNode> next_nodes(backend, 0);
+  const int key_bin_bits = key_bin_bits_for(schedule, count);
+  BinOrder bin_order(backend, count);
+  for (int l = 0; node_count > 0; ++l) {
+    const Level level{level_nodes.data(), node_count,   element_pos.data(),
+                      element_count,      key_bin_bits, l + 1 >= kMaxDataParallelLevels};
+    bin_and_reorder(backend, level, schedule.reorder, bin_order, a, cells.data(),
+                    moved_orders.data(), moved_boxes.data());
+    reduce_level_bins(backend, level, bin_order.keys(), moved_boxes.data(), cells.data());
+    splits.resize_discard(node_count);
+    continuing.resize_discard(node_count);
+    split_level_nodes(backend, level, schedule, cells.data(), a, splits.data(), continuing.data());
+    const uint32_t next_count = next_level_nodes(backend, level, schedule, splits.data(),
+                                                 continuing.data(), next_nodes, child_next);
+    element_count = partition_elements(backend, level, bin_order.keys(), splits.data(),
+                                       child_next.data(), keep.data(), next_pos.data());
+    std::swap(element_pos, next_pos);
+    std::swap(level_nodes, next_nodes);
+    node_count = next_count;
+  }
+}
+
+// The triangles of `source` and their ids (`source_ids`, or their positions there when null) in
+// leaf order into `out_triangles` and `out_ids`, then the small nodes finished by the per-node
+// stage, the root among them when it is listed and no data-parallel level split it.
+void emit_leaves(Backend& backend, Bvh& bvh, const TriangleVertices* source,
+                 const uint32_t* source_ids, bool root_listed, const StageArrays& a,
+                 Buffer<TriangleVertices>& out_triangles, Buffer<uint32_t>& out_ids) {
+  const uint32_t count = bvh.leaf_count;
+  out_triangles.resize_discard(count);
+  out_ids.resize_discard(count);
+  TriangleVertices* sorted = out_triangles.data();
+  uint32_t* ids = out_ids.data();
+  const uint32_t* order = a.order;
+  parallel_for(backend, "binned_sah_leaf_order", count, [=] CAUSTICA_HD(size_t p) {
+    sorted[p] = source[order[p]];
+    ids[p] = source_ids != nullptr ? source_ids[order[p]] : order[p];
+  });
+  uint32_t small_count = 0;
+  backend.copy_to_host(&small_count, a.small_count, sizeof(uint32_t));
+  bool root_small = false;
+  if (root_listed) {
+    uint32_t root_node = kNoNode;
+    backend.copy_to_host(&root_node, a.root, sizeof(uint32_t));
+    // Unset when the root went to the per-node stage, which then sets it.
+    root_small = root_node == kNoNode;
+    if (!root_small) bvh.root = root_node;
+  }
+  rebuild_small_subtrees(backend, bvh, a.small, small_count, out_triangles, out_ids, root_small);
+}
+
 // The data-parallel stages and then the per-node stage over `segment_count` disjoint subtrees of
 // `bvh` (rebuild_subtrees_by_binned_sah), whose triangles at sorted position p are source[p] with
 // original index source_ids[p] (p itself when source_ids is null). Writes the triangles and their
@@ -276,326 +734,17 @@ void binned_sah_stages(Backend& backend, Bvh& bvh, const TriangleVertices* sourc
                        const uint32_t* source_ids, const SmallSubtree* segments,
                        uint32_t segment_count, bool root_listed, const BinnedSahSchedule& schedule,
                        Buffer<TriangleVertices>& out_triangles, Buffer<uint32_t>& out_ids) {
-  const uint32_t count = bvh.leaf_count;
-  // Per sorted position: the triangle there (a position of `source`) and its box, moved together
-  // as nodes sort.
-  Buffer<uint32_t> orders(backend, count);
-  Buffer<Aabb> boxes(backend, count);
-  uint32_t* order = orders.data();
-  Aabb* box = boxes.data();
-  parallel_for(backend, "binned_sah_boxes", count, [=] CAUSTICA_HD(size_t i) {
-    order[i] = uint32_t(i);
-    box[i] = triangle_bounds(source[i]);
-  });
-
-  BvhNode* nodes = bvh.nodes.data();
-  Buffer<uint32_t> root_word(backend, 1);
-  uint32_t* root = root_word.data();
-  backend.fill_bytes(root, 0xff, sizeof(uint32_t));  // kNoNode
-  Buffer<SmallSubtree> small_list(backend, count / 2 + 1);
-  Buffer<uint32_t> small_counter(backend, 1);
-  backend.fill_bytes(small_counter.data(), 0, sizeof(uint32_t));
-  SmallSubtree* small = small_list.data();
-  uint32_t* small_count_word = small_counter.data();
-
-  // The segments in position order, with the box and the centroid box of each reduced over its
-  // sorted positions (one bin per segment), decide which start the data-parallel stage.
-  Buffer<LargeNode> level_nodes(backend, 0), next_nodes(backend, 0);
+  StageBuffers buffers(backend, bvh.leaf_count);
+  const StageArrays a = start_stages(backend, bvh, source, buffers);
+  Buffer<LargeNode> level_nodes(backend, 0);
   uint32_t node_count = 0;
   if (segment_count > 0) {
-    Buffer<uint32_t> segment_keys(backend, segment_count), segment_index(backend, segment_count);
-    uint32_t* seg_key = segment_keys.data();
-    uint32_t* seg_index = segment_index.data();
-    parallel_for(backend, "binned_sah_segment_keys", segment_count, [=] CAUSTICA_HD(size_t i) {
-      seg_key[i] = segments[i].first;
-      seg_index[i] = uint32_t(i);
-    });
-    backend.sort_pairs(seg_key, seg_index, segment_count, int(bits_for(count)));
-    Buffer<SmallSubtree> sorted_segments(backend, segment_count);
-    SmallSubtree* seg = sorted_segments.data();
-    parallel_for(backend, "binned_sah_segment_order", segment_count,
-                 [=] CAUSTICA_HD(size_t i) { seg[i] = segments[seg_index[i]]; });
-    Buffer<BinCell> segment_cells(backend, segment_count);
-    BinCell* seg_cell = segment_cells.data();
-    if (segment_count == 1) {
-      // One segment, as a build from the root has: two reductions, where every chunk would flush
-      // into the one cell, and chunks long enough to keep those flushes few leave a GPU idle.
-      SmallSubtree only;
-      backend.copy_to_host(&only, seg, sizeof(SmallSubtree));
-      const uint32_t n = only.last - only.first + 1;
-      Buffer<Aabb> centroid_boxes(backend, n);
-      Aabb* centroid_box = centroid_boxes.data();
-      const Aabb* range = box + only.first;
-      parallel_for(backend, "binned_sah_root_centroids", n, [=] CAUSTICA_HD(size_t i) {
-        const Vec3f c = range[i].center();
-        centroid_box[i] = Aabb{c, c};
-      });
-      const Aabb b = backend.reduce_bounds(range, n), c = backend.reduce_bounds(centroid_box, n);
-      BinCell cell;
-      cell.count = n;
-      for (int a = 0; a < 3; ++a) {
-        cell.lower[a] = ordered_bits(b.lower[a]);
-        cell.upper[a] = ordered_bits(b.upper[a]);
-        cell.centroid_lower[a] = ordered_bits(c.lower[a]);
-        cell.centroid_upper[a] = ordered_bits(c.upper[a]);
-      }
-      backend.copy_to_device(seg_cell, &cell, sizeof(BinCell));
-      // When the root is that segment, its box is the tree's bounds.
-      if (root_listed) bvh.bounds = b;
-    } else {
-      parallel_for(backend, "binned_sah_segment_clear", segment_count,
-                   [=] CAUSTICA_HD(size_t c) { clear_bin(seg_cell[c]); });
-      // Segments hold at most the hybrid's cut of triangles, so short chunks flush into each cell a
-      // few hundred times at most.
-      const size_t chunks = (size_t(count) + kBinReductionChunk - 1) / kBinReductionChunk;
-      parallel_for(backend, "binned_sah_segment_bounds", chunks, [=] CAUSTICA_HD(size_t c) {
-        const uint32_t begin = uint32_t(c * kBinReductionChunk);
-        const uint32_t end =
-            begin + kBinReductionChunk < count ? begin + kBinReductionChunk : count;
-        uint32_t run = kNoNode;
-        RunningBin running;
-        // The last segment starting at or before p, found once and then followed along the chunk.
-        uint32_t last_started = node_holding(seg, segment_count, begin);
-        for (uint32_t p = begin; p < end; ++p) {
-          const uint32_t next = last_started == kNoNode ? 0u : last_started + 1;
-          if (next < segment_count && seg[next].first <= p) last_started = next;
-          const uint32_t j =
-              last_started != kNoNode && p <= seg[last_started].last ? last_started : kNoNode;
-          if (j != run) {
-            if (run != kNoNode) running.flush_into(seg_cell[run]);
-            run = j;
-          }
-          if (j != kNoNode) running.add(box[p]);
-        }
-        if (run != kNoNode) running.flush_into(seg_cell[run]);
-      });
-    }
-    // Segments too small or too degenerate to bin go to the per-node stage at once; the others
-    // become the first level's nodes, in position order.
-    Buffer<uint32_t> large_flags(backend, segment_count);
-    uint32_t* large_slot = large_flags.data();
-    parallel_for(backend, "binned_sah_segment_split", segment_count, [=] CAUSTICA_HD(size_t j) {
-      Aabb b, centroids;
-      read_bin(seg_cell[j], b, centroids);
-      const SmallSubtree s = seg[j];
-      large_slot[j] = stays_large(schedule, s.last - s.first + 1, centroids, false) ? 1u : 0u;
-      if (!large_slot[j]) small[atomic_fetch_add(small_count_word, 1u)] = s;
-    });
-    node_count = backend.exclusive_scan(large_slot, large_slot, segment_count);
-    level_nodes.resize_discard(node_count);
-    LargeNode* first_level = level_nodes.data();
-    parallel_for(backend, "binned_sah_segment_nodes", segment_count, [=] CAUSTICA_HD(size_t j) {
-      Aabb b, centroids;
-      read_bin(seg_cell[j], b, centroids);
-      const SmallSubtree s = seg[j];
-      const uint32_t size = s.last - s.first + 1;
-      if (stays_large(schedule, size, centroids, false))
-        first_level[large_slot[j]] = {
-            s.first, s.last, s.parent, s.side, b, centroids, schedule.bins_for(size)};
-    });
+    node_count = start_from_segments(backend, bvh, segments, segment_count, root_listed, schedule,
+                                     a, level_nodes);
   }
-
-  if (node_count > 0) {
-    // Per element of the stage (a triangle of a large node): its position. Its node follows from
-    // the position (node_holding), which saves a second compaction per level.
-    Buffer<uint32_t> element_pos(backend, count);
-    Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count);
-    Buffer<uint8_t> keep(backend, count);
-    uint32_t element_count = 0;
-    {
-      const LargeNode* first_level = level_nodes.data();
-      const uint32_t first_count = node_count;
-      uint8_t* kept = keep.data();
-      parallel_for(backend, "binned_sah_elements", count, [=] CAUSTICA_HD(size_t p) {
-        const uint32_t j = node_holding(first_level, first_count, uint32_t(p));
-        kept[p] = j != kNoNode && p <= first_level[j].last;
-      });
-      element_count = uint32_t(backend.select_flagged(nullptr, kept, count, element_pos.data()));
-    }
-    Buffer<uint32_t> moved_orders(backend, count);
-    Buffer<Aabb> moved_boxes(backend, count);
-    // A node's cells start at its first position (LargeNode), so one cell a position covers every
-    // level.
-    Buffer<BinCell> cells(backend, count);
-    Buffer<NodeSplit> splits(backend, 0);
-    Buffer<uint32_t> continuing(backend, 0), child_next(backend, 0);
-    // The key's low bits number a node's bins, the huge one included.
-    const int key_bin_bits = int(bits_for(schedule.max_bins() + 1));
-    // A level's nodes are disjoint and each holds more than the per-node limit, which bounds
-    // their number and so the key's node bits.
-    const uint32_t most_nodes = count / (schedule.per_node_limit() + 1) + 1;
-    if (int(bits_for(most_nodes)) + key_bin_bits > 32) {
-      throw std::invalid_argument(
-          "binned-sah stages " + binned_sah_stages_text(schedule) + ": " + std::to_string(count) +
-          " triangles make more (node, bin) keys than 32 bits hold; raise the per-node limit or "
-          "use fewer bins");
-    }
-    const uint32_t bin_mask = (1u << key_bin_bits) - 1u;
-    BinOrder bin_order(backend, count);
-    for (int level = 0; node_count > 0; ++level) {
-      const bool last_level = level + 1 >= kMaxDataParallelLevels;
-      const uint32_t m = element_count;
-      const LargeNode* level_node = level_nodes.data();
-      uint32_t* pos = element_pos.data();
-      BinCell* cell = cells.data();
-
-      // Bins along each node's longest centroid axis (the node's cells cleared on the way), then
-      // every node's triangles in bin order: a stable order, with nodes numbered in position
-      // order, so each node's triangles stay within its positions.
-      {
-        uint32_t* key = bin_order.keys();
-        uint32_t* value = bin_order.values();
-        parallel_for(backend, "binned_sah_bin_keys", m, [=] CAUSTICA_HD(size_t i) {
-          const uint32_t p = pos[i];
-          const uint32_t j = node_holding(level_node, node_count, p);
-          const LargeNode& n = level_node[j];
-          key[i] = j << key_bin_bits | BinMap::of(n).bin(box[p], n.box.half_area());
-          value[i] = uint32_t(i);
-          if (p - n.first <= n.bins) clear_bin(cell[p]);
-        });
-      }
-      bin_order.sort(schedule.reorder, level_node, node_count, m, key_bin_bits);
-      const uint32_t* key = bin_order.keys();
-      const uint32_t* value = bin_order.values();
-      uint32_t* moved_order = moved_orders.data();
-      Aabb* moved_box = moved_boxes.data();
-      parallel_for(backend, "binned_sah_gather", m, [=] CAUSTICA_HD(size_t i) {
-        moved_order[i] = order[pos[value[i]]];
-        moved_box[i] = box[pos[value[i]]];
-      });
-      parallel_for(backend, "binned_sah_scatter", m, [=] CAUSTICA_HD(size_t i) {
-        order[pos[i]] = moved_order[i];
-        box[pos[i]] = moved_box[i];
-      });
-
-      // The bins' counts and bounds, over chunks of the sorted elements.
-      auto cell_of = [=] CAUSTICA_HD(uint32_t k) {
-        return level_node[k >> key_bin_bits].first + (k & bin_mask);
-      };
-      const size_t chunks = (m + kBinReductionChunk - 1) / kBinReductionChunk;
-      parallel_for(backend, "binned_sah_bins", chunks, [=] CAUSTICA_HD(size_t c) {
-        const uint32_t begin = uint32_t(c * kBinReductionChunk);
-        const uint32_t end = begin + kBinReductionChunk < m ? begin + kBinReductionChunk : m;
-        uint32_t run_key = key[begin];
-        RunningBin running;
-        for (uint32_t i = begin; i < end; ++i) {
-          if (key[i] != run_key) {
-            running.flush_into(cell[cell_of(run_key)]);
-            run_key = key[i];
-          }
-          running.add(moved_box[i]);
-        }
-        running.flush_into(cell[cell_of(run_key)]);
-      });
-
-      // Each node's split; its slot, leaf children and small children are written at once, and
-      // its large children counted for the next level.
-      splits.resize_discard(node_count);
-      continuing.resize_discard(node_count);
-      NodeSplit* split_of = splits.data();
-      uint32_t* more = continuing.data();
-      parallel_for(backend, "binned_sah_split", node_count, [=] CAUSTICA_HD(size_t j) {
-        const LargeNode n = level_node[j];
-        const NodeSplit s = sweep_bins(n, cell + n.first);
-        split_of[j] = s;
-        more[j] = 0;
-        if (!s.binned) {
-          // The root stays unset, which tells the host that the per-node stage builds it.
-          if (n.parent != kNoParent)
-            nodes[n.parent].child[n.side] = BvhChild{n.box.lower, kNoNode, n.box.upper};
-          small[atomic_fetch_add(small_count_word, 1u)] = {n.parent, n.side, n.first, n.last};
-          return;
-        }
-        if (n.parent == kNoParent) {
-          *root = s.mid;
-        } else {
-          nodes[n.parent].child[n.side] = BvhChild{n.box.lower, s.mid, n.box.upper};
-        }
-        uint32_t large = 0;
-        const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
-        const Aabb child_box[2] = {s.left, s.right};
-        const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
-        for (uint32_t side = 0; side < 2; ++side) {
-          const uint32_t size = last[side] - first[side] + 1;
-          const Aabb& b = child_box[side];
-          if (stays_large(schedule, size, child_centroids[side], last_level)) {
-            ++large;
-          } else if (size == 1) {
-            nodes[s.mid].child[side] = BvhChild{b.lower, kLeafFlag | first[side], b.upper};
-          } else {
-            // The per-node stage reads the range's box from its slot.
-            nodes[s.mid].child[side] = BvhChild{b.lower, kNoNode, b.upper};
-            small[atomic_fetch_add(small_count_word, 1u)] = {s.mid, side, first[side], last[side]};
-          }
-        }
-        more[j] = large;
-      });
-      const uint32_t next_count = backend.exclusive_scan(more, more, node_count);
-      next_nodes.resize_discard(next_count);
-      child_next.resize_discard(2 * size_t(node_count));
-      LargeNode* next_node_list = next_nodes.data();
-      uint32_t* child_index = child_next.data();
-      parallel_for(backend, "binned_sah_next_nodes", node_count, [=] CAUSTICA_HD(size_t j) {
-        const LargeNode n = level_node[j];
-        const NodeSplit s = split_of[j];
-        if (!s.binned) {
-          child_index[2 * j] = child_index[2 * j + 1] = kNoNode;
-          return;
-        }
-        uint32_t slot = more[j];
-        const uint32_t first[2] = {n.first, s.mid + 1}, last[2] = {s.mid, n.last};
-        const Aabb child_box[2] = {s.left, s.right};
-        const Aabb child_centroids[2] = {s.left_centroids, s.right_centroids};
-        for (uint32_t side = 0; side < 2; ++side) {
-          const uint32_t size = last[side] - first[side] + 1;
-          if (stays_large(schedule, size, child_centroids[side], last_level)) {
-            next_node_list[slot] = {first[side],
-                                    last[side],
-                                    s.mid,
-                                    side,
-                                    child_box[side],
-                                    child_centroids[side],
-                                    schedule.bins_for(size)};
-            child_index[2 * j + side] = slot++;
-          } else {
-            child_index[2 * j + side] = kNoNode;
-          }
-        }
-      });
-      // The elements of large children, in position order.
-      uint8_t* kept = keep.data();
-      parallel_for(backend, "binned_sah_partition", m, [=] CAUSTICA_HD(size_t i) {
-        const uint32_t j = key[i] >> key_bin_bits;
-        const uint32_t side = pos[i] <= split_of[j].mid ? 0u : 1u;
-        kept[i] = child_index[2 * j + side] != kNoNode;
-      });
-      element_count = uint32_t(backend.select_flagged(pos, kept, m, next_pos.data()));
-      std::swap(element_pos, next_pos);
-      std::swap(level_nodes, next_nodes);
-      node_count = next_count;
-    }
-  }
-
-  // The triangles in leaf order, then the small nodes finished by the per-node stage.
-  out_triangles.resize_discard(count);
-  out_ids.resize_discard(count);
-  TriangleVertices* sorted = out_triangles.data();
-  uint32_t* ids = out_ids.data();
-  parallel_for(backend, "binned_sah_leaf_order", count, [=] CAUSTICA_HD(size_t p) {
-    sorted[p] = source[order[p]];
-    ids[p] = source_ids != nullptr ? source_ids[order[p]] : order[p];
-  });
-  uint32_t small_count = 0;
-  backend.copy_to_host(&small_count, small_count_word, sizeof(uint32_t));
-  bool root_small = false;
-  if (root_listed) {
-    uint32_t root_node = kNoNode;
-    backend.copy_to_host(&root_node, root, sizeof(uint32_t));
-    // Unset when the root went to the per-node stage, which then sets it.
-    root_small = root_node == kNoNode;
-    if (!root_small) bvh.root = root_node;
-  }
-  rebuild_small_subtrees(backend, bvh, small, small_count, out_triangles, out_ids, root_small);
+  if (node_count > 0)
+    data_parallel_levels(backend, bvh.leaf_count, schedule, a, level_nodes, node_count);
+  emit_leaves(backend, bvh, source, source_ids, root_listed, a, out_triangles, out_ids);
 }
 
 }  // namespace
