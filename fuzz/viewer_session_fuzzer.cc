@@ -194,8 +194,8 @@ extern "C" const char* __lsan_default_suppressions() { return "leak:_dlerror_run
 
 // Each input is a few gRPC calls on several threads, so ASan's defaults (30-frame allocation
 // stacks, fresh allocations filled, a 256 MB quarantine cycled through page faults that flush
-// every thread's TLB) took most of the time; with these an input costs about half. Errors are
-// still caught: stacks are shorter and a freed block is reused sooner. ASAN_OPTIONS overrides.
+// every thread's TLB) took most of the time (docs/reliability.md, "Runs"). Errors are still
+// caught: stacks are shorter and a freed block is reused sooner. ASAN_OPTIONS overrides.
 extern "C" const char* __asan_default_options() {
   return "malloc_context_size=4:max_malloc_fill_size=0:quarantine_size_mb=16";
 }
