@@ -435,6 +435,223 @@ struct Compaction {
   }
 };
 
+// The buffers behind a trace's PhotonStores, for `paths` paths of `slots_per_path` slots from
+// bounce `first_bounce`: the slots with each kind's flags and the footprints beside them, and the
+// overflow list, its footprints and its counter. Volume flags and footprints exist with media only,
+// footprints with differentials only.
+struct PhotonStoreBuffers {
+  PhotonStoreBuffers(Backend& backend, uint32_t paths, uint32_t slots_per_path,
+                     uint32_t first_bounce, bool with_media, bool with_footprints)
+      : slots(size_t(paths) * slots_per_path),
+        per_path(slots_per_path),
+        first_slot_bounce(first_bounce),
+        media(with_media),
+        footprints(with_footprints),
+        slot_photons(backend, slots),
+        caustic_flags(backend, slots),
+        global_flags(backend, slots),
+        volume_flags(backend, media ? slots : 0),
+        slot_footprints(backend, footprints ? slots : 0),
+        slot_volume_footprints(backend, footprints && media ? slots : 0),
+        overflow(backend, 0),
+        overflow_keys(backend, 0),
+        overflow_kinds(backend, 0),
+        overflow_footprints(backend, 0),
+        overflow_volume_footprints(backend, 0),
+        overflow_counter(backend, 1) {}
+
+  // Clears every flag and the overflow counter, and makes room for `overflow_room` later stores.
+  void clear(size_t overflow_room) {
+    caustic_flags.fill_zero();
+    global_flags.fill_zero();
+    volume_flags.fill_zero();
+    overflow_counter.fill_zero();
+    overflow.resize_discard(overflow_room);
+    overflow_keys.resize_discard(overflow_room);
+    overflow_kinds.resize_discard(overflow_room);
+    if (footprints) overflow_footprints.resize_discard(overflow_room);
+    if (footprints && media) overflow_volume_footprints.resize_discard(overflow_room);
+  }
+
+  // The stores into these buffers, with room for `overflow_room` later stores (clear).
+  PhotonStores stores(size_t overflow_room) {
+    return {slot_photons.data(),
+            caustic_flags.data(),
+            global_flags.data(),
+            media ? volume_flags.data() : nullptr,
+            per_path,
+            first_slot_bounce,
+            overflow.data(),
+            overflow_keys.data(),
+            overflow_kinds.data(),
+            overflow_counter.data(),
+            uint32_t(overflow_room),
+            footprints ? slot_footprints.data() : nullptr,
+            footprints ? overflow_footprints.data() : nullptr,
+            footprints && media ? slot_volume_footprints.data() : nullptr,
+            footprints && media ? overflow_volume_footprints.data() : nullptr};
+  }
+
+  size_t slots;
+  uint32_t per_path, first_slot_bounce;
+  bool media, footprints;
+  Buffer<Photon> slot_photons;
+  Buffer<uint8_t> caustic_flags, global_flags, volume_flags;
+  Buffer<PhotonFootprint> slot_footprints;
+  Buffer<float> slot_volume_footprints;
+  Buffer<Photon> overflow;
+  Buffer<uint64_t> overflow_keys;
+  Buffer<uint8_t> overflow_kinds;
+  Buffer<PhotonFootprint> overflow_footprints;
+  Buffer<float> overflow_volume_footprints;
+  Buffer<uint32_t> overflow_counter;
+};
+
+// What every path of a trace reads, but for its stores, which each retry of the trace gives anew.
+PhotonPathInputs path_inputs(const ResidentSceneView& scene, const ResidentScene& resident,
+                             const PhotonTraceSettings& settings) {
+  const Vec3f center = resident.bounds().center();
+  const float radius = resident.radius();
+  const uint32_t total = settings.total_paths != 0 ? settings.total_paths : settings.photon_count;
+  const float inv_count = 1.0f / float(total);
+  const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
+  return {scene,
+          center,
+          radius,
+          inv_count,
+          seed,
+          pass,
+          settings.max_bounces,
+          PhotonStores{},
+          differential_spacing(float(total)),
+          float(total),
+          settings.first_path};
+}
+
+// Traces every path once, with `workers` workers that take a new path as theirs ends when
+// `regenerate`, from the index in `next` on. The differentials' two instantiations: a path state
+// without them keeps the common trace's registers, which its occupancy depends on.
+template <typename Structure>
+void trace_paths(Backend& backend, const Structure& structure, const PhotonPathInputs& in,
+                 const PhotonTraceSettings& settings, bool regenerate, uint32_t workers,
+                 uint32_t* next) {
+  const uint32_t count = settings.photon_count;
+  const auto trace = [&](auto with_differentials) {
+    constexpr bool kDifferentials = decltype(with_differentials)::value;
+    if constexpr (StructureView<Structure>) {
+      if (settings.ray_queues) {
+        trace_photon_waves<kDifferentials>(backend, structure, in, count);
+      } else {
+        trace_photons_per_thread<kDifferentials>(backend, structure, in, count, regenerate, workers,
+                                                 next);
+      }
+    } else {
+      trace_photon_waves<kDifferentials>(backend, structure, in, count);
+    }
+  };
+  if (settings.differentials) {
+    trace(std::true_type{});
+  } else {
+    trace(std::false_type{});
+  }
+}
+
+// Traces the paths of `in` into `buffers` until the overflow list has room for every later store;
+// returns how many later stores it holds.
+template <typename Structure>
+size_t trace_until_stored(Backend& backend, const Structure& structure, PhotonPathInputs in,
+                          const PhotonTraceSettings& settings, PhotonStoreBuffers& buffers) {
+  const uint32_t count = settings.photon_count;
+  // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
+  // one path per thread keeps its lanes waiting for its longest path, most of them idle. On the
+  // GPU a fixed set of workers therefore takes the next path as soon as its current one ends, and
+  // every lane traces a hit in every step. The result does not depend on which worker traced a
+  // path: its samples and slots follow from its index alone.
+  const bool regenerate = backend.kind() == DeviceKind::kCuda;
+  const uint32_t workers =
+      regenerate ? uint32_t(std::min<size_t>(
+                       count, size_t(backend.info().compute_units) * kWorkersPerMultiprocessor))
+                 : count;
+  Buffer<uint32_t> next_path(backend, 1);
+  uint32_t* next = next_path.data();
+  // Room for the later stores: a path stores past its slots only when roulette spares it through
+  // kSlotsPerPath diffuse bounces, a few in a hundred; a trace that finds too little room runs
+  // again with exactly enough.
+  size_t overflow_room = count / 8 + 64;
+  while (true) {
+    buffers.clear(overflow_room);
+    parallel_for(backend, "photon_next_path", 1,
+                 [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
+    in.stores = buffers.stores(overflow_room);
+    trace_paths(backend, structure, in, settings, regenerate, workers, next);
+    const size_t overflowed = buffers.overflow_counter.download()[0];
+    if (overflowed <= overflow_room) return overflowed;
+    overflow_room = overflowed;
+  }
+}
+
+// The `overflowed` later stores' order by path and bounce, and their kinds in that order, as one
+// array of flags for each kind (volume flags with media only).
+struct OverflowOrder {
+  Buffer<uint32_t> order;
+  Buffer<uint8_t> caustic, global, volume;
+};
+
+OverflowOrder order_overflow(Backend& backend, PhotonStoreBuffers& buffers, size_t overflowed) {
+  OverflowOrder o{Buffer<uint32_t>(backend, overflowed), Buffer<uint8_t>(backend, overflowed),
+                  Buffer<uint8_t>(backend, overflowed),
+                  Buffer<uint8_t>(backend, buffers.media ? overflowed : 0)};
+  uint32_t* order = o.order.data();
+  parallel_for(backend, "photon_overflow_order", overflowed,
+               [=] CAUSTICA_HD(size_t i) { order[i] = uint32_t(i); });
+  backend.sort_pairs(buffers.overflow_keys.data(), order, overflowed);
+  const uint8_t* kind = buffers.overflow_kinds.data();
+  uint8_t* caustic = o.caustic.data();
+  uint8_t* global = o.global.data();
+  uint8_t* volume = buffers.media ? o.volume.data() : nullptr;
+  parallel_for(backend, "photon_overflow_kinds", overflowed, [=] CAUSTICA_HD(size_t i) {
+    caustic[i] = kind[order[i]] == kCausticPhoton;
+    global[i] = kind[order[i]] == kGlobalPhoton;
+    if (volume != nullptr) volume[i] = kind[order[i]] == kVolumePhoton;
+  });
+  return o;
+}
+
+// Compaction into `out`: each kind's photons from the slots in path order, then those of the
+// `overflowed` later stores of the same kind in `overflow`'s order, and their footprints alike.
+void compact_photons(Backend& backend, const PhotonStoreBuffers& buffers,
+                     const OverflowOrder& overflow, size_t overflowed, TracedPhotons& out) {
+  const size_t slots = buffers.slots;
+  const uint32_t* later_order = overflow.order.data();
+  auto compact = [&](const Buffer<uint8_t>& flags, const Buffer<uint8_t>& overflow_flags,
+                     Buffer<Photon>& into) {
+    Compaction c{Buffer<uint32_t>(backend, slots), Buffer<uint32_t>(backend, overflowed)};
+    c.slotted = backend.select_flagged(nullptr, flags.data(), slots, c.index.data());
+    c.extra = backend.select_flagged(later_order, overflow_flags.data(), overflowed,
+                                     c.later_index.data());
+    c.gather(backend, "photon_compact", buffers.slot_photons, buffers.overflow, into);
+    return c;
+  };
+  const Compaction caustic = compact(buffers.caustic_flags, overflow.caustic, out.caustic);
+  const Compaction global = compact(buffers.global_flags, overflow.global, out.global);
+  out.caustic_from_slots = caustic.slotted;
+  out.global_from_slots = global.slotted;
+  if (buffers.footprints) {
+    caustic.gather(backend, "photon_compact_footprints", buffers.slot_footprints,
+                   buffers.overflow_footprints, out.caustic_footprints);
+    global.gather(backend, "photon_compact_footprints", buffers.slot_footprints,
+                  buffers.overflow_footprints, out.global_footprints);
+  }
+  if (buffers.media) {
+    const Compaction volume = compact(buffers.volume_flags, overflow.volume, out.volume);
+    out.volume_from_slots = volume.slotted;
+    if (buffers.footprints) {
+      volume.gather(backend, "photon_compact_footprints", buffers.slot_volume_footprints,
+                    buffers.overflow_volume_footprints, out.volume_footprints);
+    }
+  }
+}
+
 // trace_photons with the paths traced through `structure`, the view of the scene's structure.
 template <typename Structure>
 TracedPhotons trace_photons_through(const Structure& structure, Backend& backend,
@@ -458,161 +675,14 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
     return out;
   out.emitted = settings.photon_count;
 
-  const uint32_t max_bounces = settings.max_bounces;
-  const uint32_t count = settings.photon_count;
   // Slots for each path's first stores (a photon at every interaction from the first stored).
-  const uint32_t per_path = std::min(max_bounces - first_slot_bounce, kSlotsPerPath);
-  const size_t slots = size_t(count) * per_path;
-  Buffer<Photon> slot_photons(backend, slots);
-  Buffer<uint8_t> caustic_flags(backend, slots);
-  Buffer<uint8_t> global_flags(backend, slots);
-  Buffer<uint8_t> volume_flags(backend, media ? slots : 0);
-  const bool footprints = settings.differentials;
-  Buffer<PhotonFootprint> slot_footprints(backend, footprints ? slots : 0);
-  Buffer<float> slot_volume_footprints(backend, footprints && media ? slots : 0);
-  // Room for the later stores: a path stores past its slots only when roulette spares it through
-  // kSlotsPerPath diffuse bounces, a few in a hundred; a trace that finds too little room runs
-  // again with exactly enough.
-  size_t overflow_room = count / 8 + 64;
-  Buffer<Photon> overflow(backend, 0);
-  Buffer<uint64_t> overflow_keys(backend, 0);
-  Buffer<uint8_t> overflow_kinds(backend, 0);
-  Buffer<PhotonFootprint> overflow_footprints(backend, 0);
-  Buffer<float> overflow_volume_footprints(backend, 0);
-  Buffer<uint32_t> overflow_counter(backend, 1);
-
-  const Vec3f center = resident.bounds().center();
-  const float radius = resident.radius();
-  const uint32_t total = settings.total_paths != 0 ? settings.total_paths : count;
-  const float inv_count = 1.0f / float(total);
-  const uint32_t seed = settings.seed ^ kPhotonDomain, pass = settings.pass;
-
-  // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
-  // one path per thread keeps its lanes waiting for its longest path, most of them idle. On the
-  // GPU a fixed set of workers therefore takes the next path as soon as its
-  // current one ends, and every lane traces a hit in every step. The result does not depend on
-  // which worker traced a path: its samples and slots follow from its index alone.
-  const bool regenerate = backend.kind() == DeviceKind::kCuda;
-  const uint32_t workers =
-      regenerate ? uint32_t(std::min<size_t>(
-                       count, size_t(backend.info().compute_units) * kWorkersPerMultiprocessor))
-                 : count;
-  Buffer<uint32_t> next_path(backend, 1);
-  uint32_t* next = next_path.data();
-
-  size_t overflowed = 0;
-  while (true) {
-    caustic_flags.fill_zero();
-    global_flags.fill_zero();
-    volume_flags.fill_zero();
-    overflow_counter.fill_zero();
-    overflow.resize_discard(overflow_room);
-    overflow_keys.resize_discard(overflow_room);
-    overflow_kinds.resize_discard(overflow_room);
-    if (footprints) overflow_footprints.resize_discard(overflow_room);
-    if (footprints && media) overflow_volume_footprints.resize_discard(overflow_room);
-    parallel_for(backend, "photon_next_path", 1,
-                 [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
-    const PhotonStores stores{slot_photons.data(),
-                              caustic_flags.data(),
-                              global_flags.data(),
-                              media ? volume_flags.data() : nullptr,
-                              per_path,
-                              first_slot_bounce,
-                              overflow.data(),
-                              overflow_keys.data(),
-                              overflow_kinds.data(),
-                              overflow_counter.data(),
-                              uint32_t(overflow_room),
-                              footprints ? slot_footprints.data() : nullptr,
-                              footprints ? overflow_footprints.data() : nullptr,
-                              footprints && media ? slot_volume_footprints.data() : nullptr,
-                              footprints && media ? overflow_volume_footprints.data() : nullptr};
-    const PhotonPathInputs in{scene,
-                              center,
-                              radius,
-                              inv_count,
-                              seed,
-                              pass,
-                              max_bounces,
-                              stores,
-                              differential_spacing(float(total)),
-                              float(total),
-                              settings.first_path};
-    // The differentials' two instantiations: a path state without them keeps the common trace's
-    // registers, which its occupancy depends on.
-    const auto trace = [&](auto with_differentials) {
-      constexpr bool kDifferentials = decltype(with_differentials)::value;
-      if constexpr (StructureView<Structure>) {
-        if (settings.ray_queues) {
-          trace_photon_waves<kDifferentials>(backend, structure, in, count);
-        } else {
-          trace_photons_per_thread<kDifferentials>(backend, structure, in, count, regenerate,
-                                                   workers, next);
-        }
-      } else {
-        trace_photon_waves<kDifferentials>(backend, structure, in, count);
-      }
-    };
-    if (footprints) {
-      trace(std::true_type{});
-    } else {
-      trace(std::false_type{});
-    }
-    overflowed = overflow_counter.download()[0];
-    if (overflowed <= overflow_room) break;
-    overflow_room = overflowed;
-  }
-
-  // The overflow in path and bounce order, its kinds alongside.
-  Buffer<uint32_t> overflow_order(backend, overflowed);
-  Buffer<uint8_t> caustic_overflow(backend, overflowed), global_overflow(backend, overflowed);
-  Buffer<uint8_t> volume_overflow(backend, media ? overflowed : 0);
-  {
-    uint32_t* order = overflow_order.data();
-    parallel_for(backend, "photon_overflow_order", overflowed,
-                 [=] CAUSTICA_HD(size_t i) { order[i] = uint32_t(i); });
-    backend.sort_pairs(overflow_keys.data(), order, overflowed);
-    const uint8_t* kind = overflow_kinds.data();
-    uint8_t* caustic = caustic_overflow.data();
-    uint8_t* global = global_overflow.data();
-    uint8_t* volume = media ? volume_overflow.data() : nullptr;
-    parallel_for(backend, "photon_overflow_kinds", overflowed, [=] CAUSTICA_HD(size_t i) {
-      caustic[i] = kind[order[i]] == kCausticPhoton;
-      global[i] = kind[order[i]] == kGlobalPhoton;
-      if (volume != nullptr) volume[i] = kind[order[i]] == kVolumePhoton;
-    });
-  }
-
-  // Compaction: the stored slots' photons in path order, then the overflow's of the same kind.
-  const uint32_t* later_order = overflow_order.data();
-  auto compact = [&](Buffer<uint8_t>& flags, Buffer<uint8_t>& overflow_flags,
-                     Buffer<Photon>& into) {
-    Compaction c{Buffer<uint32_t>(backend, slots), Buffer<uint32_t>(backend, overflowed)};
-    c.slotted = backend.select_flagged(nullptr, flags.data(), slots, c.index.data());
-    c.extra = backend.select_flagged(later_order, overflow_flags.data(), overflowed,
-                                     c.later_index.data());
-    c.gather(backend, "photon_compact", slot_photons, overflow, into);
-    return c;
-  };
-  const Compaction caustic = compact(caustic_flags, caustic_overflow, out.caustic);
-  const Compaction global = compact(global_flags, global_overflow, out.global);
-  out.caustic_from_slots = caustic.slotted;
-  out.global_from_slots = global.slotted;
-  if (footprints) {
-    caustic.gather(backend, "photon_compact_footprints", slot_footprints, overflow_footprints,
-                   out.caustic_footprints);
-    global.gather(backend, "photon_compact_footprints", slot_footprints, overflow_footprints,
-                  out.global_footprints);
-  }
-  if (media) {
-    const Compaction volume = compact(volume_flags, volume_overflow, out.volume);
-    out.volume_from_slots = volume.slotted;
-    if (footprints) {
-      volume.gather(backend, "photon_compact_footprints", slot_volume_footprints,
-                    overflow_volume_footprints, out.volume_footprints);
-    }
-  }
+  const uint32_t per_path = std::min(settings.max_bounces - first_slot_bounce, kSlotsPerPath);
+  PhotonStoreBuffers buffers(backend, settings.photon_count, per_path, first_slot_bounce, media,
+                             settings.differentials);
+  const size_t overflowed = trace_until_stored(
+      backend, structure, path_inputs(scene, resident, settings), settings, buffers);
+  const OverflowOrder overflow = order_overflow(backend, buffers, overflowed);
+  compact_photons(backend, buffers, overflow, overflowed, out);
   return out;
 }
 
