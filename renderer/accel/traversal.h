@@ -1,10 +1,11 @@
 // Stack traversal of a TriangleBvh: closest hit and any hit, both walking the leaves along a ray
-// nearest first. One function body serves both backends; on a GPU the lanes of a warp that trace
-// any hits together also share their walks' subtrees (any_hit_shared).
+// nearest first (leaf_walk.h). One function body serves both backends; on a GPU the lanes of a warp
+// that trace any hits together also share their walks' subtrees (any_hit_shared).
 #pragma once
 
 #include <cstring>
 
+#include "renderer/accel/leaf_walk.h"
 #include "renderer/accel/ray_slabs.h"
 #include "renderer/accel/triangle_bvh.h"
 #include "renderer/base/warp.h"
@@ -109,68 +110,52 @@ CAUSTICA_HDI bool enter_nearest_child(const TriangleBvhView& bvh, const RaySlabs
   return true;
 }
 
-// Walks the leaves along `ray` nearest first: `test(sorted)` tests one triangle, may shrink t_max
-// (a closest hit, kShrinks) and returns true to end the walk (an any hit). Leaves wait on the
-// stack with the subtrees, in the same near-first order, and a ray walks nodes until it holds a
-// leaf ("while-while", Aila and Laine 2009): the lanes of a warp then test triangles together,
-// where testing each node's leaves as they were met had one lane at a time test while the others
-// waited (docs/performance.md, "GPU floors and what limits each figure"). When hits shrink t_max,
-// each entry keeps its distance on the stack and is dropped unloaded when it is popped behind the
-// nearest hit.
-template <bool kShrinks, typename Test>
-CAUSTICA_HDI void walk_leaves(const TriangleBvhView& bvh, const Ray& ray, const float& t_max,
-                              Test test) {
-  if (bvh.count == 0) return;
-  // In registers: `ray` may be a reference into global memory, read again at every node.
-  const RaySlabs slabs = ray_slabs(ray.origin, ray.direction, bvh.bounds);
-  const float t_min = ray.t_min;
-  if (slab_entry(slabs, bvh.bounds, t_min, t_max) > t_max) return;
-  if (bvh.count == 1) {
-    test(0u);
-    return;
+// The entry distances beside a TriangleBvh walk's stack, kept only when hits shrink t_max: without
+// them enter_nearest_child is handed no array, as any_hit_shared's walks are.
+template <bool kShrinks>
+struct EntryDistances {
+  float stack_t[kTraversalStackSize];
+};
+template <>
+struct EntryDistances<false> {
+  static constexpr float* stack_t = nullptr;
+};
+
+// The walker of a TriangleBvh for walk_leaves (leaf_walk.h): the stack's references, and beside
+// them their entry distances, as enter_nearest_child pushes them. The walk needs to know nothing of
+// a node but its reference.
+template <bool kShrinks>
+struct TriangleBvhWalker : EntryDistances<kShrinks> {
+  struct Carried {};
+
+  static CAUSTICA_HDI Carried root(const TriangleBvhView&) { return {}; }
+  CAUSTICA_HDI bool enter_nearest_child(const TriangleBvhView& bvh, const RaySlabs& slabs,
+                                        float t_min, float t_max, uint32_t& node, Carried&,
+                                        int& top) {
+    return detail::enter_nearest_child<kShrinks>(bvh, slabs, t_min, t_max, node, stack,
+                                                 this->stack_t, top);
   }
+  CAUSTICA_HDI float entry_t(int i) const { return this->stack_t[i]; }
+  CAUSTICA_HDI void take(int i, uint32_t& node, Carried&) const { node = stack[i]; }
+  static CAUSTICA_HDI uint32_t first_triangle(uint32_t leaf) { return leaf_first(leaf); }
+  static CAUSTICA_HDI uint32_t triangle_count(uint32_t leaf) { return leaf_count(leaf); }
+
   uint32_t stack[kTraversalStackSize];
-  float stack_t[kShrinks ? kTraversalStackSize : 1];
-  int top = 0;
-  uint32_t node = 0;
-  // Takes the next entry still in front of t_max; false when there is none.
-  auto pop = [&] {
-    while (top > 0) {
-      --top;
-      if (!kShrinks || stack_t[top] <= t_max) {
-        node = stack[top];
-        return true;
-      }
-    }
-    return false;
-  };
-  while (true) {
-    while (!is_leaf(node)) {
-      if (!enter_nearest_child<kShrinks>(bvh, slabs, t_min, t_max, node, stack, stack_t, top) &&
-          !pop()) {
-        return;
-      }
-    }
-    const uint32_t first = leaf_first(node), end = first + leaf_count(node);
-    for (uint32_t i = first; i < end; ++i) {
-      if (test(i)) return;
-    }
-    if (!pop()) return;
-  }
-}
+};
 
 }  // namespace detail
 
 CAUSTICA_HDI Hit closest_hit(const TriangleBvhView& bvh, const Ray& ray) {
   return nearest_walked_hit(
-      bvh.triangles, bvh.triangle_ids, ray,
-      [&](const float& t_max, auto test) { detail::walk_leaves<true>(bvh, ray, t_max, test); });
+      bvh.triangles, bvh.triangle_ids, ray, [&](const float& t_max, auto test) {
+        detail::walk_leaves<true, detail::TriangleBvhWalker>(bvh, ray, t_max, test);
+      });
 }
 
 // True when anything blocks the open segment (t_min, t_max) of the ray, walked by one thread.
 CAUSTICA_HDI bool any_hit_alone(const TriangleBvhView& bvh, const Ray& ray) {
   return walked_segment_blocked(bvh.triangles, ray, [&](const float& t_max, auto test) {
-    detail::walk_leaves<false>(bvh, ray, t_max, test);
+    detail::walk_leaves<false, detail::TriangleBvhWalker>(bvh, ray, t_max, test);
   });
 }
 
