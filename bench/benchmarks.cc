@@ -281,13 +281,14 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
   }
   for (StructureKind kind : o.structures) {
     Reporter report = all.for_structure(structure_kind_name(kind));
-    TriangleStructure built = resident.new_structure(kind);
+    const BuildOptions build = apply_structure_options(o.structure_options, {});
+    TriangleStructure built = resident.new_structure(kind, build);
     resident.swap_structure(built);
     built = TriangleStructure();  // the previous kind's, not kept while this one is measured
     if (wanted(o, "lbvh_build")) {
       // Everything the structure's traversal reads, built from the triangles in memory.
       Measurement s =
-          measure(o, *backend, [&] { (void)build_structure(*backend, kind, input, tris); });
+          measure(o, *backend, [&] { (void)build_structure(*backend, kind, input, tris, build); });
       report.line("structure_build", name, tris / (s.median * 1e3), "Mtris/s", &s, o.runs);
       s.kernels.clear();  // reported with the line above
       report.line("structure_build_ms", name, s.median, "ms", &s, o.runs);
@@ -389,6 +390,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
   absl::StatusOr<Scene> scene = load_scene(o.photon_scene);
   if (!scene.ok()) return scene.status();
   scene->settings.structure = structure;
+  scene->settings.build = apply_structure_options(o.structure_options, scene->settings.build);
   const std::string name = o.photon_scene.parent_path().filename().string();
   absl::StatusOr<std::shared_ptr<Backend>> made = make_bench_backend(o);
   if (!made.ok()) return made.status();
@@ -485,14 +487,27 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
         "frame",
         name + absl::StrFormat(" %dx%d k=%d %s", o.width, o.height, o.k, kind_name(o.estimator)),
         m.median, "ms", &m, o.runs);
-    // Light change to finished frame: new lights, then one pass (photons, maps, render).
+    // Light change to finished frame: new lights, then one pass (photons, maps, render), with the
+    // engine's own stage times of each call, as the server reports them to update_to_frame.
     std::vector<Light> lights = scene->lights;
+    std::vector<double> trace_ms, map_ms, render_ms;
     Measurement change = measure(o, (*engine)->backend(), [&] {
-      (void)(*engine)->set_lights(lights);
-      (void)(*engine)->render(1);
+      const absl::StatusOr<RebuildReport> rebuilt = (*engine)->set_lights(lights);
+      const absl::StatusOr<PassReport> pass = (*engine)->render(1);
+      if (!rebuilt.ok() || !pass.ok()) return;
+      trace_ms.push_back(rebuilt->timings.photon_trace_ms + pass->timings.photon_trace_ms);
+      map_ms.push_back(rebuilt->timings.photon_map_build_ms + pass->timings.photon_map_build_ms);
+      render_ms.push_back(pass->timings.render_ms);
     });
-    report.line("light_change_to_frame", name + " " + kind_name(o.estimator), change.median, "ms",
-                &change, o.runs);
+    const std::string change_label = name + " " + kind_name(o.estimator);
+    report.line("light_change_to_frame", change_label, change.median, "ms", &change, o.runs);
+    // The warm-up runs' times are left out, as measure leaves them out of `change`.
+    for (auto* times : {&trace_ms, &map_ms, &render_ms})
+      times->erase(times->begin(), times->begin() + std::min<size_t>(o.warmup, times->size()));
+    if (trace_ms.empty()) return absl::InternalError("the light change or its pass failed");
+    report.line("light_change_photon_trace", change_label, summarize(trace_ms).median, "ms");
+    report.line("light_change_photon_map_build", change_label, summarize(map_ms).median, "ms");
+    report.line("light_change_render", change_label, summarize(render_ms).median, "ms");
 
     // The k-nearest render pass alone on maps already built: camera rays, specular chains, shadow
     // rays and both gathers, as the frame target counts it.
@@ -585,6 +600,7 @@ absl::StatusOr<Scene> load_photon_scene(const BenchOptions& o) {
   scene->camera.height = o.height;
   scene->settings.photons_per_pass = o.photons;
   scene->settings.k_nearest = o.k;
+  scene->settings.build = apply_structure_options(o.structure_options, scene->settings.build);
   return scene;
 }
 

@@ -34,6 +34,9 @@ struct BenchOptions {
   std::string device = "cpu";     // serving benchmarks: the server's --device
   // The triangle structures to measure, each in turn (--structure NAME|all).
   std::vector<StructureKind> structures = {kDefaultStructure};
+  // --structure-option NAME=VALUE, checked when parsed: over the scene file's settings.build, or
+  // over the defaults for a mesh.
+  std::vector<std::string> structure_options;
   // --kernels: after each measured benchmark, its per-launch times (one JSON line per launch name).
   bool kernels = false;
   // --ray-queues: the photon trace and the render pass through the ray queues for every structure.

@@ -7,6 +7,7 @@
 #include "bench/benchmarks.h"
 #include "bench/soak.h"
 #include "tools/cli/setting_names.h"
+#include "tools/cli/structure_option.h"
 
 int main(int argc, char** argv) {
   caustica::BenchOptions options;
@@ -76,6 +77,9 @@ int main(int argc, char** argv) {
         if (name == "all" || caustica::parse_structure_kind(name)) return "";
         return caustica::unknown_structure_message(name, "all, ");
       });
+  app.add_option("--structure-option", options.structure_options, caustica::kStructureOptionHelp)
+      ->type_name("NAME=VALUE")
+      ->check(caustica::structure_option_check());
   app.add_option("--reference-passes", options.reference_passes,
                  "convergence: passes of the path-traced reference")
       ->check(CLI::Range(1, 1 << 20));

@@ -29,6 +29,7 @@ struct SceneUploadOptions {
   std::filesystem::path file;
   std::string name;                        // empty: derived from the file name
   std::optional<StructureKind> structure;  // replaces the file's settings.structure
+  std::vector<std::string> structure_options;  // NAME=VALUE over the file's settings.build
 };
 absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOptions& options,
                               std::ostream& out);

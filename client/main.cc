@@ -5,6 +5,7 @@
 #include <iostream>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "client/commands.h"
 #include "client/frame_image.h"
@@ -30,6 +31,16 @@ void add_structure_option(CLI::App* command, std::optional<caustica::StructureKi
       ->transform(caustica::structure_names());
 }
 
+// --structure-option NAME=VALUE, repeatable, into `options`; `effect` says what it changes.
+void add_structure_options(CLI::App* command, std::vector<std::string>& options,
+                           const std::string& effect) {
+  command
+      ->add_option("--structure-option", options,
+                   std::string(caustica::kStructureOptionHelp) + " (" + effect + ")")
+      ->type_name("NAME=VALUE")
+      ->check(caustica::structure_option_check());
+}
+
 // The flags that change a scene: resolution, photons, structure and estimators.
 void add_scene_overrides(CLI::App* command, SceneOverrides& o) {
   command->add_option("--width", o.width, "image width in pixels (changes the scene)");
@@ -37,6 +48,7 @@ void add_scene_overrides(CLI::App* command, SceneOverrides& o) {
   command->add_option("--photons", o.photons, "photons emitted per pass (changes the scene)");
   command->add_option("--k", o.k, "photons per radiance estimate (changes the scene)");
   add_structure_option(command, o.structure, "changes the scene");
+  add_structure_options(command, o.structure_options, "changes the scene");
   command
       ->add_option("--integrator", o.integrator,
                    "photon or path, the unbiased path-traced reference (changes the scene)")
@@ -153,6 +165,7 @@ int main(int argc, char** argv) {
   upload_cmd->add_option("file", upload.file, "scene file (JSON)")->required();
   upload_cmd->add_option("--name", upload.name, "name shown by scene list");
   add_structure_option(upload_cmd, upload.structure, "replaces the file's settings.structure");
+  add_structure_options(upload_cmd, upload.structure_options, "over the file's settings.build");
   on(upload_cmd, "scene upload", [&] { return run_scene_upload(global, upload, std::cout); });
   on(scene->add_subcommand("list", "list the scenes on the server"), "scene list",
      [&] { return run_scene_list(global, std::cout); });

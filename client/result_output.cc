@@ -3,14 +3,34 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "renderer/accel/build_options.h"
 
 namespace caustica::client {
 namespace {
 
 std::string vec3_text(const v1::Vec3& v) {
   return absl::StrFormat("(%g, %g, %g)", v.x(), v.y(), v.z());
+}
+
+// settings.build as --structure-option names it.
+std::string build_text(const v1::BuildOptions& b) {
+  std::vector<std::string> stages;
+  for (const v1::BinnedSahStage& stage : b.binned_sah_stages()) {
+    stages.push_back(absl::StrCat(stage.above(), ":", stage.bins()));
+  }
+  const std::optional<BinnedSahReorder> reorder =
+      kind_from_wire<BinnedSahReorder>(b.binned_sah_reorder());
+  const std::optional<KdTraversal> traversal = kind_from_wire<KdTraversal>(b.kd_traversal());
+  return absl::StrFormat("binned-sah-stages=%s binned-sah-reorder=%s kd-traversal=%s",
+                         absl::StrJoin(stages, ","), reorder ? kind_name(*reorder) : "unset",
+                         traversal ? kind_name(*traversal) : "unset");
 }
 
 }  // namespace
@@ -92,6 +112,7 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
       rs.vkde_spread() > 0 ? absl::StrFormat("%g", rs.vkde_spread()) : "auto",
       rs.final_gather() ? absl::StrFormat("on, %d rays a seed", rs.final_gather_rays()) : "off");
   out << absl::StrFormat("structure    %s\n", structure_text(s));
+  out << absl::StrFormat("build        %s\n", build_text(rs.build()));
   out << absl::StrFormat("memory       structure %s; photon maps %s; device %s\n",
                          mib_text(s.structure_bytes()), mib_text(s.photon_map_bytes()),
                          mib_text(s.device_bytes()));

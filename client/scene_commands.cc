@@ -81,6 +81,7 @@ absl::Status run_scene_upload(const GlobalOptions& global, const SceneUploadOpti
   if (absl::Status pinned = (*connection)->pin_any(); !pinned.ok()) return pinned;
   SceneOverrides overrides;
   overrides.structure = options.structure;
+  overrides.structure_options = options.structure_options;
   absl::StatusOr<UploadedFile> uploaded =
       upload_scene_file(**connection, options.file, options.name, overrides, global.progress);
   if (!uploaded.ok()) return uploaded.status();

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <iostream>
+#include <string_view>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -27,6 +28,7 @@ void SceneOverrides::apply(Scene& scene) const {
   if (integrator) scene.settings.integrator = *integrator;
   if (estimator) scene.settings.estimator = *estimator;
   if (final_gather) scene.settings.final_gather = *final_gather;
+  scene.settings.build = apply_structure_options(structure_options, scene.settings.build);
 }
 
 v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) const {
@@ -40,6 +42,23 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
   if (integrator) request.mutable_settings()->set_integrator(wire::encode_integrator(*integrator));
   if (estimator) request.mutable_settings()->set_estimator(wire::encode_estimator(*estimator));
   if (final_gather) request.mutable_settings()->set_final_gather(*final_gather);
+  if (!structure_options.empty()) {
+    // Only the fields the options name are set; the others keep the scene's.
+    RenderSettings given;
+    given.build = apply_structure_options(structure_options, given.build);
+    const v1::BuildOptions all = wire::encode_settings(given).build();
+    v1::BuildOptions& build = *request.mutable_settings()->mutable_build();
+    for (const std::string& option : structure_options) {
+      const std::string_view name = std::string_view(option).substr(0, option.find('='));
+      if (name == "binned-sah-stages") {
+        *build.mutable_binned_sah_stages() = all.binned_sah_stages();
+      } else if (name == "binned-sah-reorder") {
+        build.set_binned_sah_reorder(all.binned_sah_reorder());
+      } else if (name == "kd-traversal") {
+        build.set_kd_traversal(all.kd_traversal());
+      }
+    }
+  }
   return request;
 }
 

@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.pb.h"
@@ -24,10 +25,12 @@ struct SceneOverrides {
   std::optional<Integrator> integrator;
   std::optional<EstimatorKind> estimator;
   std::optional<bool> final_gather;
+  // --structure-option NAME=VALUE, as given and already checked (tools/cli/structure_option.h).
+  std::vector<std::string> structure_options;
 
   bool empty() const {
     return !width && !height && !photons && !k && !structure && !integrator && !estimator &&
-           !final_gather;
+           !final_gather && structure_options.empty();
   }
   void apply(Scene& scene) const;
   v1::UpdateSettingsRequest request(const std::string& scene_id) const;

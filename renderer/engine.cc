@@ -52,8 +52,7 @@ absl::Status guarded(Fn&& fn) {
     return absl::InternalError(e.what());
   } catch (const std::invalid_argument& e) {
     // A structure refusing its input (too many triangles for its layout) or an integrator (the
-    // path integrator, a batch-only structure), or a setting read from
-    // the environment (CAUSTICA_KD_TRAVERSAL, CAUSTICA_BINNED_SAH_STAGES) that names nothing.
+    // path integrator, a batch-only structure).
     return absl::InvalidArgumentError(e.what());
   }
 }
@@ -208,9 +207,9 @@ struct Engine::State {
   void swap_estimators(std::vector<std::unique_ptr<Estimator>>& estimators) {
     for (size_t i = 0; i < slices.size(); ++i) slices[i].estimator.swap(estimators[i]);
   }
-  std::vector<TriangleStructure> new_structures(StructureKind kind) {
+  std::vector<TriangleStructure> new_structures(StructureKind kind, const BuildOptions& options) {
     return make_on_every_device<TriangleStructure>([&](DeviceSlice& d) {
-      TriangleStructure structure = d.resident->new_structure(kind);
+      TriangleStructure structure = d.resident->new_structure(kind, options);
       d.backend->synchronize();
       return structure;
     });
@@ -510,7 +509,7 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||
                               settings.seed != old.seed || estimator_change;
-  const bool structure_change = settings.structure != old.structure;
+  const bool structure_change = settings.structure != old.structure || settings.build != old.build;
   const bool resize =
       camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;
   RebuildReport report;
@@ -526,7 +525,7 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
       // the new one, as after any geometry change.
       st.drop_maps();
       auto start = std::chrono::steady_clock::now();
-      structures = st.new_structures(settings.structure);
+      structures = st.new_structures(settings.structure, settings.build);
       report.timings.structure_build_ms = elapsed_ms(start);
     }
     report.rebuilt = structure_change ? std::vector<std::string>{"geometry", "film"}

@@ -74,6 +74,8 @@ static_assert(kinds_match_proto<Integrator>(v1::Integrator_ARRAYSIZE));
 static_assert(kinds_match_proto<EstimatorKind>(v1::Estimator_ARRAYSIZE));
 static_assert(kinds_match_proto<SppmRadius>(v1::SppmRadius_ARRAYSIZE));
 static_assert(kinds_match_proto<DensityKernel>(v1::DensityKernel_ARRAYSIZE));
+static_assert(kinds_match_proto<BinnedSahReorder>(v1::BinnedSahReorder_ARRAYSIZE));
+static_assert(kinds_match_proto<KdTraversal>(v1::KdTraversal_ARRAYSIZE));
 
 template <typename Proto, typename Enum>
 Proto encode_kind(Enum value) {
@@ -253,6 +255,14 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_final_gather_rays(s.final_gather_rays);
   out.set_final_gather_seeds(s.final_gather_seeds);
   out.set_sppm_radius(encode_kind<v1::SppmRadius>(s.sppm_radius));
+  v1::BuildOptions& build = *out.mutable_build();
+  for (int i = 0; i < s.build.binned_sah.stage_count; ++i) {
+    v1::BinnedSahStage& stage = *build.add_binned_sah_stages();
+    stage.set_above(s.build.binned_sah.stage[i].above);
+    stage.set_bins(s.build.binned_sah.stage[i].bins);
+  }
+  build.set_binned_sah_reorder(encode_kind<v1::BinnedSahReorder>(s.build.binned_sah.reorder));
+  build.set_kd_traversal(encode_kind<v1::KdTraversal>(s.build.kd_traversal));
   return out;
 }
 
@@ -444,6 +454,35 @@ std::optional<StructureKind> decode_structure(v1::Structure structure) {
   return std::nullopt;
 }
 
+namespace {
+
+// The set fields of `in` over `options`; the stages' values are checked with the other settings
+// (validate_settings), only their number here, where it must fit the schedule.
+absl::Status apply_build_options(const v1::BuildOptions& in, const std::string& field,
+                                 BuildOptions& options) {
+  if (in.binned_sah_stages_size() > kMaxBinnedSahStages) {
+    return invalid(
+        join_field(field, "binned_sah_stages"),
+        absl::StrCat(in.binned_sah_stages_size(), " stages; at most ", kMaxBinnedSahStages));
+  }
+  if (!in.binned_sah_stages().empty()) {
+    BinnedSahSchedule& schedule = options.binned_sah;
+    std::fill(std::begin(schedule.stage), std::end(schedule.stage), BinnedSahStage{});
+    schedule.stage_count = in.binned_sah_stages_size();
+    for (int i = 0; i < schedule.stage_count; ++i) {
+      schedule.stage[i] = {in.binned_sah_stages(i).above(), in.binned_sah_stages(i).bins()};
+    }
+  }
+  if (absl::Status status = decode_kind(in.binned_sah_reorder(), field, "binned_sah_reorder",
+                                        &options.binned_sah.reorder);
+      !status.ok()) {
+    return status;
+  }
+  return decode_kind(in.kd_traversal(), field, "kd_traversal", &options.kd_traversal);
+}
+
+}  // namespace
+
 absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
                                               const RenderSettings& current,
                                               std::string_view field) {
@@ -480,6 +519,10 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
   if (in.has_final_gather_rays()) s.final_gather_rays = in.final_gather_rays();
   if (in.has_final_gather_seeds()) s.final_gather_seeds = in.final_gather_seeds();
   if (absl::Status status = decode_kind(in.sppm_radius(), field, "sppm_radius", &s.sppm_radius);
+      !status.ok()) {
+    return status;
+  }
+  if (absl::Status status = apply_build_options(in.build(), join_field(field, "build"), s.build);
       !status.ok()) {
     return status;
   }

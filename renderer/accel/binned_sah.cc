@@ -1,8 +1,6 @@
 #include "renderer/accel/binned_sah.h"
 
 #include <cfloat>
-#include <charconv>
-#include <cstdlib>
 #include <stdexcept>
 
 #include "renderer/accel/sah_subtrees.h"
@@ -787,101 +785,11 @@ BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices*
   return out;
 }
 
-uint32_t BinnedSahSchedule::max_bins() const {
-  uint32_t most = 0;
-  for (int i = 0; i < stage_count; ++i) most = stage[i].bins > most ? stage[i].bins : most;
-  return most;
-}
-
-BinnedSahSchedule default_binned_sah_schedule() {
-  BinnedSahSchedule schedule;
-  schedule.stage[0] = {64, 16};
-  schedule.stage_count = 1;
-  return schedule;
-}
-
-namespace {
-
-// A whole number of at most 2^31 from `text`, or throws naming `what`.
-uint32_t stage_number(std::string_view text, const std::string& what) {
-  uint32_t value = 0;
-  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (text.empty() || error != std::errc() || end != text.data() + text.size() ||
-      value > (1u << 31))
-    throw std::invalid_argument(what + " '" + std::string(text) +
-                                "' is not a whole number of at most 2^31");
-  return value;
-}
-
-}  // namespace
-
-BinnedSahSchedule parse_binned_sah_stages(std::string_view text, BinnedSahReorder reorder) {
+BinnedSahSchedule parse_binned_sah_schedule(std::string_view text, BinnedSahReorder reorder) {
   BinnedSahSchedule schedule;
   schedule.reorder = reorder;
-  if (text.empty()) throw std::invalid_argument("binned-sah stages: none given (ABOVE:BINS,...)");
-  while (true) {
-    const size_t comma = text.find(',');
-    const std::string_view entry = text.substr(0, comma);
-    const std::string name = "binned-sah stage " + std::to_string(schedule.stage_count + 1) +
-                             " ('" + std::string(entry) + "')";
-    if (schedule.stage_count == kMaxBinnedSahStages)
-      throw std::invalid_argument(name + ": at most " + std::to_string(kMaxBinnedSahStages) +
-                                  " stages");
-    const size_t colon = entry.find(':');
-    if (colon == std::string_view::npos)
-      throw std::invalid_argument(name + ": expected ABOVE:BINS");
-    const uint32_t above = stage_number(entry.substr(0, colon), name + ": ABOVE");
-    const uint32_t bins = stage_number(entry.substr(colon + 1), name + ": BINS");
-    if (bins < 2 || bins > kMaxBinnedSahBins)
-      throw std::invalid_argument(name + ": BINS must be within [2, " +
-                                  std::to_string(kMaxBinnedSahBins) + "]");
-    if (above < bins)
-      throw std::invalid_argument(name +
-                                  ": ABOVE must be at least BINS, so that a node has more "
-                                  "triangles than bins");
-    if (schedule.stage_count > 0 && above >= schedule.stage[schedule.stage_count - 1].above)
-      throw std::invalid_argument(name + ": ABOVE must be below the previous stage's " +
-                                  std::to_string(schedule.stage[schedule.stage_count - 1].above));
-    schedule.stage[schedule.stage_count++] = {above, bins};
-    if (comma == std::string_view::npos) break;
-    text.remove_prefix(comma + 1);
-  }
-  return schedule;
-}
-
-std::string binned_sah_stages_text(const BinnedSahSchedule& schedule) {
-  std::string text;
-  for (int i = 0; i < schedule.stage_count; ++i) {
-    if (i > 0) text += ',';
-    text += std::to_string(schedule.stage[i].above) + ':' + std::to_string(schedule.stage[i].bins);
-  }
-  return text;
-}
-
-const char* binned_sah_reorder_name(BinnedSahReorder reorder) {
-  return reorder == BinnedSahReorder::kSegmentedSplits ? "split" : "sort";
-}
-
-BinnedSahSchedule binned_sah_schedule_from_environment() {
-  BinnedSahSchedule schedule = default_binned_sah_schedule();
-  if (const char* stages = std::getenv("CAUSTICA_BINNED_SAH_STAGES"); stages && *stages) {
-    try {
-      schedule = parse_binned_sah_stages(stages);
-    } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(std::string("CAUSTICA_BINNED_SAH_STAGES: ") + e.what());
-    }
-  }
-  if (const char* reorder = std::getenv("CAUSTICA_BINNED_SAH_REORDER"); reorder && *reorder) {
-    const std::string name(reorder);
-    if (name == "sort") {
-      schedule.reorder = BinnedSahReorder::kRadixSort;
-    } else if (name == "split") {
-      schedule.reorder = BinnedSahReorder::kSegmentedSplits;
-    } else {
-      throw std::invalid_argument("CAUSTICA_BINNED_SAH_REORDER='" + name +
-                                  "' is not a binned-sah reorder (expected sort or split)");
-    }
-  }
+  if (std::optional<std::string> problem = parse_binned_sah_stages(text, schedule))
+    throw std::invalid_argument("binned-sah stages: " + *problem);
   return schedule;
 }
 

@@ -1,6 +1,6 @@
 // A binned SAH BVH built breadth-first from the root (Zeidan 2011, ch. 4; Wald 2007), in stages
 // that differ in the size of the nodes they split and so in how many bins those nodes use
-// (BinnedSahSchedule):
+// (BinnedSahSchedule, build_options.h):
 // - Nodes of more than the schedule's per-node limit are split level by level over all of them
 //   at once, data-parallel over their triangles: each triangle takes a bin along its node's
 //   longest centroid axis (or the node's last bin when it is huge for its node, binned_sah.cc),
@@ -27,58 +27,17 @@
 #include <string>
 #include <string_view>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/sah_subtrees.h"
 #include "renderer/accel/triangle_bvh.h"
 
 namespace caustica {
 
-constexpr int kMaxBinnedSahStages = 6;
-constexpr uint32_t kMaxBinnedSahBins = 128;
-
-// A stage of the data-parallel levels: the nodes of more than `above` triangles (and no more than
-// the previous stage's `above`) bin their centroids into `bins` bins.
-struct BinnedSahStage {
-  uint32_t above;
-  uint32_t bins;
-};
-
-// How a level puts every node's triangles in bin order: one radix sort of (node, bin) keys over
-// all of them, or a stable split of each node's triangles per bit of the bin, a scan each.
-enum class BinnedSahReorder : uint8_t { kRadixSort, kSegmentedSplits };
-
-// The stages, largest nodes first. The last stage's `above` is the per-node limit: nodes within
-// it go to the per-node stage. A plain value, copied into kernels.
-struct BinnedSahSchedule {
-  BinnedSahStage stage[kMaxBinnedSahStages] = {};
-  int stage_count = 0;
-  BinnedSahReorder reorder = BinnedSahReorder::kRadixSort;
-
-  // The bins of a node of `size` triangles, or 0 when the per-node stage splits it.
-  CAUSTICA_HDI uint32_t bins_for(uint32_t size) const {
-    for (int i = 0; i < stage_count; ++i)
-      if (size > stage[i].above) return stage[i].bins;
-    return 0;
-  }
-  CAUSTICA_HDI uint32_t per_node_limit() const { return stage[stage_count - 1].above; }
-  uint32_t max_bins() const;
-};
-
-// The stages chosen by measurement (docs/structures.md, "binned-sah: the stages").
-BinnedSahSchedule default_binned_sah_schedule();
-
-// A schedule from its text, "ABOVE:BINS,ABOVE:BINS,...", largest nodes first (the default is
-// binned_sah_stages_text(default_binned_sah_schedule())). Each stage's ABOVE must be below the
-// previous one's and at least its BINS, and BINS within [2, kMaxBinnedSahBins]; at most
-// kMaxBinnedSahStages stages. Throws std::invalid_argument naming the stage and the problem.
-BinnedSahSchedule parse_binned_sah_stages(std::string_view text,
-                                          BinnedSahReorder reorder = BinnedSahReorder::kRadixSort);
-std::string binned_sah_stages_text(const BinnedSahSchedule& schedule);
-const char* binned_sah_reorder_name(BinnedSahReorder reorder);
-
-// The schedule CAUSTICA_BINNED_SAH_STAGES (the text above) and CAUSTICA_BINNED_SAH_REORDER ("sort"
-// or "split") name, each defaulting when unset; throws std::invalid_argument naming the variable
-// and what it expects for anything else. For measuring stages without rebuilding.
-BinnedSahSchedule binned_sah_schedule_from_environment();
+// The schedule of `text` ("ABOVE:BINS,...", parse_binned_sah_stages in build_options.h) ordered
+// by `reorder`; throws std::invalid_argument naming the stage and the problem. For tools and tests
+// that name schedules themselves.
+BinnedSahSchedule parse_binned_sah_schedule(
+    std::string_view text, BinnedSahReorder reorder = BinnedSahReorder::kRadixSort);
 
 // Rebuilds each of the `segment_count` subtrees of `tree` listed in `segments` (in the backend's
 // memory, in any order; disjoint ranges of its sorted triangles of at least two each, as
@@ -86,13 +45,12 @@ BinnedSahSchedule binned_sah_schedule_from_environment();
 // level by level, then the per-node one within the schedule's per-node limit. Their triangles move
 // only within their ranges, and the nodes above them are untouched. `root_listed`: whether the root
 // is the one segment, whose box then becomes tree.bvh.bounds.
-void rebuild_subtrees_by_binned_sah(
-    Backend& backend, BinaryTriangleBvh& tree, const SmallSubtree* segments, uint32_t segment_count,
-    bool root_listed, const BinnedSahSchedule& schedule = default_binned_sah_schedule());
+void rebuild_subtrees_by_binned_sah(Backend& backend, BinaryTriangleBvh& tree,
+                                    const SmallSubtree* segments, uint32_t segment_count,
+                                    bool root_listed, const BinnedSahSchedule& schedule = {});
 
 // The binary SAH BVH over `count` triangles in the backend's memory.
-BinaryTriangleBvh build_binned_sah_bvh(
-    Backend& backend, const TriangleVertices* triangles, uint32_t count,
-    const BinnedSahSchedule& schedule = default_binned_sah_schedule());
+BinaryTriangleBvh build_binned_sah_bvh(Backend& backend, const TriangleVertices* triangles,
+                                       uint32_t count, const BinnedSahSchedule& schedule = {});
 
 }  // namespace caustica

@@ -19,9 +19,9 @@ constexpr uint32_t kHybridLbvhSubtreeTriangles = 1u << 14;
 // The hybrid binary tree over `count` triangles in the backend's memory, along `curve`, cut where
 // subtrees fall to at most `lbvh_limit` (>= 2) triangles, and those rebuilt by `schedule`'s
 // stages.
-BinaryTriangleBvh build_hybrid_bvh(
-    Backend& backend, const TriangleVertices* triangles, uint32_t count, Curve curve,
-    uint32_t lbvh_limit = kHybridLbvhSubtreeTriangles,
-    const BinnedSahSchedule& schedule = default_binned_sah_schedule());
+BinaryTriangleBvh build_hybrid_bvh(Backend& backend, const TriangleVertices* triangles,
+                                   uint32_t count, Curve curve,
+                                   uint32_t lbvh_limit = kHybridLbvhSubtreeTriangles,
+                                   const BinnedSahSchedule& schedule = {});
 
 }  // namespace caustica

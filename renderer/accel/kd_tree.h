@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/triangle.h"
 #include "renderer/parallel/buffer.h"
 
@@ -59,12 +60,6 @@ enum class KdCost : uint32_t {
   kSiroh,  // Fabianowski's scene-interior ray origin heuristic: origins inside it
 };
 
-// How closest_hit and any_hit walk the tree.
-enum class KdTraversal : uint32_t {
-  kStack,      // front to back with a stack of (node, interval end)
-  kStackless,  // Fabianowski's flags-register restart, with push-down and a short stack
-};
-
 // The device view of a kd-tree, one type per traversal so that kernels are instantiated for each
 // and a launch never branches per ray on the choice. `refs` hold the indices of the triangles in
 // the builder's input order, which `triangles` keep.
@@ -106,10 +101,5 @@ KdTree build_kd_tree(Backend& backend, const TriangleVertices* triangles, uint32
 // cells' areas plus the sum over leaves of references x area, over the root's area; on the
 // backend.
 double sah_cost(Backend& backend, const KdTree& tree);
-
-// The traversal CAUSTICA_KD_TRAVERSAL names ("stack" or "stackless"), the stack one when unset;
-// throws std::invalid_argument naming the accepted values for anything else.
-KdTraversal kd_traversal_from_environment();
-const char* kd_traversal_name(KdTraversal traversal);
 
 }  // namespace caustica

@@ -14,9 +14,6 @@
 // per node, so both backends build the same tree.
 #include <cfloat>
 #include <cmath>
-#include <cstdlib>
-#include <stdexcept>
-#include <string>
 #include <vector>
 
 #include "renderer/accel/kd_cost.h"
@@ -648,20 +645,6 @@ double sah_cost(Backend& backend, const KdTree& tree) {
     term[i] = area[i] * inv_root * (node.leaf() ? float(node.ref_count()) : 1.0f);
   });
   return backend.reduce_sum(term, n);
-}
-
-const char* kd_traversal_name(KdTraversal traversal) {
-  return traversal == KdTraversal::kStackless ? "stackless" : "stack";
-}
-
-KdTraversal kd_traversal_from_environment() {
-  const char* value = std::getenv("CAUSTICA_KD_TRAVERSAL");
-  if (value == nullptr || *value == '\0') return KdTraversal::kStack;
-  const std::string name(value);
-  if (name == "stack") return KdTraversal::kStack;
-  if (name == "stackless") return KdTraversal::kStackless;
-  throw std::invalid_argument("CAUSTICA_KD_TRAVERSAL='" + name +
-                              "' is not a kd-tree traversal (expected stack or stackless)");
 }
 
 }  // namespace caustica

@@ -35,47 +35,41 @@ TriangleStructure measured(Backend& backend, StructureKind kind, Build build) {
 }  // namespace
 
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
-                                  const TriangleVertices* triangles, uint32_t count) {
-  return build_structure(backend, kind, triangles, count, backend_curve(backend));
+                                  const TriangleVertices* triangles, uint32_t count,
+                                  const BuildOptions& options) {
+  return build_structure(backend, kind, triangles, count, backend_curve(backend), options);
 }
 
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
-                                  const TriangleVertices* triangles, uint32_t count, Curve curve) {
+                                  const TriangleVertices* triangles, uint32_t count, Curve curve,
+                                  const BuildOptions& options) {
   switch (kind) {
     case StructureKind::kLbvh4:
       return measured(backend, kind,
                       [&] { return build_triangle_bvh(backend, triangles, count, curve); });
-    case StructureKind::kBinnedSah: {
-      // Read before the build, so that a bad setting fails before any work.
-      const BinnedSahSchedule schedule = binned_sah_schedule_from_environment();
+    case StructureKind::kBinnedSah:
       return measured(backend, kind, [&] {
-        return collapse_triangle_bvh(backend,
-                                     build_binned_sah_bvh(backend, triangles, count, schedule));
+        return collapse_triangle_bvh(
+            backend, build_binned_sah_bvh(backend, triangles, count, options.binned_sah));
       });
-    }
-    case StructureKind::kHybrid: {
-      const BinnedSahSchedule schedule = binned_sah_schedule_from_environment();
+    case StructureKind::kHybrid:
       return measured(backend, kind, [&] {
         return collapse_triangle_bvh(
             backend, build_hybrid_bvh(backend, triangles, count, curve, kHybridLbvhSubtreeTriangles,
-                                      schedule));
+                                      options.binned_sah));
       });
-    }
     case StructureKind::kSiblingPair:
       return measured(backend, kind, [&] {
         return build_sibling_pair_bvh(backend,
                                       build_sah_refined_lbvh(backend, triangles, count, curve));
       });
     case StructureKind::kKdSah:
-    case StructureKind::kKdSiroh: {
-      // Read before the build, so that a bad setting fails before any work.
-      const KdTraversal traversal = kd_traversal_from_environment();
+    case StructureKind::kKdSiroh:
       return measured(backend, kind, [&] {
         KdTree tree = build_kd_tree(backend, triangles, count, kd_cost_of(kind));
-        tree.traversal = traversal;
+        tree.traversal = options.kd_traversal;
         return tree;
       });
-    }
     case StructureKind::kDacrt:
       return measured(backend, kind,
                       [&] { return build_dacrt_triangles(backend, triangles, count); });

@@ -21,6 +21,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/bvh8_traversal.h"
 #include "renderer/accel/dacrt.h"
 #include "renderer/accel/kd_traversal.h"
@@ -135,11 +136,14 @@ class TriangleStructure {
 
 // Builds a structure of `kind` over `count` triangles already in the backend's memory, and
 // measures it. Kinds that order triangles along a space-filling curve (lbvh4) take `curve`, by
-// default the backend's own (backend_curve), which differs between the CPU and a GPU.
+// default the backend's own (backend_curve), which differs between the CPU and a GPU. The kind's
+// builder takes its own of `options` (build_options.h); the other kinds ignore them.
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
-                                  const TriangleVertices* triangles, uint32_t count);
+                                  const TriangleVertices* triangles, uint32_t count,
+                                  const BuildOptions& options = {});
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
-                                  const TriangleVertices* triangles, uint32_t count, Curve curve);
+                                  const TriangleVertices* triangles, uint32_t count, Curve curve,
+                                  const BuildOptions& options = {});
 
 // The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; the other
 // layouts' are with them (sibling_pair_bvh.h, kd_tree.h, bvh8.h).

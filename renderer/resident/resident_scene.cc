@@ -195,13 +195,14 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.media_.upload(media);
   r.triangle_medium_.bind(backend);
   r.triangle_medium_.upload(triangle_medium);
-  r.structure_ = r.new_structure(scene.settings.structure);
+  r.structure_ = r.new_structure(scene.settings.structure, scene.settings.build);
   r.lighting_ = r.new_lighting(scene.lights, scene.materials);  // after the structure: its bounds
   return r;
 }
 
-TriangleStructure ResidentScene::new_structure(StructureKind kind) const {
-  return build_structure(*backend_, kind, triangles_.data(), uint32_t(triangles_.size()));
+TriangleStructure ResidentScene::new_structure(StructureKind kind,
+                                               const BuildOptions& options) const {
+  return build_structure(*backend_, kind, triangles_.data(), uint32_t(triangles_.size()), options);
 }
 
 void ResidentScene::swap_structure(TriangleStructure& structure) noexcept {

@@ -154,8 +154,8 @@ class ResidentScene {
 
   // A change is built beside what is in use and then swapped in, so that one that runs out of
   // memory leaves the scene as it was, and a swap back undoes one without allocating.
-  // A structure of `kind` over the same triangles.
-  TriangleStructure new_structure(StructureKind kind) const;
+  // A structure of `kind`, its builder told `options`, over the same triangles.
+  TriangleStructure new_structure(StructureKind kind, const BuildOptions& options) const;
   void swap_structure(TriangleStructure& structure) noexcept;
   // `lights` (area lights follow the geometry and stay) with the emission of `materials`, the
   // materials given at upload with their emission changed or not.

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/base/vec.h"
 #include "renderer/scene/affine.h"
@@ -135,8 +136,10 @@ struct RenderSettings {
   uint32_t area_light_samples = 4;   // shadow rays per diffuse hit for area lights
   uint32_t passes = 1;               // progressive passes, fresh photons each
   uint32_t seed = 1;
-  // The triangle structure rays are traced through; changing it rebuilds the geometry.
+  // The triangle structure rays are traced through, and what its builder is told; changing
+  // either rebuilds the geometry's structure.
   StructureKind structure = kDefaultStructure;
+  BuildOptions build;
 };
 
 struct Scene {

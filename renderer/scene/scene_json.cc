@@ -10,6 +10,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/density_grid.h"
 #include "renderer/scene/json_fields.h"
@@ -217,6 +218,24 @@ class SceneReader {
       }
       s.structure = *kind;
     }
+    SCENE_ASSIGN_OR_RETURN(const Json* build, object.find("build", kOptional));
+    if (build != nullptr) SCENE_RETURN_IF_ERROR(read_build(*build, object.field_path("build")));
+    return object.finish();
+  }
+
+  // settings.build: what the structure's builder is told (accel/build_options.h).
+  absl::Status read_build(const Json& value, std::string path) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+    BuildOptions& b = scene_.settings.build;
+    if (object.has("binned_sah_stages")) {
+      std::string stages;
+      SCENE_RETURN_IF_ERROR(object.read("binned_sah_stages", kRequired, &stages));
+      if (std::optional<std::string> problem = parse_binned_sah_stages(stages, b.binned_sah)) {
+        return invalid_field(object.field_path("binned_sah_stages"), *problem);
+      }
+    }
+    SCENE_RETURN_IF_ERROR(read_kind(object, "binned_sah_reorder", &b.binned_sah.reorder));
+    SCENE_RETURN_IF_ERROR(read_kind(object, "kd_traversal", &b.kd_traversal));
     return object.finish();
   }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -119,6 +120,15 @@ absl::Status validate_settings(const RenderSettings& s) {
   if (!std::ranges::any_of(kStructureKinds,
                            [&](StructureKind kind) { return kind == s.structure; })) {
     return invalid_field("settings.structure", "is not a known structure");
+  }
+  if (std::optional<std::string> problem = binned_sah_stages_problem(s.build.binned_sah)) {
+    return invalid_field("settings.build.binned_sah_stages", *problem);
+  }
+  if (!is_known_kind(s.build.binned_sah.reorder)) {
+    return invalid_field("settings.build.binned_sah_reorder", "is not a known binned-sah reorder");
+  }
+  if (!is_known_kind(s.build.kd_traversal)) {
+    return invalid_field("settings.build.kd_traversal", "is not a known kd-tree traversal");
   }
   return absl::OkStatus();
 }

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,7 @@ namespace caustica::testing {
 namespace {
 
 using google::protobuf::FieldDescriptor;
+using google::protobuf::Message;
 
 constexpr int kWidth = 32, kHeight = 24;
 constexpr uint32_t kPhotons = 3000, kK = 16, kSeed = 5, kPasses = 2;
@@ -53,20 +55,60 @@ Scene base_scene(const Base& base) {
   return scene;
 }
 
-// A value of `field` other than the one `current` holds, set alone in a message: every other
-// value of an enum (0 would mean "unset"), half an integer (or one more where that is 0 or 1),
-// half a float (0.5 for 0), the other boolean. An empty list, with a failure, for a type this
-// test cannot yet vary, so that a new kind of field is not silently left out.
-std::vector<v1::RenderSettings> changes_of(const FieldDescriptor& field,
-                                           const v1::RenderSettings& current) {
+// The number the rules below put in place of an unsigned `now`: half, or one more for 0 and 1.
+uint32_t other_uint32(uint32_t now) { return now >= 2 ? now / 2 : now + 1; }
+
+// Values of `field` other than the one `current` holds, each set alone in a message of
+// `current`'s type: every other value of an enum (0 would mean "unset"), half an integer (or one
+// more where that is 0 or 1), half a float (0.5 for 0), the other boolean; each change of a
+// message field's own fields; for a list of messages, the list with every number of every element
+// changed so. A failure for a type this test cannot yet vary, so that a new kind of field is not
+// silently left out.
+std::vector<std::unique_ptr<Message>> changes_of(const FieldDescriptor& field,
+                                                 const Message& current) {
   const google::protobuf::Reflection& get = *current.GetReflection();
-  std::vector<v1::RenderSettings> out;
+  std::vector<std::unique_ptr<Message>> out;
   auto add = [&](auto set) {
-    v1::RenderSettings change;
-    set(*change.GetReflection(), change);
-    out.push_back(change);
+    std::unique_ptr<Message> change(current.New());
+    set(*change->GetReflection(), *change);
+    out.push_back(std::move(change));
   };
+  if (field.is_repeated()) {
+    if (field.cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE ||
+        get.FieldSize(current, &field) == 0) {
+      ADD_FAILURE() << "no values to try for the list " << field.full_name()
+                    << ": teach changes_of its type, or give it elements to vary";
+      return out;
+    }
+    add([&](const auto& set, auto& message) {
+      for (int i = 0; i < get.FieldSize(current, &field); ++i) {
+        Message& element = *set.AddMessage(&message, &field);
+        element.CopyFrom(get.GetRepeatedMessage(current, &field, i));
+        const google::protobuf::Reflection& in = *element.GetReflection();
+        for (int f = 0; f < element.GetDescriptor()->field_count(); ++f) {
+          const FieldDescriptor& number = *element.GetDescriptor()->field(f);
+          if (number.cpp_type() != FieldDescriptor::CPPTYPE_UINT32 || number.is_repeated()) {
+            ADD_FAILURE() << "no values to try for " << number.full_name();
+            continue;
+          }
+          in.SetUInt32(&element, &number, other_uint32(in.GetUInt32(element, &number)));
+        }
+      }
+    });
+    return out;
+  }
   switch (field.cpp_type()) {
+    case FieldDescriptor::CPPTYPE_MESSAGE: {
+      const Message& now = get.GetMessage(current, &field);
+      for (int f = 0; f < field.message_type()->field_count(); ++f) {
+        for (const std::unique_ptr<Message>& inner :
+             changes_of(*field.message_type()->field(f), now))
+          add([&](const auto& set, auto& message) {
+            set.MutableMessage(&message, &field)->CopyFrom(*inner);
+          });
+      }
+      break;
+    }
     case FieldDescriptor::CPPTYPE_ENUM: {
       const int now = get.GetEnumValue(current, &field);
       for (int i = 0; i < field.enum_type()->value_count(); ++i) {
@@ -77,8 +119,7 @@ std::vector<v1::RenderSettings> changes_of(const FieldDescriptor& field,
       break;
     }
     case FieldDescriptor::CPPTYPE_UINT32: {
-      const uint32_t now = get.GetUInt32(current, &field);
-      const uint32_t value = now >= 2 ? now / 2 : now + 1;
+      const uint32_t value = other_uint32(get.GetUInt32(current, &field));
       add([&](const auto& set, auto& message) { set.SetUInt32(&message, &field, value); });
       break;
     }
@@ -131,7 +172,8 @@ TEST_F(ServerTest, EverySettingTakesEffectOrIsRefusedByName) {
     const v1::RenderSettings current = wire::encode_settings(scene.settings);
     for (int f = 0; f < settings.field_count(); ++f) {
       const FieldDescriptor& field = *settings.field(f);
-      for (const v1::RenderSettings& change : changes_of(field, current)) {
+      for (const std::unique_ptr<Message>& changed_field : changes_of(field, current)) {
+        const auto& change = static_cast<const v1::RenderSettings&>(*changed_field);
         SCOPED_TRACE(absl::StrCat("UpdateSettings{", change.ShortDebugString(), "}"));
         // The scene has rendered before the change, so that whatever lives across passes and
         // calls (maps, an estimator's state, a structure) exists to be kept or replaced.

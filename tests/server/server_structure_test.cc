@@ -229,5 +229,64 @@ TEST_F(ServerTest, EveryEstimatorRendersEveryBundledScene) {
   }
 }
 
+// Two scenes on one server, the same geometry through binned-sah and hybrid with different stage
+// schedules: each is built with its own (its SceneInfo reports the schedule and a tree of its own
+// SAH cost), an UpdateSettings of the schedule rebuilds the structure as a fresh upload with it
+// builds it, and a refused schedule names the stage.
+TEST_F(ServerTest, ScenesOnOneServerBuildTheirStructuresWithTheirOwnOptions) {
+  const std::filesystem::path file =
+      std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-caustics" / "scene.json";
+  for (StructureKind kind : {StructureKind::kBinnedSah, StructureKind::kHybrid}) {
+    SCOPED_TRACE(structure_kind_name(kind));
+    Scene coarse = small_scene(file, kind), fine = coarse;
+    ASSERT_FALSE(parse_binned_sah_stages("512:2,16:2", coarse.settings.build.binned_sah));
+    ASSERT_FALSE(parse_binned_sah_stages("512:64,16:8", fine.settings.build.binned_sah));
+    fine.settings.build.binned_sah.reorder = BinnedSahReorder::kSegmentedSplits;
+    const std::string coarse_id = upload_scene(*stub_, coarse, "coarse");
+    const std::string fine_id = upload_scene(*stub_, fine, "fine");
+    const v1::SceneInfo coarse_info = get_scene(*stub_, coarse_id);
+    const v1::SceneInfo fine_info = get_scene(*stub_, fine_id);
+    EXPECT_EQ(coarse_info.settings().build().ShortDebugString(),
+              wire::encode_settings(coarse.settings).build().ShortDebugString());
+    EXPECT_EQ(fine_info.settings().build().binned_sah_stages_size(), 2);
+    EXPECT_EQ(fine_info.settings().build().binned_sah_stages(0).bins(), 64u);
+    EXPECT_EQ(fine_info.settings().build().binned_sah_reorder(), v1::BINNED_SAH_REORDER_SPLIT);
+    EXPECT_NE(coarse_info.structure_sah_cost(), fine_info.structure_sah_cost());
+
+    // The coarse scene changed to the fine schedule is the fine scene, structure and image.
+    v1::UpdateSettingsRequest request;
+    request.set_scene_id(coarse_id);
+    *request.mutable_settings()->mutable_build() = fine_info.settings().build();
+    v1::RebuildReport report;
+    {
+      grpc::ClientContext context;
+      set_deadline(context);
+      const grpc::Status status = stub_->UpdateSettings(&context, request, &report);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+    }
+    EXPECT_NE(std::find(report.rebuilt().begin(), report.rebuilt().end(), "geometry"),
+              report.rebuilt().end());
+    const v1::SceneInfo changed = get_scene(*stub_, coarse_id);
+    EXPECT_EQ(changed.structure_sah_cost(), fine_info.structure_sah_cost());
+    EXPECT_EQ(changed.structure_nodes(), fine_info.structure_nodes());
+    EXPECT_LT(relative_rmse(frame_floats(render_linear(*stub_, fine_id)),
+                            frame_floats(render_linear(*stub_, coarse_id))),
+              kRelativeRmse);
+
+    // A schedule out of order is refused by name and changes nothing.
+    request.mutable_settings()->mutable_build()->mutable_binned_sah_stages(1)->set_above(4096);
+    grpc::ClientContext context;
+    set_deadline(context);
+    const grpc::Status refused = stub_->UpdateSettings(&context, request, &report);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_NE(refused.error_message().find("settings.build.binned_sah_stages: stage 2 ('4096:8')"),
+              std::string::npos)
+        << refused.error_message();
+    EXPECT_EQ(get_scene(*stub_, coarse_id).structure_sah_cost(), fine_info.structure_sah_cost());
+    delete_scene(*stub_, coarse_id);
+    delete_scene(*stub_, fine_id);
+  }
+}
+
 }  // namespace
 }  // namespace caustica::testing

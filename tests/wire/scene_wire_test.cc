@@ -10,7 +10,12 @@
 #include <cstring>
 #include <filesystem>
 #include <optional>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/load_scene.h"
 #include "renderer/scene/scene_limits.h"
@@ -245,9 +250,10 @@ TEST(SceneWire, IntegratorRoundTripsAndUnspecifiedKeepsTheCurrentOne) {
 // Each kind of a setting's table (scene/setting_kinds.h) has the proto's value of its number, named
 // as the kind is (scene_wire.cc asserts at compile time that the numbers are the proto's), and
 // round-trips through encode_settings and apply_settings.
-template <typename Enum>
-void expect_kinds_match_proto(const google::protobuf::EnumDescriptor& proto,
-                              Enum RenderSettings::*field) {
+// `field(settings)` is the setting's member in `settings`.
+template <typename Field>
+void expect_kinds_match_proto(const google::protobuf::EnumDescriptor& proto, Field field) {
+  using Enum = std::remove_reference_t<decltype(field(std::declval<RenderSettings&>()))>;
   SCOPED_TRACE(proto.full_name());
   for (const SettingKind<Enum>& kind : SettingKinds<Enum>::kinds) {
     SCOPED_TRACE(kind.name);
@@ -259,19 +265,84 @@ void expect_kinds_match_proto(const google::protobuf::EnumDescriptor& proto,
     EXPECT_TRUE(value->name() == expected || value->name().ends_with("_" + expected))
         << value->name() << " against " << expected;
     RenderSettings settings;
-    settings.*field = kind.value;
+    Enum& member = field(settings);
+    member = kind.value;
     absl::StatusOr<RenderSettings> back =
         apply_settings(encode_settings(settings), RenderSettings{}, "settings");
     ASSERT_TRUE(back.ok()) << back.status();
-    EXPECT_EQ((*back).*field, kind.value);
+    EXPECT_EQ(field(*back), kind.value);
   }
 }
 
 TEST(SceneWire, SettingKindsAreTheProtosValuesByName) {
-  expect_kinds_match_proto(*v1::Integrator_descriptor(), &RenderSettings::integrator);
-  expect_kinds_match_proto(*v1::Estimator_descriptor(), &RenderSettings::estimator);
-  expect_kinds_match_proto(*v1::SppmRadius_descriptor(), &RenderSettings::sppm_radius);
-  expect_kinds_match_proto(*v1::DensityKernel_descriptor(), &RenderSettings::kernel);
+  expect_kinds_match_proto(
+      *v1::Integrator_descriptor(), [](RenderSettings & s) -> auto& { return s.integrator; });
+  expect_kinds_match_proto(
+      *v1::Estimator_descriptor(), [](RenderSettings & s) -> auto& { return s.estimator; });
+  expect_kinds_match_proto(
+      *v1::SppmRadius_descriptor(), [](RenderSettings & s) -> auto& { return s.sppm_radius; });
+  expect_kinds_match_proto(
+      *v1::DensityKernel_descriptor(), [](RenderSettings & s) -> auto& { return s.kernel; });
+  expect_kinds_match_proto(
+      *v1::BinnedSahReorder_descriptor(),
+      [](RenderSettings & s) -> auto& { return s.build.binned_sah.reorder; });
+  expect_kinds_match_proto(
+      *v1::KdTraversal_descriptor(),
+      [](RenderSettings & s) -> auto& { return s.build.kd_traversal; });
+}
+
+// The schedule of a text the test knows is good.
+BinnedSahSchedule schedule_of(std::string_view text,
+                              BinnedSahReorder reorder = BinnedSahReorder::kRadixSort) {
+  BinnedSahSchedule schedule;
+  schedule.reorder = reorder;
+  const std::optional<std::string> problem = parse_binned_sah_stages(text, schedule);
+  EXPECT_FALSE(problem) << problem.value_or("");
+  return schedule;
+}
+
+// settings.build through the wire: every stage and both kinds; an empty list and unset kinds keep
+// the current ones; a list longer than a schedule holds is refused by name (the values are
+// validate_settings', which names the stage).
+TEST(SceneWire, BuildOptionsRoundTripAndUnsetKeepsTheCurrentOnes) {
+  RenderSettings settings;
+  settings.build.binned_sah = schedule_of("65536:128,4096:32,64:8");
+  settings.build.binned_sah.reorder = BinnedSahReorder::kSegmentedSplits;
+  settings.build.kd_traversal = KdTraversal::kStackless;
+  const v1::RenderSettings encoded = encode_settings(settings);
+  ASSERT_EQ(encoded.build().binned_sah_stages_size(), 3);
+  EXPECT_EQ(encoded.build().binned_sah_stages(1).above(), 4096u);
+  EXPECT_EQ(encoded.build().binned_sah_stages(1).bins(), 32u);
+  absl::StatusOr<RenderSettings> applied = apply_settings(encoded, RenderSettings{}, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->build, settings.build);
+  applied = apply_settings(v1::RenderSettings{}, settings, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->build, settings.build);
+
+  // A shorter list replaces the whole schedule, the stages past it cleared.
+  v1::RenderSettings shorter;
+  v1::BinnedSahStage& stage = *shorter.mutable_build()->add_binned_sah_stages();
+  stage.set_above(256);
+  stage.set_bins(16);
+  applied = apply_settings(shorter, settings, "settings");
+  ASSERT_TRUE(applied.ok()) << applied.status();
+  EXPECT_EQ(applied->build.binned_sah, schedule_of("256:16", BinnedSahReorder::kSegmentedSplits));
+
+  v1::RenderSettings too_many;
+  for (int i = 0; i <= kMaxBinnedSahStages; ++i) {
+    v1::BinnedSahStage& s = *too_many.mutable_build()->add_binned_sah_stages();
+    s.set_above(10000 - 100 * i);
+    s.set_bins(2);
+  }
+  applied = apply_settings(too_many, settings, "update.settings");
+  EXPECT_EQ(applied.status().message(),
+            "update.settings.build.binned_sah_stages: 7 stages; at most 6");
+  v1::RenderSettings bad;
+  bad.mutable_build()->set_kd_traversal(static_cast<v1::KdTraversal>(3));
+  applied = apply_settings(bad, settings, "update.settings");
+  EXPECT_EQ(applied.status().message(),
+            "update.settings.build.kd_traversal: 3 is not a kd-tree traversal");
 }
 
 TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {

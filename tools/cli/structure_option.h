@@ -1,6 +1,7 @@
-// The --structure NAME option shared by the command-line tools (caustica, caustica-render,
-// caustica-bench): a structure's name turned into the StructureKind the option stores, an unknown
-// name refused with the list of known ones.
+// The --structure NAME and --structure-option NAME=VALUE options shared by the command-line tools
+// (caustica, caustica-render, caustica-bench): a structure's name turned into the StructureKind
+// the option stores, an unknown name refused with the list of known ones, and a builder option
+// checked as it is parsed.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -8,6 +9,7 @@
 #include <optional>
 #include <string>
 
+#include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 
 namespace caustica {
@@ -23,6 +25,20 @@ inline CLI::Validator structure_names() {
         return {};
       },
       "");
+}
+
+inline constexpr const char* kStructureOptionHelp =
+    "what the structure's builder is told, repeatable: binned-sah-stages=ABOVE:BINS,... "
+    "(binned-sah and hybrid), binned-sah-reorder=sort|split, kd-traversal=stack|stackless";
+
+// A CLI11 check of one --structure-option, which the option keeps as written.
+inline CLI::Validator structure_option_check() {
+  return CLI::Validator(
+      [](std::string& value) -> std::string {
+        BuildOptions scratch;
+        return apply_structure_option(value, scratch).value_or(std::string());
+      },
+      "NAME=VALUE");
 }
 
 }  // namespace caustica

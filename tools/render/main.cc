@@ -32,6 +32,10 @@ int main(int argc, char** argv) {
                      caustica::structure_kind_name(caustica::kDefaultStructure) + ")")
       ->type_name("NAME")
       ->transform(caustica::structure_names());
+  app.add_option("--structure-option", job.structure_options,
+                 std::string(caustica::kStructureOptionHelp) + " (default: the scene's)")
+      ->type_name("NAME=VALUE")
+      ->check(caustica::structure_option_check());
   app.add_option("--integrator", job.integrator,
                  "photon (photon-mapped global illumination) or path (the unbiased path-traced "
                  "reference) (default: the scene's, else photon)")

@@ -29,6 +29,7 @@ absl::StatusOr<RenderSummary> run_render_job(const RenderJob& job, std::ostream&
   if (job.passes) rs.passes = *job.passes;
   if (job.seed) rs.seed = *job.seed;
   if (job.structure) rs.structure = *job.structure;
+  rs.build = apply_structure_options(job.structure_options, rs.build);
   if (job.integrator) rs.integrator = *job.integrator;
   if (job.estimator) rs.estimator = *job.estimator;
   if (job.final_gather) rs.final_gather = *job.final_gather;

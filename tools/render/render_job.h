@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <optional>
 #include <ostream>
+#include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "renderer/accel/structure_kind.h"
@@ -19,6 +21,7 @@ struct RenderJob {
   std::optional<int> width, height;
   std::optional<uint32_t> photons, k, passes, seed;
   std::optional<StructureKind> structure;
+  std::vector<std::string> structure_options;  // NAME=VALUE over the scene's settings.build
   std::optional<Integrator> integrator;
   std::optional<EstimatorKind> estimator;
   std::optional<bool> final_gather;

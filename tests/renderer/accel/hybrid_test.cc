@@ -51,9 +51,8 @@ void check_hybrid_invariants(const std::vector<TriangleVertices>& tris, uint32_t
 // data-parallel levels each, and at the chosen limit.
 TEST(Hybrid, InvariantsOnRandomSoups) {
   for (uint32_t limit : {uint32_t(2), uint32_t(600), uint32_t(4096), kHybridLbvhSubtreeTriangles}) {
-    for (size_t n :
-         {size_t(2), size_t(3), size_t(default_binned_sah_schedule().per_node_limit() + 1),
-          size_t(kSahSubtreeTriangles + 1), size_t(5000), size_t(40000)}) {
+    for (size_t n : {size_t(2), size_t(3), size_t(BinnedSahSchedule{}.per_node_limit() + 1),
+                     size_t(kSahSubtreeTriangles + 1), size_t(5000), size_t(40000)}) {
       SCOPED_TRACE(testing::Message() << n << " triangles, limit " << limit);
       check_hybrid_invariants(random_soup(n, uint32_t(11 + n)), limit);
     }

@@ -334,19 +334,7 @@ TEST(KdTree, ChildProbabilitiesMatchTheirDefinitions) {
   }
 }
 
-TEST(KdTree, TraversalFromEnvironment) {
-  unsetenv("CAUSTICA_KD_TRAVERSAL");
-  EXPECT_EQ(kd_traversal_from_environment(), KdTraversal::kStack);
-  setenv("CAUSTICA_KD_TRAVERSAL", "stackless", 1);
-  EXPECT_EQ(kd_traversal_from_environment(), KdTraversal::kStackless);
-  setenv("CAUSTICA_KD_TRAVERSAL", "stack", 1);
-  EXPECT_EQ(kd_traversal_from_environment(), KdTraversal::kStack);
-  setenv("CAUSTICA_KD_TRAVERSAL", "rope", 1);
-  EXPECT_THROW(kd_traversal_from_environment(), std::invalid_argument);
-  unsetenv("CAUSTICA_KD_TRAVERSAL");
-}
-
-// build_structure takes the traversal from the environment, set_kd_traversal changes it, and visit
+// build_structure takes the traversal from its options, set_kd_traversal changes it, and visit
 // hands out the view of the traversal set; both views of one build answer alike.
 TEST(KdTree, StructureHandsOutTheViewOfItsTraversal) {
   const std::vector<TriangleVertices> tris = scene_triangles("cornell-caustics");
@@ -355,10 +343,13 @@ TEST(KdTree, StructureHandsOutTheViewOfItsTraversal) {
   input.upload(tris);
   for (StructureKind kind : {StructureKind::kKdSah, StructureKind::kKdSiroh}) {
     SCOPED_TRACE(structure_kind_name(kind));
-    setenv("CAUSTICA_KD_TRAVERSAL", "stackless", 1);
+    EXPECT_FALSE(build_structure(*backend, kind, input.data(), uint32_t(tris.size()))
+                     .visit([](const auto& view) {
+                       return std::is_same_v<std::decay_t<decltype(view)>, KdTreeStacklessView>;
+                     }));
     TriangleStructure structure =
-        build_structure(*backend, kind, input.data(), uint32_t(tris.size()));
-    unsetenv("CAUSTICA_KD_TRAVERSAL");
+        build_structure(*backend, kind, input.data(), uint32_t(tris.size()),
+                        BuildOptions{.kd_traversal = KdTraversal::kStackless});
     auto is_stackless = [](const auto& view) {
       return std::is_same_v<std::decay_t<decltype(view)>, KdTreeStacklessView>;
     };
@@ -372,11 +363,6 @@ TEST(KdTree, StructureHandsOutTheViewOfItsTraversal) {
       if constexpr (StructureView<std::decay_t<decltype(view)>>) check_rays(tris, view, 3000, 21);
     });
   }
-  setenv("CAUSTICA_KD_TRAVERSAL", "rope", 1);
-  EXPECT_THROW(
-      build_structure(*backend, StructureKind::kKdSah, input.data(), uint32_t(tris.size())),
-      std::invalid_argument);
-  unsetenv("CAUSTICA_KD_TRAVERSAL");
   TriangleStructure bvh =
       build_structure(*backend, StructureKind::kLbvh4, input.data(), uint32_t(tris.size()));
   EXPECT_FALSE(bvh.set_kd_traversal(KdTraversal::kStackless));

@@ -214,7 +214,7 @@ TEST_P(EveryStructure, MatchesBruteForceOnSmallSoups) {
     SCOPED_TRACE(n);
     check(random_soup(n, uint32_t(100 + n)), 400, uint32_t(n), true);
   }
-  const size_t binned_limit = default_binned_sah_schedule().per_node_limit();
+  const size_t binned_limit = BinnedSahSchedule{}.per_node_limit();
   for (size_t n : {binned_limit, binned_limit + 1, size_t(kSahSubtreeTriangles),
                    size_t(kSahSubtreeTriangles) + 1}) {
     SCOPED_TRACE(n);
@@ -275,7 +275,7 @@ struct BinnedBuild {
   BinaryTriangleBvh binary;
   TriangleBvh wide;
   explicit BinnedBuild(const std::vector<TriangleVertices>& tris,
-                       const BinnedSahSchedule& schedule = default_binned_sah_schedule())
+                       const BinnedSahSchedule& schedule = BinnedSahSchedule{})
       : input(*backend, tris.size()) {
     input.upload(tris);
     binary = build_binned_sah_bvh(*backend, input.data(), uint32_t(tris.size()), schedule);
@@ -286,7 +286,7 @@ struct BinnedBuild {
 };
 
 void check_binned_invariants(const std::vector<TriangleVertices>& tris,
-                             const BinnedSahSchedule& schedule = default_binned_sah_schedule()) {
+                             const BinnedSahSchedule& schedule = BinnedSahSchedule{}) {
   BinnedBuild b(tris, schedule);
   {
     SCOPED_TRACE("binary");
@@ -300,7 +300,7 @@ void check_binned_invariants(const std::vector<TriangleVertices>& tris,
 // Sizes below, at and above the data-parallel stage's limit, and large enough for several of its
 // levels.
 TEST(BinnedSah, InvariantsOnRandomSoups) {
-  const size_t limit = default_binned_sah_schedule().per_node_limit();
+  const size_t limit = BinnedSahSchedule{}.per_node_limit();
   for (size_t n : {size_t(2), size_t(3), limit, limit + 1, size_t(1000), size_t(40000)}) {
     SCOPED_TRACE(n);
     check_binned_invariants(random_soup(n, uint32_t(7 + n)));
@@ -391,7 +391,7 @@ std::string refusal(F&& f) {
 }
 
 TEST(BinnedSahSchedule, ParsesStagesAndNamesEachProblem) {
-  const BinnedSahSchedule s = parse_binned_sah_stages("65536:64,4096:32,128:8");
+  const BinnedSahSchedule s = parse_binned_sah_schedule("65536:64,4096:32,128:8");
   ASSERT_EQ(s.stage_count, 3);
   EXPECT_EQ(s.per_node_limit(), 128u);
   EXPECT_EQ(s.max_bins(), 64u);
@@ -402,70 +402,107 @@ TEST(BinnedSahSchedule, ParsesStagesAndNamesEachProblem) {
   EXPECT_EQ(s.bins_for(128), 0u);
   EXPECT_EQ(binned_sah_stages_text(s), "65536:64,4096:32,128:8");
   EXPECT_EQ(binned_sah_stages_text(
-                parse_binned_sah_stages(binned_sah_stages_text(default_binned_sah_schedule()))),
-            binned_sah_stages_text(default_binned_sah_schedule()));
+                parse_binned_sah_schedule(binned_sah_stages_text(BinnedSahSchedule{}))),
+            binned_sah_stages_text(BinnedSahSchedule{}));
 
-  EXPECT_NE(refusal([] { parse_binned_sah_stages(""); }).find("none given"), std::string::npos);
-  EXPECT_NE(
-      refusal([] { parse_binned_sah_stages("256"); }).find("stage 1 ('256'): expected ABOVE:BINS"),
-      std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_schedule(""); }).find("none given"), std::string::npos);
   EXPECT_NE(refusal([] {
-              parse_binned_sah_stages("4096:32,256:x");
+              parse_binned_sah_schedule("256");
+            }).find("stage 1 ('256'): expected ABOVE:BINS"),
+            std::string::npos);
+  EXPECT_NE(refusal([] {
+              parse_binned_sah_schedule("4096:32,256:x");
             }).find("stage 2 ('256:x'): BINS 'x' is not a whole number"),
             std::string::npos);
-  EXPECT_NE(refusal([] { parse_binned_sah_stages("-5:4"); }).find("ABOVE '-5'"), std::string::npos);
-  EXPECT_NE(
-      refusal([] { parse_binned_sah_stages("4096:256"); }).find("BINS must be within [2, 128]"),
-      std::string::npos);
-  EXPECT_NE(refusal([] { parse_binned_sah_stages("4096:1"); }).find("BINS must be within"),
+  EXPECT_NE(refusal([] { parse_binned_sah_schedule("-5:4"); }).find("ABOVE '-5'"),
             std::string::npos);
-  EXPECT_NE(refusal([] { parse_binned_sah_stages("16:32"); }).find("ABOVE must be at least BINS"),
+  EXPECT_NE(
+      refusal([] { parse_binned_sah_schedule("4096:256"); }).find("BINS must be within [2, 128]"),
+      std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_schedule("4096:1"); }).find("BINS must be within"),
+            std::string::npos);
+  EXPECT_NE(refusal([] { parse_binned_sah_schedule("16:32"); }).find("ABOVE must be at least BINS"),
             std::string::npos);
   EXPECT_NE(refusal([] {
-              parse_binned_sah_stages("256:16,4096:32");
+              parse_binned_sah_schedule("256:16,4096:32");
             }).find("stage 2 ('4096:32'): ABOVE must be below the previous stage's 256"),
             std::string::npos);
-  EXPECT_NE(refusal([] { parse_binned_sah_stages("256:16,"); }).find("stage 2 (''): expected"),
+  EXPECT_NE(refusal([] { parse_binned_sah_schedule("256:16,"); }).find("stage 2 (''): expected"),
             std::string::npos);
   EXPECT_NE(refusal([] {
-              parse_binned_sah_stages("7000:2,6000:2,5000:2,4000:2,3000:2,2000:2,1000:2");
+              parse_binned_sah_schedule("7000:2,6000:2,5000:2,4000:2,3000:2,2000:2,1000:2");
             }).find("stage 7"),
             std::string::npos);
 }
 
-TEST(BinnedSahSchedule, ReadFromTheEnvironment) {
-  unsetenv("CAUSTICA_BINNED_SAH_STAGES");
-  unsetenv("CAUSTICA_BINNED_SAH_REORDER");
-  EXPECT_EQ(binned_sah_stages_text(binned_sah_schedule_from_environment()),
-            binned_sah_stages_text(default_binned_sah_schedule()));
-  EXPECT_EQ(binned_sah_schedule_from_environment().reorder, BinnedSahReorder::kRadixSort);
-  setenv("CAUSTICA_BINNED_SAH_STAGES", "1024:16,64:4", 1);
-  setenv("CAUSTICA_BINNED_SAH_REORDER", "split", 1);
-  const BinnedSahSchedule s = binned_sah_schedule_from_environment();
-  EXPECT_EQ(binned_sah_stages_text(s), "1024:16,64:4");
-  EXPECT_EQ(s.reorder, BinnedSahReorder::kSegmentedSplits);
-  setenv("CAUSTICA_BINNED_SAH_REORDER", "bucket", 1);
-  EXPECT_NE(refusal([] {
-              binned_sah_schedule_from_environment();
-            }).find("CAUSTICA_BINNED_SAH_REORDER='bucket' is not a binned-sah reorder"),
+// --structure-option's words, each refusal naming the option and the problem, and the scene's
+// own check of a schedule from the wire.
+TEST(BuildOptions, StructureOptionsApplyInOrderAndNameEachProblem) {
+  BuildOptions o;
+  EXPECT_EQ(binned_sah_stages_text(o.binned_sah), "64:16");
+  EXPECT_FALSE(apply_structure_option("binned-sah-reorder=split", o));
+  EXPECT_FALSE(apply_structure_option("binned-sah-stages=1024:16,64:4", o));
+  EXPECT_FALSE(apply_structure_option("kd-traversal=stackless", o));
+  EXPECT_EQ(binned_sah_stages_text(o.binned_sah), "1024:16,64:4");
+  EXPECT_EQ(o.binned_sah.reorder, BinnedSahReorder::kSegmentedSplits);  // kept by the stages
+  EXPECT_EQ(o.kd_traversal, KdTraversal::kStackless);
+  EXPECT_EQ(build_options_text(o),
+            "binned-sah-stages=1024:16,64:4 binned-sah-reorder=split kd-traversal=stackless");
+  EXPECT_EQ(apply_structure_options({"kd-traversal=stack", "kd-traversal=stackless"}, {}),
+            (BuildOptions{.kd_traversal = KdTraversal::kStackless}));
+
+  const BuildOptions before = o;
+  auto refusal_of = [&](const char* option) {
+    const std::optional<std::string> problem = apply_structure_option(option, o);
+    EXPECT_EQ(o, before) << "a refused option changed the options: " << option;
+    return problem.value_or("");
+  };
+  EXPECT_NE(refusal_of("binned-sah-reorder=bucket")
+                .find("binned-sah-reorder: unknown binned-sah reorder 'bucket' (expected sort or "
+                      "split)"),
             std::string::npos);
-  setenv("CAUSTICA_BINNED_SAH_REORDER", "sort", 1);
-  setenv("CAUSTICA_BINNED_SAH_STAGES", "64:4,1024:16", 1);
-  EXPECT_NE(refusal([] {
-              binned_sah_schedule_from_environment();
-            }).find("CAUSTICA_BINNED_SAH_STAGES: binned-sah stage 2"),
+  EXPECT_NE(refusal_of("binned-sah-stages=64:4,1024:16")
+                .find("binned-sah-stages: stage 2 ('1024:16'): ABOVE must be below"),
             std::string::npos);
-  // The structure's builder reads it before any work, and refuses the same way.
-  EXPECT_NE(refusal([] {
-              BuiltStructure b(StructureKind::kBinnedSah, random_soup(100, 1));
-            }).find("CAUSTICA_BINNED_SAH_STAGES"),
+  EXPECT_NE(refusal_of("kd-traversal=rope").find("unknown kd-tree traversal 'rope'"),
             std::string::npos);
-  EXPECT_NE(refusal([] {
-              BuiltStructure b(StructureKind::kHybrid, random_soup(100, 1));
-            }).find("CAUSTICA_BINNED_SAH_STAGES"),
+  EXPECT_NE(refusal_of("kd_traversal=stack").find("'kd_traversal' is not a structure option"),
             std::string::npos);
-  unsetenv("CAUSTICA_BINNED_SAH_STAGES");
-  unsetenv("CAUSTICA_BINNED_SAH_REORDER");
+  EXPECT_NE(refusal_of("stackless").find("expected NAME=VALUE"), std::string::npos);
+
+  BinnedSahSchedule wire;  // as the wire fills it: the values unchecked
+  wire.stage[0] = {16, 32};
+  EXPECT_NE(binned_sah_stages_problem(wire).value_or("").find("stage 1 ('16:32'): ABOVE must be at "
+                                                              "least BINS"),
+            std::string::npos);
+  wire.stage_count = 0;
+  EXPECT_NE(binned_sah_stages_problem(wire).value_or("").find("no stages"), std::string::npos);
+  EXPECT_FALSE(binned_sah_stages_problem(BinnedSahSchedule{}));
+}
+
+// build_structure hands binned-sah and hybrid the schedule it is given: a coarse one and a fine
+// one build different trees, each the tree of its schedule built directly.
+TEST(BuildOptions, BuildStructureBuildsWithTheGivenSchedule) {
+  const std::vector<TriangleVertices> tris = random_soup(30000, 11);
+  std::unique_ptr<Backend> backend = make_cpu_backend(size_t(2) << 30);
+  Buffer<TriangleVertices> input(*backend, tris.size());
+  input.upload(tris);
+  for (StructureKind kind : {StructureKind::kBinnedSah, StructureKind::kHybrid}) {
+    SCOPED_TRACE(structure_kind_name(kind));
+    std::vector<double> costs;
+    for (const char* stages : {"4096:4,256:4", "4096:64,256:32"}) {
+      BuildOptions options;
+      options.binned_sah = parse_binned_sah_schedule(stages);
+      const TriangleStructure built =
+          build_structure(*backend, kind, input.data(), uint32_t(tris.size()), options);
+      costs.push_back(built.stats().sah_cost);
+    }
+    EXPECT_NE(costs[0], costs[1]);
+    BinnedBuild direct(tris, parse_binned_sah_schedule("4096:4,256:4"));
+    if (kind == StructureKind::kBinnedSah) {
+      EXPECT_DOUBLE_EQ(costs[0], sah_cost(*direct.backend, direct.wide));
+    }
+  }
 }
 
 // Schedules of other shapes than the default: many bins at the top, a data-parallel part down to
@@ -475,7 +512,7 @@ std::vector<BinnedSahSchedule> schedule_shapes() {
   for (const char* text : {"4096:128,512:16,32:8", "2:2", "1000:4"}) {
     for (BinnedSahReorder reorder :
          {BinnedSahReorder::kRadixSort, BinnedSahReorder::kSegmentedSplits})
-      shapes.push_back(parse_binned_sah_stages(text, reorder));
+      shapes.push_back(parse_binned_sah_schedule(text, reorder));
   }
   return shapes;
 }
@@ -487,9 +524,8 @@ TEST(BinnedSahSchedule, EveryShapeKeepsTheInvariantsAndFindsBruteForcesHits) {
   mixed.insert(mixed.end(), 400, {Vec3f(2, 2, 2), Vec3f(3, 2, 2), Vec3f(2, 3, 2)});
   for (const BinnedSahSchedule& schedule : schedule_shapes()) {
     for (const std::vector<TriangleVertices>& tris : {mixed, sphere_triangles()}) {
-      SCOPED_TRACE(binned_sah_stages_text(schedule) + " by " +
-                   binned_sah_reorder_name(schedule.reorder) + ", " + std::to_string(tris.size()) +
-                   " triangles");
+      SCOPED_TRACE(binned_sah_stages_text(schedule) + " by " + kind_name(schedule.reorder) + ", " +
+                   std::to_string(tris.size()) + " triangles");
       check_binned_invariants(tris, schedule);
       if (::testing::Test::HasFatalFailure()) return;
       BinnedBuild b(tris, schedule);
@@ -508,8 +544,8 @@ TEST(BinnedSahSchedule, BothOrderingsBuildTheSameTree) {
     BinnedBuild sorted(tris, shapes[i]), split(tris, shapes[i + 1]);
     expect_same_binary_tree(sorted.binary, split.binary);
   }
-  BinnedBuild coarse(tris, parse_binned_sah_stages("256:4")),
-      fine(tris, parse_binned_sah_stages("256:64"));
+  BinnedBuild coarse(tris, parse_binned_sah_schedule("256:4")),
+      fine(tris, parse_binned_sah_schedule("256:64"));
   EXPECT_NE(internal_area_cost(coarse.binary), internal_area_cost(fine.binary));
 }
 

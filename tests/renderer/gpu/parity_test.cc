@@ -627,8 +627,8 @@ TEST(GpuParity, BinnedSahStagesBuildTheSameTreeOnBothBackends) {
   for (const char* text : {"65536:128,4096:32,64:8", "2:2"}) {
     for (BinnedSahReorder reorder :
          {BinnedSahReorder::kRadixSort, BinnedSahReorder::kSegmentedSplits}) {
-      const BinnedSahSchedule schedule = parse_binned_sah_stages(text, reorder);
-      SCOPED_TRACE(std::string(text) + " by " + binned_sah_reorder_name(reorder));
+      const BinnedSahSchedule schedule = parse_binned_sah_schedule(text, reorder);
+      SCOPED_TRACE(std::string(text) + " by " + kind_name(reorder));
       const BinaryTriangleBvh c = build_binned_sah_bvh(*both.cpu, c_soup.data(), n, schedule);
       const BinaryTriangleBvh g = build_binned_sah_bvh(*both.gpu, g_soup.data(), n, schedule);
       EXPECT_EQ(c.bvh.root, g.bvh.root);

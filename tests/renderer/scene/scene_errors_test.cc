@@ -211,6 +211,27 @@ std::vector<Edit> edits() {
       {"StructureNotString",
        {set_settings(R"({"structure": 1})")},
        {"settings.structure: expected a string"}},
+      {"BuildStagesOutOfOrder",
+       {set_settings(R"({"build": {"binned_sah_stages": "256:16,4096:32"}})")},
+       {"settings.build.binned_sah_stages: stage 2 ('4096:32'): ABOVE must be below the previous "
+        "stage's 256"}},
+      {"BuildStagesTooManyBins",
+       {set_settings(R"({"build": {"binned_sah_stages": "4096:256"}})")},
+       {"settings.build.binned_sah_stages: stage 1 ('4096:256'): BINS must be within [2, 128]"}},
+      {"BuildUnknownReorder",
+       {set_settings(R"({"build": {"binned_sah_reorder": "bucket"}})")},
+       {"settings.build.binned_sah_reorder: unknown binned-sah reorder 'bucket' (expected sort or "
+        "split)"}},
+      {"BuildUnknownTraversal",
+       {set_settings(R"({"build": {"kd_traversal": "rope"}})")},
+       {"settings.build.kd_traversal: unknown kd-tree traversal 'rope' (expected stack or "
+        "stackless)"}},
+      {"BuildUnknownKey",
+       {set_settings(R"({"build": {"stages": "64:16"}})")},
+       {"settings.build", "stages"}},
+      {"BuildNotAnObject",
+       {set_settings(R"({"build": "64:16"})")},
+       {"settings.build: expected an object"}},
       // Geometry.
       {"IndexOutOfRange",
        {{floor,
