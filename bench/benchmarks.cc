@@ -279,9 +279,9 @@ absl::Status mesh_benchmarks(const BenchOptions& o, Reporter& all) {
     Measurement m = measure(o, *backend, [&] { build_triangle_lbvh(*backend, input, tris); });
     all.line("lbvh_build", name, tris / (m.median * 1e3), "Mtris/s", &m, o.runs);
   }
+  const BuildOptions build = apply_structure_options(o.structure_options, {});
   for (StructureKind kind : o.structures) {
     Reporter report = all.for_structure(structure_kind_name(kind));
-    const BuildOptions build = apply_structure_options(o.structure_options, {});
     TriangleStructure built = resident.new_structure(kind, build);
     resident.swap_structure(built);
     built = TriangleStructure();  // the previous kind's, not kept while this one is measured

@@ -3,13 +3,11 @@
 
 #include <google/protobuf/util/json_util.h>
 
-#include <optional>
 #include <string>
-#include <vector>
 
-#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "proto/wire/scene_wire.h"
 #include "renderer/accel/build_options.h"
 
 namespace caustica::client {
@@ -20,17 +18,13 @@ std::string vec3_text(const v1::Vec3& v) {
 }
 
 // settings.build as --structure-option names it.
-std::string build_text(const v1::BuildOptions& b) {
-  std::vector<std::string> stages;
-  for (const v1::BinnedSahStage& stage : b.binned_sah_stages()) {
-    stages.push_back(absl::StrCat(stage.above(), ":", stage.bins()));
-  }
-  const std::optional<BinnedSahReorder> reorder =
-      kind_from_wire<BinnedSahReorder>(b.binned_sah_reorder());
-  const std::optional<KdTraversal> traversal = kind_from_wire<KdTraversal>(b.kd_traversal());
-  return absl::StrFormat("binned-sah-stages=%s binned-sah-reorder=%s kd-traversal=%s",
-                         absl::StrJoin(stages, ","), reorder ? kind_name(*reorder) : "unset",
-                         traversal ? kind_name(*traversal) : "unset");
+std::string build_text(const v1::BuildOptions& build) {
+  v1::RenderSettings only_build;
+  *only_build.mutable_build() = build;
+  const absl::StatusOr<RenderSettings> settings =
+      wire::apply_settings(only_build, RenderSettings{}, "settings");
+  return settings.ok() ? build_options_text(settings->build)
+                       : std::string(settings.status().message());
 }
 
 }  // namespace

@@ -114,6 +114,22 @@ bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
   return estimator_options(a, 0) == estimator_options(b, 0);
 }
 
+// Whether `b`'s structure is the one `a` builds: the same kind, and the same of the options that
+// kind's builder reads (BuildOptions), so that a change of another kind's option rebuilds nothing.
+bool same_structure(const RenderSettings& a, const RenderSettings& b) {
+  if (a.structure != b.structure) return false;
+  switch (a.structure) {
+    case StructureKind::kBinnedSah:
+    case StructureKind::kHybrid:
+      return a.build.binned_sah == b.build.binned_sah;
+    case StructureKind::kKdSah:
+    case StructureKind::kKdSiroh:
+      return a.build.kd_traversal == b.build.kd_traversal;
+    default:
+      return true;
+  }
+}
+
 // Rows per band when an image is dealt to several devices (RowBands): a multiple of the 8 x 4
 // pixel blocks the camera rays go in, and small enough that a bright region spans every device.
 constexpr int kBandRows = 32;
@@ -509,7 +525,7 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
                               settings.max_photon_bounces != old.max_photon_bounces ||
                               settings.seed != old.seed || estimator_change;
-  const bool structure_change = settings.structure != old.structure || settings.build != old.build;
+  const bool structure_change = !same_structure(settings, old);
   const bool resize =
       camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;
   RebuildReport report;
