@@ -400,10 +400,12 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
   const uint32_t per_leaf = photons_per_leaf_for(backend->kind(), o.k, o.photons_per_leaf);
 
   if (wanted(o, "photon_pass")) {
-    // The whole light-change pipeline up to the maps, then its two halves on their own.
+    // The whole light-change pipeline up to the maps, then its two halves on their own, with the
+    // scene's path length cap and seed, as the engine traces them.
     uint32_t pass = 0;
     size_t stored = 0, map_bytes = 0;
-    PhotonTraceSettings trace{o.photons, 8, 1, 0};
+    PhotonTraceSettings trace{o.photons, scene->settings.max_photon_bounces, scene->settings.seed,
+                              0};
     trace.ray_queues = o.ray_queues;
     Measurement m = measure(o, *backend, [&] {
       PhotonTraceSettings this_pass = trace;
@@ -462,6 +464,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // Fabianowski's k_VK: the kernels expected to cover a point of the scene's surfaces.
     report.line("vkde_kernels_per_point", name, covering, "kernels");
     TracedPhotons traced = trace_photons(*backend, resident, trace);
+    // The paths the scene's max_photon_bounces ended, roulette not: each traced to the cap, for
+    // none of its light in the maps (docs/performance.md, "The light change").
+    report.line("photon_paths_capped", label, double(traced.capped_paths), "paths");
     Measurement maps = measure(o, *backend, [&] {
       (void)build_photon_map(*backend, traced.caustic, per_leaf);
       (void)build_photon_map(*backend, traced.global, per_leaf);

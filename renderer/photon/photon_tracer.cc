@@ -147,6 +147,7 @@ struct PhotonStores {
   uint64_t* overflow_key;
   uint8_t* overflow_kind;
   uint32_t* overflow_count;
+  uint32_t* capped_count;  // paths that max_bounces ended, roulette not
   uint32_t overflow_room;
   // With differentials: each stored photon's footprint beside it, a surface photon's spanning
   // vectors and a collision's volume.
@@ -269,7 +270,7 @@ struct PhotonPathInputs {
               p.ray.direction, travel, henyey_greenstein(dot(travel, p.ray.direction), md.g),
               scattering_offset(p.differentials, travel, odds.survival, survive));
         }
-        return ++p.bounce < max_bounces;
+        return next_bounce(p);
       }
       // Through to the surface: one of the share of flights the medium let through.
       if constexpr (kDifferentials) {
@@ -340,7 +341,15 @@ struct PhotonPathInputs {
     p.ray.direction = next_dir;
     p.ray.t_min = 0.0f;
     p.ray.t_max = FLT_MAX;
-    return ++p.bounce < max_bounces;
+    return next_bounce(p);
+  }
+
+  // Counts the bounce; false, counted in capped_count, when it was the path's last by the cap.
+  template <bool kDifferentials>
+  CAUSTICA_HDI bool next_bounce(PhotonPathState<kDifferentials>& p) const {
+    if (++p.bounce < max_bounces) return true;
+    atomic_fetch_add(stores.capped_count, 1u);
+    return false;
   }
 };
 
@@ -437,8 +446,8 @@ struct Compaction {
 
 // The buffers behind a trace's PhotonStores, for `paths` paths of `slots_per_path` slots from
 // bounce `first_bounce`: the slots with each kind's flags and the footprints beside them, and the
-// overflow list, its footprints and its counter. Volume flags and footprints exist with media only,
-// footprints with differentials only.
+// overflow list, its footprints and the trace's counters. Volume flags and footprints exist with
+// media only, footprints with differentials only.
 struct PhotonStoreBuffers {
   PhotonStoreBuffers(Backend& backend, uint32_t paths, uint32_t slots_per_path,
                      uint32_t first_bounce, bool with_media, bool with_footprints)
@@ -458,14 +467,14 @@ struct PhotonStoreBuffers {
         overflow_kinds(backend, 0),
         overflow_footprints(backend, 0),
         overflow_volume_footprints(backend, 0),
-        overflow_counter(backend, 1) {}
+        counters(backend, 2) {}
 
-  // Clears every flag and the overflow counter, and makes room for `overflow_room` later stores.
+  // Clears every flag and the counters, and makes room for `overflow_room` later stores.
   void clear(size_t overflow_room) {
     caustic_flags.fill_zero();
     global_flags.fill_zero();
     volume_flags.fill_zero();
-    overflow_counter.fill_zero();
+    counters.fill_zero();
     overflow.resize_discard(overflow_room);
     overflow_keys.resize_discard(overflow_room);
     overflow_kinds.resize_discard(overflow_room);
@@ -484,7 +493,8 @@ struct PhotonStoreBuffers {
             overflow.data(),
             overflow_keys.data(),
             overflow_kinds.data(),
-            overflow_counter.data(),
+            counters.data(),
+            counters.data() + 1,
             uint32_t(overflow_room),
             footprints ? slot_footprints.data() : nullptr,
             footprints ? overflow_footprints.data() : nullptr,
@@ -504,7 +514,7 @@ struct PhotonStoreBuffers {
   Buffer<uint8_t> overflow_kinds;
   Buffer<PhotonFootprint> overflow_footprints;
   Buffer<float> overflow_volume_footprints;
-  Buffer<uint32_t> overflow_counter;
+  Buffer<uint32_t> counters;  // the later stores asked for room, and the paths the cap ended
 };
 
 // What every path of a trace reads, but for its stores, which each retry of the trace gives anew.
@@ -556,11 +566,17 @@ void trace_paths(Backend& backend, const Structure& structure, const PhotonPathI
   }
 }
 
-// Traces the paths of `in` into `buffers` until the overflow list has room for every later store;
-// returns how many later stores it holds.
+// What a trace counted: the later stores the overflow list holds, and the paths that max_bounces
+// ended where Russian roulette would have let them go on.
+struct TraceCounts {
+  size_t overflowed = 0;
+  uint32_t capped = 0;
+};
+
+// Traces the paths of `in` into `buffers` until the overflow list has room for every later store.
 template <typename Structure>
-size_t trace_until_stored(Backend& backend, const Structure& structure, PhotonPathInputs in,
-                          const PhotonTraceSettings& settings, PhotonStoreBuffers& buffers) {
+TraceCounts trace_until_stored(Backend& backend, const Structure& structure, PhotonPathInputs in,
+                               const PhotonTraceSettings& settings, PhotonStoreBuffers& buffers) {
   const uint32_t count = settings.photon_count;
   // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
   // one path per thread keeps its lanes waiting for its longest path, most of them idle. On the
@@ -584,9 +600,9 @@ size_t trace_until_stored(Backend& backend, const Structure& structure, PhotonPa
                  [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
     in.stores = buffers.stores(overflow_room);
     trace_paths(backend, structure, in, settings, regenerate, workers, next);
-    const size_t overflowed = buffers.overflow_counter.download()[0];
-    if (overflowed <= overflow_room) return overflowed;
-    overflow_room = overflowed;
+    const std::vector<uint32_t> counted = buffers.counters.download();  // one round trip for both
+    if (counted[0] <= overflow_room) return {counted[0], counted[1]};
+    overflow_room = counted[0];
   }
 }
 
@@ -679,10 +695,11 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const uint32_t per_path = std::min(settings.max_bounces - first_slot_bounce, kSlotsPerPath);
   PhotonStoreBuffers buffers(backend, settings.photon_count, per_path, first_slot_bounce, media,
                              settings.differentials);
-  const size_t overflowed = trace_until_stored(
+  const TraceCounts counted = trace_until_stored(
       backend, structure, path_inputs(scene, resident, settings), settings, buffers);
-  const OverflowOrder overflow = order_overflow(backend, buffers, overflowed);
-  compact_photons(backend, buffers, overflow, overflowed, out);
+  const OverflowOrder overflow = order_overflow(backend, buffers, counted.overflowed);
+  compact_photons(backend, buffers, overflow, counted.overflowed, out);
+  out.capped_paths = counted.capped;
   return out;
 }
 

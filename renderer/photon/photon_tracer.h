@@ -43,6 +43,9 @@ struct TracedPhotons {
   // collisions' density there.
   Buffer<float> volume_footprints;
   uint32_t emitted = 0;
+  // The paths that max_bounces ended where Russian roulette would have let them go on: what the
+  // cap cost, in light that never reached the maps (docs/performance.md, "The light change").
+  uint32_t capped_paths = 0;
   // Each kind's photons come in two runs: those from the paths' first stores, in path order, then
   // the later stores of the few long paths, in path and bounce order. These are the first runs'
   // lengths, which merge_traced_photons (photon_shares.h) needs.
