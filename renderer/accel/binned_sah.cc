@@ -661,7 +661,7 @@ void data_parallel_levels(Backend& backend, uint32_t count, const BinnedSahSched
                           uint32_t node_count) {
   // Per element of the stage (a triangle of a large node): its position.
   Buffer<uint32_t> element_pos(backend, count);
-  Buffer<uint32_t> keys(backend, count), values(backend, count), next_pos(backend, count);
+  Buffer<uint32_t> next_pos(backend, count);
   Buffer<uint8_t> keep(backend, count);
   uint32_t element_count = first_level_elements(backend, level_nodes.data(), node_count, count,
                                                 keep.data(), element_pos.data());
