@@ -339,7 +339,7 @@ absl::Status photon_gather_benchmarks(const BenchOptions& o, const Scene& scene,
   const ShadingSettings shading = (*engine)->shading(0);
   const uint32_t k = std::min(shading.k_nearest, kMaxNearest);
   const TracedPhotons traced =
-      trace_photons(*backend, resident, {o.photons, rs.max_photon_bounces, rs.seed, 0});
+      trace_photons(*backend, resident, photon_trace_settings(rs, o.photons, 0));
   const std::vector<Photon> at = build_photon_map(*backend, traced.global, per_leaf).download();
   if (at.empty()) return absl::FailedPreconditionError(name + ": no global photons to gather at");
   std::vector<Vec3f> points(at.size()), normals(at.size());
@@ -404,8 +404,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // scene's path length cap and seed, as the engine traces them.
     uint32_t pass = 0;
     size_t stored = 0, map_bytes = 0;
-    PhotonTraceSettings trace{o.photons, scene->settings.max_photon_bounces, scene->settings.seed,
-                              0};
+    PhotonTraceSettings trace = photon_trace_settings(scene->settings, o.photons, 0);
     trace.ray_queues = o.ray_queues;
     Measurement m = measure(o, *backend, [&] {
       PhotonTraceSettings this_pass = trace;
@@ -467,6 +466,8 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // The paths the scene's max_photon_bounces ended, roulette not: each traced to the cap, for
     // none of its light in the maps (docs/performance.md, "The light change").
     report.line("photon_paths_capped", label, double(traced.capped_paths), "paths");
+    report.line("photon_paths_specular_capped", label, double(traced.specular_capped_paths),
+                "paths");
     Measurement maps = measure(o, *backend, [&] {
       (void)build_photon_map(*backend, traced.caustic, per_leaf);
       (void)build_photon_map(*backend, traced.global, per_leaf);
@@ -517,7 +518,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // The k-nearest render pass alone on maps already built: camera rays, specular chains, shadow
     // rays and both gathers, as the frame target counts it.
     const RenderSettings& rs = scene->settings;
-    PhotonTraceSettings trace{o.photons, rs.max_photon_bounces, rs.seed, 0};
+    PhotonTraceSettings trace = photon_trace_settings(rs, o.photons, 0);
     trace.ray_queues = o.ray_queues;
     TracedPhotons traced = trace_photons(*backend, resident, trace);
     PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);

@@ -95,9 +95,10 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
                          c.vertical_fov_deg(), vec3_text(c.position()), vec3_text(c.look_at()));
   out << absl::StrFormat(
       "settings     %d photons per pass, k %d, max radius %g, kernel %s, max depth %d, photon "
-      "bounces %d, area light samples %d, seed %d\n",
+      "bounces %d (%d specular in a row), area light samples %d, seed %d\n",
       rs.photons_per_pass(), rs.k_nearest(), rs.max_radius(), v1::DensityKernel_Name(rs.kernel()),
-      rs.max_depth(), rs.max_photon_bounces(), rs.area_light_samples(), rs.seed());
+      rs.max_depth(), rs.max_photon_bounces(), rs.max_photon_specular_bounces(),
+      rs.area_light_samples(), rs.seed());
   out << absl::StrFormat(
       "integrator   %s, estimator %s (sppm alpha %g, radius %s; vkde spread %s; final gather "
       "%s)\n",

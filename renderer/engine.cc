@@ -114,20 +114,11 @@ bool same_estimator(const RenderSettings& a, const RenderSettings& b) {
   return estimator_options(a, 0) == estimator_options(b, 0);
 }
 
-// Whether `b`'s structure is the one `a` builds: the same kind, and the same of the options that
-// kind's builder reads (BuildOptions), so that a change of another kind's option rebuilds nothing.
+// Whether `b`'s structure is the one `a` builds, so that a change of an option no builder of the
+// kind reads rebuilds nothing.
 bool same_structure(const RenderSettings& a, const RenderSettings& b) {
-  if (a.structure != b.structure) return false;
-  switch (a.structure) {
-    case StructureKind::kBinnedSah:
-    case StructureKind::kHybrid:
-      return a.build.binned_sah == b.build.binned_sah;
-    case StructureKind::kKdSah:
-    case StructureKind::kKdSiroh:
-      return a.build.kd_traversal == b.build.kd_traversal;
-    default:
-      return true;
-  }
+  return a.structure == b.structure &&
+         options_read_by(a.structure, a.build) == options_read_by(b.structure, b.build);
 }
 
 // Rows per band when an image is dealt to several devices (RowBands): a multiple of the 8 x 4
@@ -252,7 +243,7 @@ struct Engine::State {
   void trace_pass_photons(const RenderSettings& rs, uint32_t pass, StageTimings& timings,
                           uint64_t& emitted, uint64_t& caustic_count, uint64_t& global_count) {
     const size_t devices = slices.size();
-    PhotonTraceSettings trace{rs.photons_per_pass, rs.max_photon_bounces, rs.seed, pass};
+    PhotonTraceSettings trace = photon_trace_settings(rs, rs.photons_per_pass, pass);
     trace.differentials = first().estimator->needs_differentials();
     auto t0 = std::chrono::steady_clock::now();
     std::vector<TracedPhotons> shares(devices);
@@ -522,9 +513,9 @@ absl::StatusOr<RebuildReport> Engine::set_settings(const RenderSettings& setting
   const RenderSettings& old = st.scene.settings;
   const bool estimator_change = !same_estimator(settings, old);
   // A new estimator has no maps: the photons are traced again for it.
-  const bool photons_change = settings.photons_per_pass != old.photons_per_pass ||
-                              settings.max_photon_bounces != old.max_photon_bounces ||
-                              settings.seed != old.seed || estimator_change;
+  const bool photons_change = photon_trace_settings(settings, settings.photons_per_pass, 0) !=
+                                  photon_trace_settings(old, old.photons_per_pass, 0) ||
+                              estimator_change;
   const bool structure_change = !same_structure(settings, old);
   const bool resize =
       camera.width != st.scene.camera.width || camera.height != st.scene.camera.height;

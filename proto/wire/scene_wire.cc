@@ -244,6 +244,7 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   out.set_kernel(encode_kind<v1::DensityKernel>(s.kernel));
   out.set_max_depth(s.max_depth);
   out.set_max_photon_bounces(s.max_photon_bounces);
+  out.set_max_photon_specular_bounces(s.max_photon_specular_bounces);
   out.set_area_light_samples(s.area_light_samples);
   out.set_seed(s.seed);
   out.set_structure(encode_structure(s.structure));
@@ -495,6 +496,8 @@ absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& in,
   }
   if (in.has_max_depth()) s.max_depth = in.max_depth();
   if (in.has_max_photon_bounces()) s.max_photon_bounces = in.max_photon_bounces();
+  if (in.has_max_photon_specular_bounces())
+    s.max_photon_specular_bounces = in.max_photon_specular_bounces();
   if (in.has_area_light_samples()) s.area_light_samples = in.area_light_samples();
   if (in.has_seed()) s.seed = in.seed();
   if (in.structure() != v1::STRUCTURE_UNSPECIFIED) {

@@ -14,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "renderer/accel/structure_kind.h"
 #include "renderer/base/hd.h"
 #include "renderer/scene/setting_kinds.h"
 
@@ -84,6 +85,25 @@ struct BuildOptions {
   KdTraversal kd_traversal = KdTraversal::kStack;  // kd-sah and kd-siroh
   bool operator==(const BuildOptions&) const = default;
 };
+
+// The options a structure of `kind` reads, every other at its default: two settings build the same
+// structure when their kinds agree and so do these, whatever the options other kinds read.
+inline BuildOptions options_read_by(StructureKind kind, const BuildOptions& options) {
+  BuildOptions read;
+  switch (kind) {
+    case StructureKind::kBinnedSah:
+    case StructureKind::kHybrid:
+      read.binned_sah = options.binned_sah;
+      break;
+    case StructureKind::kKdSah:
+    case StructureKind::kKdSiroh:
+      read.kd_traversal = options.kd_traversal;
+      break;
+    default:
+      break;
+  }
+  return read;
+}
 
 // The first problem of stage `index` (0-based) after stages [0, index) were accepted, as
 // "stage 2 ('4096:256'): BINS must be within [2, 128]"; nullopt for a good stage.

@@ -52,6 +52,7 @@ TracedPhotons merge_traced_photons(Backend& target, std::span<const TracedPhoton
   for (const TracedPhotons& share : shares) {
     merged.emitted += share.emitted;
     merged.capped_paths += share.capped_paths;
+    merged.specular_capped_paths += share.specular_capped_paths;
     merged.caustic_from_slots += share.caustic_from_slots;
     merged.global_from_slots += share.global_from_slots;
     merged.volume_from_slots += share.volume_from_slots;

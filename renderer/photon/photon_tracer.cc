@@ -82,7 +82,8 @@ struct PhotonPathState {
   Sampler s;
   uint32_t path;
   uint32_t bounce;
-  uint32_t medium;     // the one the path's ray travels in (medium.h), or kVacuum
+  uint32_t specular_run;  // mirror and glass bounces since the last diffuse one (or emission)
+  uint32_t medium;        // the one the path's ray travels in (medium.h), or kVacuum
   bool only_specular;  // no diffuse bounce or scattering in a medium yet on this path
   std::conditional_t<kDifferentials, PhotonDifferentials, NoDifferentials> differentials;
 };
@@ -147,7 +148,8 @@ struct PhotonStores {
   uint64_t* overflow_key;
   uint8_t* overflow_kind;
   uint32_t* overflow_count;
-  uint32_t* capped_count;  // paths that max_bounces ended, roulette not
+  uint32_t* capped_count;           // paths that max_bounces ended, roulette not
+  uint32_t* specular_capped_count;  // paths that max_specular_bounces ended
   uint32_t overflow_room;
   // With differentials: each stored photon's footprint beside it, a surface photon's spanning
   // vectors and a collision's volume.
@@ -201,7 +203,7 @@ struct PhotonPathInputs {
   Vec3f center;
   float radius;
   float inv_count;
-  uint32_t seed, pass, max_bounces;
+  uint32_t seed, pass, max_bounces, max_specular_bounces;
   PhotonStores stores;
   float spacing;        // differential_spacing of the photon count
   float photons;        // the photon count
@@ -221,6 +223,7 @@ struct PhotonPathInputs {
     p.power = e.power * (inv_count / choice_pdf);
     p.only_specular = true;
     p.bounce = 0;
+    p.specular_run = 0;
     p.medium = scene.media.scene_medium;  // lights stand outside every shape
     if constexpr (kDifferentials)
       p.differentials = emission_differentials(light, e, choice_pdf, radius);
@@ -265,6 +268,7 @@ struct PhotonPathInputs {
         p.ray.t_min = 0.0f;
         p.ray.t_max = FLT_MAX;
         p.only_specular = false;
+        p.specular_run = 0;
         if constexpr (kDifferentials) {
           p.differentials = scattered_in_medium(
               p.ray.direction, travel, henyey_greenstein(dot(travel, p.ray.direction), md.g),
@@ -299,11 +303,13 @@ struct PhotonPathInputs {
       next_dir = Frame::from_normal(n).to_world(
           sample_cosine_hemisphere(p.s.next_float(), p.s.next_float()));
       p.only_specular = false;
+      p.specular_run = 0;
       if constexpr (kDifferentials) {
         survived_roulette(p.differentials, survive);
         p.differentials = reemitted_diffusely(next_dir, n, reemission_offset(p.differentials));
       }
     } else if (m.type == MaterialType::kMirror) {
+      if (!specular_bounce_allowed(p)) return false;
       float survive = average(m.color);
       if (p.s.next_float() >= survive) return false;
       p.power = p.power * m.color / survive;
@@ -315,6 +321,7 @@ struct PhotonPathInputs {
         reflect_differentials(p.differentials, d, sh.shading_normal, dn1, dn2);
       }
     } else {  // dielectric: reflect or refract in proportion to Fresnel, weight 1
+      if (!specular_bounce_allowed(p)) return false;
       DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
       float fr = fresnel_dielectric(side.cos_i, side.eta);
       const bool reflects = p.s.next_float() < fr || !refract(d, side.normal, side.eta, next_dir);
@@ -344,6 +351,19 @@ struct PhotonPathInputs {
     return next_bounce(p);
   }
 
+  // Counts a mirror or glass bounce; false, counted in specular_capped_count, when the path has
+  // taken max_specular_bounces of them in a row. Checked before the bounce draws a sample, so
+  // that a cap no path reaches changes no photon.
+  template <bool kDifferentials>
+  CAUSTICA_HDI bool specular_bounce_allowed(PhotonPathState<kDifferentials>& p) const {
+    if (p.specular_run < max_specular_bounces) {
+      ++p.specular_run;
+      return true;
+    }
+    atomic_fetch_add(stores.specular_capped_count, 1u);
+    return false;
+  }
+
   // Counts the bounce; false, counted in capped_count, when it was the path's last by the cap.
   template <bool kDifferentials>
   CAUSTICA_HDI bool next_bounce(PhotonPathState<kDifferentials>& p) const {
@@ -369,7 +389,7 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
   PhotonPathState* first = wave.data();
   const PhotonPathInputs in = inputs;
   parallel_for(backend, "photon_wave_start", count, [=] CAUSTICA_HD(size_t i) {
-    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, kVacuum, true, {}};
+    PhotonPathState p{Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, 0, kVacuum, true, {}};
     in.start(p, uint32_t(i));
     first[i] = p;
   });
@@ -405,7 +425,7 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
                               uint32_t workers, uint32_t* next) {
   const auto trace_paths = [=] CAUSTICA_HD(size_t worker) {
     PhotonPathState<kDifferentials> p{
-        Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, kVacuum, true, {}};
+        Ray{}, Vec3f(0.0f), Sampler(in.seed, 0, in.pass), 0, 0, 0, kVacuum, true, {}};
     in.start(p, uint32_t(worker));
     // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
     // end do not wait at the inner loop's exit for the others.
@@ -467,7 +487,7 @@ struct PhotonStoreBuffers {
         overflow_kinds(backend, 0),
         overflow_footprints(backend, 0),
         overflow_volume_footprints(backend, 0),
-        counters(backend, 2) {}
+        counters(backend, 3) {}
 
   // Clears every flag and the counters, and makes room for `overflow_room` later stores.
   void clear(size_t overflow_room) {
@@ -495,6 +515,7 @@ struct PhotonStoreBuffers {
             overflow_kinds.data(),
             counters.data(),
             counters.data() + 1,
+            counters.data() + 2,
             uint32_t(overflow_room),
             footprints ? slot_footprints.data() : nullptr,
             footprints ? overflow_footprints.data() : nullptr,
@@ -514,7 +535,8 @@ struct PhotonStoreBuffers {
   Buffer<uint8_t> overflow_kinds;
   Buffer<PhotonFootprint> overflow_footprints;
   Buffer<float> overflow_volume_footprints;
-  Buffer<uint32_t> counters;  // the later stores asked for room, and the paths the cap ended
+  // The later stores asked for room, and the paths max_bounces and max_specular_bounces ended.
+  Buffer<uint32_t> counters;
 };
 
 // What every path of a trace reads, but for its stores, which each retry of the trace gives anew.
@@ -532,6 +554,7 @@ PhotonPathInputs path_inputs(const ResidentSceneView& scene, const ResidentScene
           seed,
           pass,
           settings.max_bounces,
+          settings.max_specular_bounces,
           PhotonStores{},
           differential_spacing(float(total)),
           float(total),
@@ -566,11 +589,12 @@ void trace_paths(Backend& backend, const Structure& structure, const PhotonPathI
   }
 }
 
-// What a trace counted: the later stores the overflow list holds, and the paths that max_bounces
-// ended where Russian roulette would have let them go on.
+// What a trace counted: the later stores the overflow list holds, the paths that max_bounces
+// ended where Russian roulette would have let them go on, and those max_specular_bounces ended.
 struct TraceCounts {
   size_t overflowed = 0;
   uint32_t capped = 0;
+  uint32_t specular_capped = 0;
 };
 
 // Traces the paths of `in` into `buffers` until the overflow list has room for every later store.
@@ -600,8 +624,8 @@ TraceCounts trace_until_stored(Backend& backend, const Structure& structure, Pho
                  [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
     in.stores = buffers.stores(overflow_room);
     trace_paths(backend, structure, in, settings, regenerate, workers, next);
-    const std::vector<uint32_t> counted = buffers.counters.download();  // one round trip for both
-    if (counted[0] <= overflow_room) return {counted[0], counted[1]};
+    const std::vector<uint32_t> counted = buffers.counters.download();  // one round trip for all
+    if (counted[0] <= overflow_room) return {counted[0], counted[1], counted[2]};
     overflow_room = counted[0];
   }
 }
@@ -700,6 +724,7 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const OverflowOrder overflow = order_overflow(backend, buffers, counted.overflowed);
   compact_photons(backend, buffers, overflow, counted.overflowed, out);
   out.capped_paths = counted.capped;
+  out.specular_capped_paths = counted.specular_capped;
   return out;
 }
 

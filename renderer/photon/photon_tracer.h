@@ -28,6 +28,9 @@ struct PhotonTraceSettings {
   bool ray_queues = false;
   // Track photon differentials (differentials.h) and give every stored photon its footprint.
   bool differentials = false;
+  // Mirror and glass bounces in a row that end a path (RenderSettings).
+  uint32_t max_specular_bounces = 64;
+  bool operator==(const PhotonTraceSettings&) const = default;
 };
 
 struct TracedPhotons {
@@ -46,11 +49,22 @@ struct TracedPhotons {
   // The paths that max_bounces ended where Russian roulette would have let them go on: what the
   // cap cost, in light that never reached the maps (docs/performance.md, "The light change").
   uint32_t capped_paths = 0;
+  // The paths that max_specular_bounces ended (within max_bounces): light trapped in glass.
+  uint32_t specular_capped_paths = 0;
   // Each kind's photons come in two runs: those from the paths' first stores, in path order, then
   // the later stores of the few long paths, in path and bounce order. These are the first runs'
   // lengths, which merge_traced_photons (photon_shares.h) needs.
   size_t caustic_from_slots = 0, global_from_slots = 0, volume_from_slots = 0;
 };
+
+// Pass `pass` of `photons` paths, capped and seeded as `settings` say: every setting the photons
+// depend on, so that two settings trace the same photons when these agree.
+inline PhotonTraceSettings photon_trace_settings(const RenderSettings& settings, uint32_t photons,
+                                                 uint32_t pass) {
+  PhotonTraceSettings trace{photons, settings.max_photon_bounces, settings.seed, pass};
+  trace.max_specular_bounces = settings.max_photon_specular_bounces;
+  return trace;
+}
 
 TracedPhotons trace_photons(Backend& backend, const ResidentScene& scene,
                             const PhotonTraceSettings& settings);

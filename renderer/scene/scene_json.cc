@@ -195,6 +195,8 @@ class SceneReader {
     SCENE_RETURN_IF_ERROR(object.read_integer("max_depth", kOptional, &s.max_depth));
     SCENE_RETURN_IF_ERROR(
         object.read_integer("max_photon_bounces", kOptional, &s.max_photon_bounces));
+    SCENE_RETURN_IF_ERROR(object.read_integer("max_photon_specular_bounces", kOptional,
+                                              &s.max_photon_specular_bounces));
     SCENE_RETURN_IF_ERROR(
         object.read_integer("area_light_samples", kOptional, &s.area_light_samples));
     SCENE_RETURN_IF_ERROR(object.read_integer("passes", kOptional, &s.passes));

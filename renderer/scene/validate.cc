@@ -114,6 +114,8 @@ absl::Status validate_settings(const RenderSettings& s) {
   SCENE_RETURN_IF_ERROR(check_in_range("settings.max_depth", s.max_depth, 0, kMaxDepth));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.max_photon_bounces", s.max_photon_bounces, 0, kMaxPhotonBounces));
+  SCENE_RETURN_IF_ERROR(check_in_range("settings.max_photon_specular_bounces",
+                                       s.max_photon_specular_bounces, 0, kMaxPhotonBounces));
   SCENE_RETURN_IF_ERROR(
       check_in_range("settings.area_light_samples", s.area_light_samples, 1, kMaxAreaLightSamples));
   SCENE_RETURN_IF_ERROR(check_in_range("settings.passes", s.passes, 1, kMaxPasses));

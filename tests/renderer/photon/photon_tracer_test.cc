@@ -1,13 +1,16 @@
-// The photon tracer's count of paths that max_bounces ended: inside a closed diffuse sphere with
-// a point light at its centre every path hits the sphere at every bounce and survives Russian
-// roulette with probability rho each time, so the cap of B bounces ends a path with probability
-// rho^B, and every path when rho is 1.
+// The photon tracer's caps and its counts of the paths they ended: inside a closed sphere with a
+// point light at its centre every path hits the sphere at every bounce and survives Russian
+// roulette with probability rho each time, so the cap of B bounces (diffuse walls) or of S mirror
+// bounces in a row (mirror walls) ends a path with probability rho^B or rho^S, and every path when
+// rho is 1.
 #include "renderer/photon/photon_tracer.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 #include "renderer/photon/photon_shares.h"
@@ -17,16 +20,17 @@
 namespace caustica {
 namespace {
 
-Scene closed_sphere(float rho) {
+Scene closed_sphere(float rho, const char* wall = "diffuse") {
+  const char* reflects = std::string(wall) == "mirror" ? "reflectance" : "albedo";
   absl::StatusOr<Scene> scene = parse_scene(absl::StrFormat(R"({
       "camera": {"position": [0, 0, 0], "look_at": [0, 0, 1], "up": [0, 1, 0], "fov": 90,
                  "width": 8, "height": 8},
-      "materials": {"wall": {"type": "diffuse", "albedo": [%f, %f, %f]}},
+      "materials": {"wall": {"type": "%s", "%s": [%f, %f, %f]}},
       "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]}],
       "shapes": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "rings": 16,
                   "segments": 32, "material": "wall"}]
     })",
-                                                            rho, rho, rho),
+                                                            wall, reflects, rho, rho, rho),
                                             ".", "closed-sphere.json");
   EXPECT_TRUE(scene.ok()) << scene.status();
   return scene.ok() ? *scene : Scene{};
@@ -67,6 +71,76 @@ TEST(PhotonTracer, SharesCountTheWholePassCappedPaths) {
     shares.push_back(trace_photons(*backend, resident, share));
   }
   EXPECT_EQ(merge_traced_photons(*backend, shares).capped_paths, whole.capped_paths);
+}
+
+TEST(PhotonTracer, TheSpecularCapEndsTheMirrorRunsRouletteSpares) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  constexpr uint32_t kPaths = 100000, kRun = 3;
+  for (float rho : {0.5f, 0.8f}) {
+    SCOPED_TRACE(absl::StrFormat("reflectance %g", rho));
+    ResidentScene resident = ResidentScene::upload(*backend, closed_sphere(rho, "mirror"));
+    PhotonTraceSettings trace{kPaths, 64, 3, 0};
+    trace.max_specular_bounces = kRun;
+    const TracedPhotons traced = trace_photons(*backend, resident, trace);
+    const double p = std::pow(double(rho), kRun);
+    const double expected = kPaths * p, sigma = std::sqrt(kPaths * p * (1 - p));
+    EXPECT_NEAR(double(traced.specular_capped_paths), expected, 5 * sigma);
+    EXPECT_EQ(traced.capped_paths, 0u);
+  }
+  ResidentScene lossless = ResidentScene::upload(*backend, closed_sphere(1.0f, "mirror"));
+  PhotonTraceSettings trace{5000, 64, 3, 0};
+  trace.max_specular_bounces = 7;
+  EXPECT_EQ(trace_photons(*backend, lossless, trace).specular_capped_paths, 5000u);
+  trace.max_specular_bounces = 64;  // the total cap comes first
+  const TracedPhotons by_total = trace_photons(*backend, lossless, trace);
+  EXPECT_EQ(by_total.capped_paths, 5000u);
+  EXPECT_EQ(by_total.specular_capped_paths, 0u);
+}
+
+std::vector<Photon> all_photons(const TracedPhotons& traced) {
+  std::vector<Photon> all = traced.caustic.download();
+  for (const Photon& p : traced.global.download()) all.push_back(p);
+  return all;
+}
+
+bool same_photons(const std::vector<Photon>& a, const std::vector<Photon>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](auto& x, auto& y) {
+           return x.position == y.position && x.power == y.power && x.incoming == y.incoming;
+         });
+}
+
+Scene bundled_scene(const std::string& name) {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/" + name + "/scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  return scene.ok() ? *scene : Scene{};
+}
+
+// The cap is checked before a mirror or glass bounce draws a sample: where no path takes one, a
+// cap of none changes no photon, and where glass makes the caustics, they need its two crossings.
+TEST(PhotonTracer, TheSpecularCapChangesOnlyThePathsItEnds) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  ResidentScene diffuse = ResidentScene::upload(*backend, bundled_scene("cornell-box"));
+  PhotonTraceSettings trace{20000, 64, 5, 0};
+  const std::vector<Photon> uncapped = all_photons(trace_photons(*backend, diffuse, trace));
+  ASSERT_GT(uncapped.size(), 0u);
+  trace.max_specular_bounces = 0;
+  const TracedPhotons capped = trace_photons(*backend, diffuse, trace);
+  EXPECT_TRUE(same_photons(all_photons(capped), uncapped));
+  EXPECT_EQ(capped.specular_capped_paths, 0u);
+
+  ResidentScene caustics = ResidentScene::upload(*backend, bundled_scene("cornell-caustics"));
+  trace.max_specular_bounces = 0;
+  const TracedPhotons none = trace_photons(*backend, caustics, trace);
+  EXPECT_EQ(none.caustic.size(), 0u);
+  EXPECT_GT(none.specular_capped_paths, 0u);
+  trace.max_specular_bounces = 2;  // into the glass sphere and out
+  const TracedPhotons through = trace_photons(*backend, caustics, trace);
+  EXPECT_GT(through.caustic.size(), 0u);
+  trace.max_specular_bounces = 64;
+  const TracedPhotons all = trace_photons(*backend, caustics, trace);
+  EXPECT_GT(all.caustic.size(), through.caustic.size());
+  EXPECT_LT(through.specular_capped_paths, none.specular_capped_paths);
 }
 
 }  // namespace
