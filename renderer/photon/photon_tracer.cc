@@ -86,6 +86,13 @@ struct PhotonPathState {
   uint32_t medium;        // the one the path's ray travels in (medium.h), or kVacuum
   bool only_specular;  // no diffuse bounce or scattering in a medium yet on this path
   std::conditional_t<kDifferentials, PhotonDifferentials, NoDifferentials> differentials;
+
+  // A diffuse bounce or a scattering in a medium: the path's later photons are global ones, and
+  // its run of mirror and glass bounces starts again.
+  CAUSTICA_HDI void scattered() {
+    only_specular = false;
+    specular_run = 0;
+  }
 };
 
 // The differentials of photon `e` leaving `light`, chosen with probability `choice_pdf`.
@@ -267,8 +274,7 @@ struct PhotonPathInputs {
             sample_henyey_greenstein(travel, md.g, p.s.next_float(), p.s.next_float());
         p.ray.t_min = 0.0f;
         p.ray.t_max = FLT_MAX;
-        p.only_specular = false;
-        p.specular_run = 0;
+        p.scattered();
         if constexpr (kDifferentials) {
           p.differentials = scattered_in_medium(
               p.ray.direction, travel, henyey_greenstein(dot(travel, p.ray.direction), md.g),
@@ -302,8 +308,7 @@ struct PhotonPathInputs {
       Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
       next_dir = Frame::from_normal(n).to_world(
           sample_cosine_hemisphere(p.s.next_float(), p.s.next_float()));
-      p.only_specular = false;
-      p.specular_run = 0;
+      p.scattered();
       if constexpr (kDifferentials) {
         survived_roulette(p.differentials, survive);
         p.differentials = reemitted_diffusely(next_dir, n, reemission_offset(p.differentials));

@@ -135,7 +135,7 @@ struct RenderSettings {
   uint32_t max_photon_bounces = 64;  // surface interactions of a photon path
   // Mirror and glass bounces in a row of a photon path: the one cap that is no safety net, for
   // light trapped by total internal reflection (docs/convergence.md, "Path length").
-  uint32_t max_photon_specular_bounces = 64;
+  uint32_t max_photon_specular_bounces = 12;
   uint32_t area_light_samples = 4;   // shadow rays per diffuse hit for area lights
   uint32_t passes = 1;               // progressive passes, fresh photons each
   uint32_t seed = 1;

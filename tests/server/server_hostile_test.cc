@@ -52,12 +52,11 @@ class HostileClientTest : public ServerTest {
     return {"--http-listen",   "127.0.0.1:0", "--http-port-file", http_port_file().string(),
             "--metrics-listen", "127.0.0.1:0", "--health-listen",  "127.0.0.1:0"};
   }
-  std::filesystem::path http_port_file() const {
-    static const std::filesystem::path file = make_temp_dir("caustica-hostile") / "http-port";
-    return file;
-  }
+  // A directory of each test's own, so that no test reads the port an earlier test's server wrote.
+  std::filesystem::path http_port_file() const { return port_dir_ / "http-port"; }
 
   void SetUp() override {
+    port_dir_ = make_temp_dir("caustica-hostile");
     ServerTest::SetUp();
     ASSERT_NE(server_, nullptr);
     std::string port = read_text_file(http_port_file());
@@ -206,7 +205,14 @@ class HostileClientTest : public ServerTest {
     return status;
   }
 
+  void TearDown() override {
+    server_.reset();
+    std::error_code ignored;
+    std::filesystem::remove_all(port_dir_, ignored);
+  }
+
   asio::io_context io_;
+  std::filesystem::path port_dir_;
   int http_port_ = 0, metrics_port_ = 0, health_port_ = 0;
   std::string scene_id_;
   uint64_t baseline_rss_ = 0;
