@@ -1,6 +1,8 @@
 #include "renderer/photon/photon_tracer.h"
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 #include <utility>
 
@@ -11,6 +13,7 @@
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/differentials.h"
 #include "renderer/photon/scattering.h"
+#include "renderer/scene/scene_limits.h"
 
 namespace caustica {
 namespace {
@@ -141,19 +144,32 @@ CAUSTICA_HDI void normal_differentials(const ResidentSceneView& scene, const Hit
 // interaction from `first_slot_bounce`: a path stores nothing at its first surface hit, which
 // shadow rays light, but may at its first collision in a medium), in path order with no atomics;
 // the rare later ones (Russian roulette ends nearly every path sooner) appended to an overflow list
-// with their path and bounce as a sort key, so that their order too follows from the paths alone.
+// with their path, kind and rank among the path's later photons of that kind, so that their place
+// too follows from the paths alone.
 constexpr uint32_t kSlotsPerPath = 7;
+
+// A path counts its later stores of each kind in one word of its own, kLaterCountBits a kind.
+constexpr uint32_t kLaterCountBits = 10;
+constexpr uint32_t kLaterCountMask = (1u << kLaterCountBits) - 1;
+static_assert(3 * kLaterCountBits <= 32 && kMaxPhotonBounces <= kLaterCountMask,
+              "a path's later stores of every kind fit its word");
+
+// Where an overflow entry's photon goes: its path, its kind and how many of the path's later
+// photons of that kind came before it.
+struct LaterStore {
+  uint32_t path;
+  uint16_t rank;
+  uint8_t kind;
+};
 
 struct PhotonStores {
   Photon* slot;
-  uint8_t* caustic_flag;
-  uint8_t* global_flag;
-  uint8_t* volume_flag;  // null when the scene has no media
+  uint8_t* slot_kind;      // the kind of the slot's photon, or kNotStored
+  uint32_t* later_counts;  // per path
   uint32_t slots_per_path;
   uint32_t first_slot_bounce;
   Photon* overflow;
-  uint64_t* overflow_key;
-  uint8_t* overflow_kind;
+  LaterStore* overflow_place;
   uint32_t* overflow_count;
   uint32_t* capped_count;           // paths that max_bounces ended, roulette not
   uint32_t* specular_capped_count;  // paths that max_specular_bounces ended
@@ -190,17 +206,18 @@ struct PhotonStores {
       const size_t k = size_t(path) * slots_per_path + (bounce - first_slot_bounce);
       slot[k] = photon;
       with_footprint(true, k);
-      (kind == kCausticPhoton  ? caustic_flag
-       : kind == kGlobalPhoton ? global_flag
-                               : volume_flag)[k] = 1;
+      slot_kind[k] = kind;
       return;
     }
+    // Only the path's own worker touches its word, so it needs no atomics.
+    const uint32_t shift = (kind - 1u) * kLaterCountBits;
+    const uint32_t counts = later_counts[path];
+    later_counts[path] = counts + (1u << shift);
     const uint32_t at = atomic_fetch_add(overflow_count, 1u);
     if (at >= overflow_room) return;  // counted: the trace runs again with room for all
     overflow[at] = photon;
     with_footprint(false, at);
-    overflow_key[at] = uint64_t(path) << 32 | bounce;
-    overflow_kind[at] = kind;
+    overflow_place[at] = {path, uint16_t(counts >> shift & kLaterCountMask), kind};
   }
 };
 
@@ -445,64 +462,38 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
   parallel_for<kWorkersPerMultiprocessor>(backend, "photon_trace", workers, trace_paths);
 }
 
-// Which slots and overflow entries hold one kind's photons, in the order they are kept.
-struct Compaction {
-  Buffer<uint32_t> index;        // slots
-  Buffer<uint32_t> later_index;  // overflow entries, after the slots'
-  size_t slotted = 0, extra = 0;
-
-  // The kept entries of per-slot and per-overflow-entry arrays (the photons, or the footprints
-  // beside them), in their order, by launch `name`.
-  template <typename T>
-  void gather(Backend& backend, const char* name, const Buffer<T>& from_slots,
-              const Buffer<T>& from_overflow, Buffer<T>& into) const {
-    into.resize_discard(slotted + extra);
-    T* to = into.data();
-    const T* slot = from_slots.data();
-    const T* later = from_overflow.data();
-    const uint32_t* idx = index.data();
-    const uint32_t* later_idx = later_index.data();
-    const size_t n = slotted;
-    parallel_for(backend, name, slotted + extra, [=] CAUSTICA_HD(size_t i) {
-      to[i] = i < n ? slot[idx[i]] : later[later_idx[i - n]];
-    });
-  }
-};
-
 // The buffers behind a trace's PhotonStores, for `paths` paths of `slots_per_path` slots from
-// bounce `first_bounce`: the slots with each kind's flags and the footprints beside them, and the
-// overflow list, its footprints and the trace's counters. Volume flags and footprints exist with
-// media only, footprints with differentials only.
+// bounce `first_bounce`: the slots with their kinds and the footprints beside them, each path's
+// count of later stores, and the overflow list, its footprints and the trace's counters. Volume
+// footprints exist with media only, footprints with differentials only.
 struct PhotonStoreBuffers {
   PhotonStoreBuffers(Backend& backend, uint32_t paths, uint32_t slots_per_path,
                      uint32_t first_bounce, bool with_media, bool with_footprints)
-      : slots(size_t(paths) * slots_per_path),
+      : paths(paths),
+        slots(size_t(paths) * slots_per_path),
         per_path(slots_per_path),
         first_slot_bounce(first_bounce),
         media(with_media),
         footprints(with_footprints),
         slot_photons(backend, slots),
-        caustic_flags(backend, slots),
-        global_flags(backend, slots),
-        volume_flags(backend, media ? slots : 0),
+        slot_kinds(backend, slots),
+        later_counts(backend, paths),
         slot_footprints(backend, footprints ? slots : 0),
         slot_volume_footprints(backend, footprints && media ? slots : 0),
         overflow(backend, 0),
-        overflow_keys(backend, 0),
-        overflow_kinds(backend, 0),
+        overflow_places(backend, 0),
         overflow_footprints(backend, 0),
         overflow_volume_footprints(backend, 0),
         counters(backend, 3) {}
 
-  // Clears every flag and the counters, and makes room for `overflow_room` later stores.
+  // Clears the slots' kinds, the paths' counts and the counters, and makes room for
+  // `overflow_room` later stores.
   void clear(size_t overflow_room) {
-    caustic_flags.fill_zero();
-    global_flags.fill_zero();
-    volume_flags.fill_zero();
+    slot_kinds.fill_zero();
+    later_counts.fill_zero();
     counters.fill_zero();
     overflow.resize_discard(overflow_room);
-    overflow_keys.resize_discard(overflow_room);
-    overflow_kinds.resize_discard(overflow_room);
+    overflow_places.resize_discard(overflow_room);
     if (footprints) overflow_footprints.resize_discard(overflow_room);
     if (footprints && media) overflow_volume_footprints.resize_discard(overflow_room);
   }
@@ -510,14 +501,12 @@ struct PhotonStoreBuffers {
   // The stores into these buffers, with room for `overflow_room` later stores (clear).
   PhotonStores stores(size_t overflow_room) {
     return {slot_photons.data(),
-            caustic_flags.data(),
-            global_flags.data(),
-            media ? volume_flags.data() : nullptr,
+            slot_kinds.data(),
+            later_counts.data(),
             per_path,
             first_slot_bounce,
             overflow.data(),
-            overflow_keys.data(),
-            overflow_kinds.data(),
+            overflow_places.data(),
             counters.data(),
             counters.data() + 1,
             counters.data() + 2,
@@ -528,16 +517,17 @@ struct PhotonStoreBuffers {
             footprints && media ? overflow_volume_footprints.data() : nullptr};
   }
 
+  uint32_t paths;
   size_t slots;
   uint32_t per_path, first_slot_bounce;
   bool media, footprints;
   Buffer<Photon> slot_photons;
-  Buffer<uint8_t> caustic_flags, global_flags, volume_flags;
+  Buffer<uint8_t> slot_kinds;
+  Buffer<uint32_t> later_counts;
   Buffer<PhotonFootprint> slot_footprints;
   Buffer<float> slot_volume_footprints;
   Buffer<Photon> overflow;
-  Buffer<uint64_t> overflow_keys;
-  Buffer<uint8_t> overflow_kinds;
+  Buffer<LaterStore> overflow_places;
   Buffer<PhotonFootprint> overflow_footprints;
   Buffer<float> overflow_volume_footprints;
   // The later stores asked for room, and the paths max_bounces and max_specular_bounces ended.
@@ -602,10 +592,68 @@ struct TraceCounts {
   uint32_t specular_capped = 0;
 };
 
-// Traces the paths of `in` into `buffers` until the overflow list has room for every later store.
+// Where the photons of a trace go: each path's first photon of each run (a kind's photons from
+// slots, then from the overflow list), as a place in the concatenation of all runs, and where
+// each run starts; with the trace's counts, which come back in the same copy.
+struct PhotonPlaces {
+  Buffer<uint32_t> place;           // run r, path p at r paths + p; the total after the last
+  std::vector<uint32_t> run_start;  // runs 2 kind and 2 kind + 1 (kinds from 0), then the total
+  TraceCounts counted;
+};
+
+// Counts each path's photons of each run, and one scan over the counts, laid out run after run,
+// gives every photon its place, so that no photon needs sorting or selecting. The run starts and
+// the trace's counters come to the host in one copy.
+PhotonPlaces place_photons(Backend& backend, const PhotonStoreBuffers& buffers) {
+  const uint32_t paths = buffers.paths;
+  const uint32_t per_path = buffers.per_path;
+  const uint32_t kinds = buffers.media ? 3 : 2;
+  const size_t runs = 2 * size_t(kinds);
+  PhotonPlaces out{Buffer<uint32_t>(backend, runs * paths + 1), {}, {}};
+  uint32_t* count = out.place.data();
+  const uint8_t* slot_kind = buffers.slot_kinds.data();
+  const uint32_t* later = buffers.later_counts.data();
+  parallel_for(backend, "photon_store_counts", paths, [=] CAUSTICA_HD(size_t path) {
+    uint32_t caustic = 0, global = 0, volume = 0;
+    for (uint32_t j = 0; j < per_path; ++j) {
+      const uint8_t kind = slot_kind[path * per_path + j];
+      caustic += kind == kCausticPhoton;
+      global += kind == kGlobalPhoton;
+      volume += kind == kVolumePhoton;
+    }
+    const uint32_t later_of_path = later[path];
+    count[path] = caustic;
+    count[paths + path] = later_of_path & kLaterCountMask;
+    count[2 * size_t(paths) + path] = global;
+    count[3 * size_t(paths) + path] = later_of_path >> kLaterCountBits & kLaterCountMask;
+    if (kinds == 3) {
+      count[4 * size_t(paths) + path] = volume;
+      count[5 * size_t(paths) + path] = later_of_path >> (2 * kLaterCountBits) & kLaterCountMask;
+    }
+    if (path == 0) count[runs * paths] = 0;  // its place: the total
+  });
+  backend.exclusive_scan(count, count, runs * paths + 1);
+  // Where each run begins, the end of the last and the trace's counters, in one copy.
+  Buffer<uint32_t> summary(backend, runs + 1 + 3);
+  uint32_t* starts = summary.data();
+  const uint32_t* at = out.place.data();
+  const uint32_t* counters = buffers.counters.data();
+  parallel_for(backend, "photon_store_runs", 1, [=] CAUSTICA_HD(size_t) {
+    for (size_t r = 0; r <= runs; ++r) starts[r] = at[r * paths];
+    for (size_t c = 0; c < 3; ++c) starts[runs + 1 + c] = counters[c];
+  });
+  out.run_start = summary.download();
+  const uint32_t* counted = out.run_start.data() + runs + 1;
+  out.counted = {counted[0], counted[1], counted[2]};
+  out.run_start.resize(runs + 1);
+  return out;
+}
+
+// Traces the paths of `in` into `buffers` until the overflow list has room for every later store,
+// and places the photons.
 template <typename Structure>
-TraceCounts trace_until_stored(Backend& backend, const Structure& structure, PhotonPathInputs in,
-                               const PhotonTraceSettings& settings, PhotonStoreBuffers& buffers) {
+PhotonPlaces trace_until_stored(Backend& backend, const Structure& structure, PhotonPathInputs in,
+                                const PhotonTraceSettings& settings, PhotonStoreBuffers& buffers) {
   const uint32_t count = settings.photon_count;
   // Paths end after anywhere from one to max_bounces hits (Russian roulette), so a warp tracing
   // one path per thread keeps its lanes waiting for its longest path, most of them idle. On the
@@ -629,72 +677,95 @@ TraceCounts trace_until_stored(Backend& backend, const Structure& structure, Pho
                  [=] CAUSTICA_HD(size_t) { *next = workers; });  // no host round trip
     in.stores = buffers.stores(overflow_room);
     trace_paths(backend, structure, in, settings, regenerate, workers, next);
-    const std::vector<uint32_t> counted = buffers.counters.download();  // one round trip for all
-    if (counted[0] <= overflow_room) return {counted[0], counted[1], counted[2]};
-    overflow_room = counted[0];
+    PhotonPlaces places = place_photons(backend, buffers);
+    if (places.counted.overflowed <= overflow_room) return places;
+    overflow_room = places.counted.overflowed;
   }
 }
 
-// The `overflowed` later stores' order by path and bounce, and their kinds in that order, as one
-// array of flags for each kind (volume flags with media only).
-struct OverflowOrder {
-  Buffer<uint32_t> order;
-  Buffer<uint8_t> caustic, global, volume;
-};
-
-OverflowOrder order_overflow(Backend& backend, PhotonStoreBuffers& buffers, size_t overflowed) {
-  OverflowOrder o{Buffer<uint32_t>(backend, overflowed), Buffer<uint8_t>(backend, overflowed),
-                  Buffer<uint8_t>(backend, overflowed),
-                  Buffer<uint8_t>(backend, buffers.media ? overflowed : 0)};
-  uint32_t* order = o.order.data();
-  parallel_for(backend, "photon_overflow_order", overflowed,
-               [=] CAUSTICA_HD(size_t i) { order[i] = uint32_t(i); });
-  backend.sort_pairs(buffers.overflow_keys.data(), order, overflowed);
-  const uint8_t* kind = buffers.overflow_kinds.data();
-  uint8_t* caustic = o.caustic.data();
-  uint8_t* global = o.global.data();
-  uint8_t* volume = buffers.media ? o.volume.data() : nullptr;
-  parallel_for(backend, "photon_overflow_kinds", overflowed, [=] CAUSTICA_HD(size_t i) {
-    caustic[i] = kind[order[i]] == kCausticPhoton;
-    global[i] = kind[order[i]] == kGlobalPhoton;
-    if (volume != nullptr) volume[i] = kind[order[i]] == kVolumePhoton;
-  });
-  return o;
-}
-
-// Compaction into `out`: each kind's photons from the slots in path order, then those of the
-// `overflowed` later stores of the same kind in `overflow`'s order, and their footprints alike.
+// Compaction into `out`: each kind's photons from the slots in path order, then its later photons
+// in path and bounce order, and their footprints alike, each to the place `places` gives it.
 void compact_photons(Backend& backend, const PhotonStoreBuffers& buffers,
-                     const OverflowOrder& overflow, size_t overflowed, TracedPhotons& out) {
-  const size_t slots = buffers.slots;
-  const uint32_t* later_order = overflow.order.data();
-  auto compact = [&](const Buffer<uint8_t>& flags, const Buffer<uint8_t>& overflow_flags,
-                     Buffer<Photon>& into) {
-    Compaction c{Buffer<uint32_t>(backend, slots), Buffer<uint32_t>(backend, overflowed)};
-    c.slotted = backend.select_flagged(nullptr, flags.data(), slots, c.index.data());
-    c.extra = backend.select_flagged(later_order, overflow_flags.data(), overflowed,
-                                     c.later_index.data());
-    c.gather(backend, "photon_compact", buffers.slot_photons, buffers.overflow, into);
-    return c;
+                     const PhotonPlaces& places, TracedPhotons& out) {
+  const uint32_t paths = buffers.paths;
+  const uint32_t per_path = buffers.per_path;
+  const uint32_t kinds = buffers.media ? 3 : 2;
+  const uint8_t* slot_kind = buffers.slot_kinds.data();
+  const uint32_t* at = places.place.data();
+  const std::vector<uint32_t>& start = places.run_start;
+  const size_t overflowed = places.counted.overflowed;
+  const auto kind_size = [&](uint32_t kind) {
+    return size_t(start[2 * kind + 2] - start[2 * kind]);
   };
-  const Compaction caustic = compact(buffers.caustic_flags, overflow.caustic, out.caustic);
-  const Compaction global = compact(buffers.global_flags, overflow.global, out.global);
-  out.caustic_from_slots = caustic.slotted;
-  out.global_from_slots = global.slotted;
-  if (buffers.footprints) {
-    caustic.gather(backend, "photon_compact_footprints", buffers.slot_footprints,
-                   buffers.overflow_footprints, out.caustic_footprints);
-    global.gather(backend, "photon_compact_footprints", buffers.slot_footprints,
-                  buffers.overflow_footprints, out.global_footprints);
-  }
+  out.caustic.resize_discard(kind_size(0));
+  out.global.resize_discard(kind_size(1));
+  out.caustic_from_slots = start[1] - start[0];
+  out.global_from_slots = start[3] - start[2];
   if (buffers.media) {
-    const Compaction volume = compact(buffers.volume_flags, overflow.volume, out.volume);
-    out.volume_from_slots = volume.slotted;
-    if (buffers.footprints) {
-      volume.gather(backend, "photon_compact_footprints", buffers.slot_volume_footprints,
-                    buffers.overflow_volume_footprints, out.volume_footprints);
-    }
+    out.volume.resize_discard(kind_size(2));
+    out.volume_from_slots = start[5] - start[4];
   }
+  const bool footprints = buffers.footprints;
+  if (footprints) {
+    out.caustic_footprints.resize_discard(kind_size(0));
+    out.global_footprints.resize_discard(kind_size(1));
+    if (buffers.media) out.volume_footprints.resize_discard(kind_size(2));
+  }
+  // Each kind's photons go to its own buffer, chosen by condition rather than from an array, which
+  // a GPU would index in local memory.
+  Photon* const caustic = out.caustic.data();
+  Photon* const global = out.global.data();
+  Photon* const volume = out.volume.data();
+  PhotonFootprint* const caustic_footprint = footprints ? out.caustic_footprints.data() : nullptr;
+  PhotonFootprint* const global_footprint = footprints ? out.global_footprints.data() : nullptr;
+  float* const volume_footprint =
+      footprints && buffers.media ? out.volume_footprints.data() : nullptr;
+  const uint32_t global_start = start[2], volume_start = kinds == 3 ? start[4] : 0;
+  const Photon* slot = buffers.slot_photons.data();
+  const Photon* overflow = buffers.overflow.data();
+  const LaterStore* later_place = buffers.overflow_places.data();
+  const PhotonFootprint* slot_footprint = footprints ? buffers.slot_footprints.data() : nullptr;
+  const PhotonFootprint* overflow_footprint =
+      footprints ? buffers.overflow_footprints.data() : nullptr;
+  const float* slot_volume_footprint =
+      footprints && buffers.media ? buffers.slot_volume_footprints.data() : nullptr;
+  const float* overflow_volume_footprint =
+      footprints && buffers.media ? buffers.overflow_volume_footprints.data() : nullptr;
+  const size_t slots = buffers.slots;
+  parallel_for(backend, "photon_compact", slots + overflowed, [=] CAUSTICA_HD(size_t i) {
+    uint8_t kind;
+    size_t to;
+    bool from_slot = i < slots;
+    if (from_slot) {
+      kind = slot_kind[i];
+      if (kind == kNotStored) return;
+      const size_t path = i / per_path, first = path * per_path;
+      uint32_t rank = 0;
+      for (size_t j = first; j < i; ++j) rank += slot_kind[j] == kind;
+      to = at[2 * size_t(kind - 1) * paths + path] + rank;
+    } else {
+      const LaterStore p = later_place[i - slots];
+      kind = p.kind;
+      to = at[(2 * size_t(kind - 1) + 1) * paths + p.path] + p.rank;
+    }
+    const size_t from = from_slot ? i : i - slots;
+    const Photon& photon = from_slot ? slot[from] : overflow[from];
+    if (kind == kVolumePhoton) {
+      to -= volume_start;
+      volume[to] = photon;
+      if (footprints)
+        volume_footprint[to] =
+            from_slot ? slot_volume_footprint[from] : overflow_volume_footprint[from];
+      return;
+    }
+    const bool is_caustic = kind == kCausticPhoton;
+    if (!is_caustic) to -= global_start;
+    (is_caustic ? caustic : global)[to] = photon;
+    if (footprints) {  // not by a null test: an empty kind's buffer has none
+      (is_caustic ? caustic_footprint : global_footprint)[to] =
+          from_slot ? slot_footprint[from] : overflow_footprint[from];
+    }
+  });
 }
 
 // trace_photons with the paths traced through `structure`, the view of the scene's structure.
@@ -724,12 +795,11 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
   const uint32_t per_path = std::min(settings.max_bounces - first_slot_bounce, kSlotsPerPath);
   PhotonStoreBuffers buffers(backend, settings.photon_count, per_path, first_slot_bounce, media,
                              settings.differentials);
-  const TraceCounts counted = trace_until_stored(
+  const PhotonPlaces places = trace_until_stored(
       backend, structure, path_inputs(scene, resident, settings), settings, buffers);
-  const OverflowOrder overflow = order_overflow(backend, buffers, counted.overflowed);
-  compact_photons(backend, buffers, overflow, counted.overflowed, out);
-  out.capped_paths = counted.capped;
-  out.specular_capped_paths = counted.specular_capped;
+  compact_photons(backend, buffers, places, out);
+  out.capped_paths = places.counted.capped;
+  out.specular_capped_paths = places.counted.specular_capped;
   return out;
 }
 
@@ -737,6 +807,10 @@ TracedPhotons trace_photons_through(const Structure& structure, Backend& backend
 
 TracedPhotons trace_photons(Backend& backend, const ResidentScene& resident,
                             const PhotonTraceSettings& settings) {
+  if (settings.max_bounces > kMaxPhotonBounces)
+    throw std::invalid_argument("trace_photons: max_bounces " +
+                                std::to_string(settings.max_bounces) + " is over " +
+                                std::to_string(kMaxPhotonBounces));
   return resident.structure().visit([&](const auto& structure) {
     return trace_photons_through(structure, backend, resident, settings);
   });

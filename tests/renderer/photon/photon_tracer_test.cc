@@ -97,6 +97,35 @@ TEST(PhotonTracer, TheSpecularCapEndsTheMirrorRunsRouletteSpares) {
   EXPECT_EQ(by_total.specular_capped_paths, 0u);
 }
 
+// With walls that absorb nothing and a cap of B bounces, every path stores a photon at each of
+// bounces 1 to B - 1: the first seven in its slots, the rest in the overflow list. The photons
+// come as every path's slot photons in path order, then every path's later ones, so that path p's
+// bounces are global[7p, 7p + 7) and then the B - 8 from 7 paths + (B - 8) p on; each photon
+// arrives from the one before it on its path, which no other order of the photons would give.
+TEST(PhotonTracer, EachPathsPhotonsComeInBounceOrderSlotsFirst) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  ResidentScene resident = ResidentScene::upload(*backend, closed_sphere(1.0f));
+  constexpr uint32_t kPaths = 3000, kCap = 20, kSlots = 7, kLater = kCap - 1 - kSlots;
+  const TracedPhotons traced = trace_photons(*backend, resident, {kPaths, kCap, 3, 0});
+  ASSERT_EQ(traced.caustic.size(), 0u);
+  ASSERT_EQ(traced.global.size(), size_t(kPaths) * (kCap - 1));
+  ASSERT_EQ(traced.global_from_slots, size_t(kPaths) * kSlots);
+  const std::vector<Photon> photons = traced.global.download();
+  size_t chained = 0;
+  for (uint32_t path = 0; path < kPaths; ++path) {
+    std::vector<Photon> on_path(photons.begin() + path * kSlots,
+                                photons.begin() + (path + 1) * kSlots);
+    const auto later = photons.begin() + kPaths * kSlots + path * kLater;
+    on_path.insert(on_path.end(), later, later + kLater);
+    for (size_t b = 1; b < on_path.size(); ++b) {
+      const Vec3f travel = normalize(on_path[b].position - on_path[b - 1].position);
+      ASSERT_GT(dot(travel, -on_path[b].incoming), 0.99f) << "path " << path << " bounce " << b;
+      ++chained;
+    }
+  }
+  EXPECT_EQ(chained, size_t(kPaths) * (kCap - 2));
+}
+
 std::vector<Photon> all_photons(const TracedPhotons& traced) {
   std::vector<Photon> all = traced.caustic.download();
   for (const Photon& p : traced.global.download()) all.push_back(p);
