@@ -410,10 +410,10 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
       PhotonTraceSettings this_pass = trace;
       this_pass.pass = pass++;
       TracedPhotons traced = trace_photons(*backend, resident, this_pass);
-      PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
-      PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
-      stored = caustic.size() + global.size();
-      map_bytes = caustic.bytes() + global.bytes();
+      const PhotonMapPair maps =
+          build_photon_maps(*backend, traced.caustic, traced.global, per_leaf);
+      stored = maps.first.size() + maps.second.size();
+      map_bytes = maps.first.bytes() + maps.second.bytes();
     });
     const std::string label = name + absl::StrFormat(" %d photons", o.photons);
     report.line("photon_pass", label, m.median, "ms", &m, o.runs);
@@ -469,8 +469,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     report.line("photon_paths_specular_capped", label, double(traced.specular_capped_paths),
                 "paths");
     Measurement maps = measure(o, *backend, [&] {
-      (void)build_photon_map(*backend, traced.caustic, per_leaf);
-      (void)build_photon_map(*backend, traced.global, per_leaf);
+      (void)build_photon_maps(*backend, traced.caustic, traced.global, per_leaf);
     });
     report.line("photon_maps_build", label + absl::StrFormat(" %zu stored", stored), maps.median,
                 "ms", &maps, o.runs);
@@ -521,8 +520,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     PhotonTraceSettings trace = photon_trace_settings(rs, o.photons, 0);
     trace.ray_queues = o.ray_queues;
     TracedPhotons traced = trace_photons(*backend, resident, trace);
-    PhotonMap caustic = build_photon_map(*backend, traced.caustic, per_leaf);
-    PhotonMap global = build_photon_map(*backend, traced.global, per_leaf);
+    PhotonMapPair maps = build_photon_maps(*backend, traced.caustic, traced.global, per_leaf);
+    PhotonMap& caustic = maps.first;
+    PhotonMap& global = maps.second;
     // In a scene with media, the volume map the beam estimate reads, as the knn estimator builds
     // it.
     const float max_bandwidth = volume_bandwidth_cap(resident.bounds());

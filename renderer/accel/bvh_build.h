@@ -42,31 +42,25 @@ struct BvhSummary {
   uint32_t root;
 };
 
-// Builds the binary radix tree over `n` primitives whose codes are sorted ascending, with
-// `summary` (in the backend's memory) holding their bounds; the root is written there and both
-// come back in the Bvh with one wait for the device;
+// Launches the binary radix tree's build over `n` primitives whose codes are sorted ascending, with
+// `summary` (in the backend's memory) holding their bounds, and returns without waiting: the root
+// is written to `summary`, and finish_bvh gives the Bvh its bounds and root from a copy of it, so
+// that builds launched together wait for the device once;
 // `leaf_box(i)` (a CAUSTICA_HD functor) gives the box of the i-th primitive in that order; it is
 // called exactly once per leaf, so it may also move that primitive into its sorted place.
 // `on_node(node, first, last)` is called once for each internal node, with the range of leaves it
 // covers, when both its children are written. Equal codes are split by index, so any input gives a
 // valid tree.
 template <typename LeafBox, typename OnNode = IgnoreNodes>
-Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
-                                BvhSummary* summary, LeafBox leaf_box,
-                                OnNode on_node = IgnoreNodes{}) {
+Bvh launch_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
+                                 BvhSummary* summary, LeafBox leaf_box,
+                                 OnNode on_node = IgnoreNodes{}) {
   Bvh bvh;
   bvh.leaf_count = n;
   bvh.nodes.bind(backend);
-  auto finish = [&] {
-    BvhSummary s;
-    backend.copy_to_host(&s, summary, sizeof(BvhSummary));
-    bvh.bounds = s.bounds;
-    bvh.root = n < 2 ? 0 : s.root;
-    return std::move(bvh);
-  };
   if (n == 1)
     parallel_for(backend, "lbvh_single_leaf", 1, [=] CAUSTICA_HD(size_t) { (void)leaf_box(0u); });
-  if (n < 2) return finish();
+  if (n < 2) return bvh;
 
   bvh.nodes.resize_discard(n - 1);
   // other_end[k]: the far end of the range of node k's first child to arrive, or kUnvisited.
@@ -111,7 +105,26 @@ Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, 
       }
     }
   });
-  return finish();
+  return bvh;
+}
+
+// The bounds and root of a build that launch_bvh_from_sorted_codes launched, from its summary
+// copied to the host once the build is done.
+inline void finish_bvh(Bvh& bvh, const BvhSummary& summary) {
+  bvh.bounds = summary.bounds;
+  bvh.root = bvh.leaf_count < 2 ? 0 : summary.root;
+}
+
+// The build launched and finished: one wait for the device.
+template <typename LeafBox, typename OnNode = IgnoreNodes>
+Bvh build_bvh_from_sorted_codes(Backend& backend, const uint32_t* sorted_codes, uint32_t n,
+                                BvhSummary* summary, LeafBox leaf_box,
+                                OnNode on_node = IgnoreNodes{}) {
+  Bvh bvh = launch_bvh_from_sorted_codes(backend, sorted_codes, n, summary, leaf_box, on_node);
+  BvhSummary copied;
+  backend.copy_to_host(&copied, summary, sizeof(BvhSummary));
+  finish_bvh(bvh, copied);
+  return bvh;
 }
 
 }  // namespace caustica

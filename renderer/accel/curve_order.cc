@@ -1,7 +1,5 @@
 #include "renderer/accel/curve_order.h"
 
-#include "renderer/base/morton.h"
-
 namespace caustica {
 
 Curve backend_curve(const Backend& backend) {
@@ -10,10 +8,8 @@ Curve backend_curve(const Backend& backend) {
 
 CurveOrder sort_by_curve(Backend& backend, const Aabb* boxes, uint32_t n, const Aabb* bounds,
                          Curve curve) {
-  return sort_by_code(backend, n, 31, [=] CAUSTICA_HD(uint32_t i) {
-    return curve == Curve::kHilbert ? extended_hilbert_code(boxes[i], *bounds)
-                                    : extended_morton_code(boxes[i], *bounds);
-  });
+  return sort_by_code(backend, n, kCurveCodeBits,
+                      [=] CAUSTICA_HD(uint32_t i) { return curve_code(curve, boxes[i], *bounds); });
 }
 
 }  // namespace caustica

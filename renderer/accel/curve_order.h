@@ -3,6 +3,7 @@
 // below a bit for huge ones (extended codes), radix-sorted with the indices.
 #pragma once
 
+#include "renderer/base/morton.h"
 #include "renderer/parallel/buffer.h"
 #include "renderer/parallel/parallel_for.h"
 
@@ -50,6 +51,14 @@ enum class Curve { kMorton, kHilbert };
 // on the CPU, where a Hilbert code is a chain of dependent bit operations that the compiler does
 // not vectorise: it slowed the LBVH build far more than it sped the rays there.
 Curve backend_curve(const Backend& backend);
+
+// The bits of a box's code along `curve` within `bounds`: the codes sort_by_curve sorts by.
+inline constexpr int kCurveCodeBits = 31;
+
+CAUSTICA_HDI uint32_t curve_code(Curve curve, const Aabb& box, const Aabb& bounds) {
+  return curve == Curve::kHilbert ? extended_hilbert_code(box, bounds)
+                                  : extended_morton_code(box, bounds);
+}
 
 // `boxes` holds one box per primitive (degenerate for points); `bounds`, in the backend's memory,
 // is their reduction (Backend::reduce_bounds_to), read by the kernel so the host need not wait.

@@ -12,8 +12,8 @@ void KnnEstimator::prepare(Backend& backend, const ResidentScene& scene,
   maps_.reset();  // frees the old maps before the new ones are allocated
   const uint32_t per_leaf =
       photons_per_leaf_for(backend.kind(), options_.k_nearest, options_.photons_per_leaf);
-  maps_ = Maps{pass, build_photon_map(backend, photons.caustic, per_leaf),
-               build_photon_map(backend, photons.global, per_leaf),
+  PhotonMapPair surface = build_photon_maps(backend, photons.caustic, photons.global, per_leaf);
+  maps_ = Maps{pass, std::move(surface.first), std::move(surface.second),
                build_volume_map(backend, photons.volume, per_leaf, kVolumeNearest,
                                 volume_bandwidth_cap(scene.bounds()))};
 }

@@ -118,4 +118,13 @@ PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
 PhotonMap build_photon_map(Backend& backend, const Buffer<Photon>& photons,
                            uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf);
 
+// Two maps, each the one build_photon_map makes of its photons with the backend's curve and the
+// default nodes, built together: one sort and one launch of each step serve both.
+struct PhotonMapPair {
+  PhotonMap first, second;
+};
+PhotonMapPair build_photon_maps(Backend& backend, const Buffer<Photon>& first,
+                                const Buffer<Photon>& second,
+                                uint32_t photons_per_leaf = kDefaultPhotonsPerLeaf);
+
 }  // namespace caustica

@@ -753,6 +753,27 @@ TEST(GpuParity, PhotonMapsAndNearestNeighboursAreIdentical) {
   EXPECT_GT(full, kNnQueries / 2) << "most searches should find their k";
 }
 
+// On the GPU too, two maps built together (one sort for both) are the maps built alone.
+TEST(GpuParity, PhotonMapPairIsEachMapBuiltAlone) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  BothBackends both;
+  std::mt19937 rng(37);
+  std::vector<Photon> a = parity_photons(rng), b = parity_photons(rng);
+  for (Photon& ph : b) ph.position = ph.position * 3.0f + Vec3f(1.0f, -2.0f, 0.5f);
+  b.resize(b.size() / 3);
+  Buffer<Photon> first = upload(*both.gpu, a), second = upload(*both.gpu, b);
+  const PhotonMapPair pair = build_photon_maps(*both.gpu, first, second);
+  const PhotonMap alone[2] = {build_photon_map(*both.gpu, first),
+                              build_photon_map(*both.gpu, second)};
+  const PhotonMap* together[2] = {&pair.first, &pair.second};
+  for (int m = 0; m < 2; ++m) {
+    EXPECT_EQ(together[m]->bvh.root, alone[m].bvh.root) << m;
+    EXPECT_TRUE(same_bytes(together[m]->bvh.nodes.download(), alone[m].bvh.nodes.download())) << m;
+    EXPECT_TRUE(same_bytes(together[m]->positions.download(), alone[m].positions.download())) << m;
+    EXPECT_TRUE(same_bytes(together[m]->flux.download(), alone[m].flux.download())) << m;
+  }
+}
+
 // The photon map's compact nodes (PhotonMapNodes::kSiblingPairs): the same nodes on both backends,
 // and on the GPU the same searches as over box pairs, heap for heap, since both give a search the
 // same boxes bit for bit.

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <random>
 
 #include "renderer/photon/knn_estimate.h"
@@ -190,6 +191,44 @@ TEST(PhotonMap, KeepsEveryPhotonOnce) {
   std::vector<int> seen(5000);
   for (const Photon& ph : sorted) ++seen[size_t(ph.power.x)];
   for (int s : seen) ASSERT_EQ(s, 1);
+}
+
+// Two maps built together are the maps built alone, byte for byte: each set keeps its own bounds
+// and curve order though the sets share one sort. The sets differ in size, bounds and leaf count.
+TEST(PhotonMap, PairBuiltTogetherIsEachBuiltAlone) {
+  auto backend = make_cpu_backend(size_t(1) << 30);
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<Photon> a(3001), b(12345);
+  for (size_t i = 0; i < a.size(); ++i)
+    a[i] = {Vec3f(u(rng), u(rng), 0.0f), Vec3f(float(i), 1, 1), Vec3f(0, 0, 1)};
+  for (size_t i = 0; i < b.size(); ++i)
+    b[i] = {Vec3f(4 * u(rng) - 2, u(rng), 3 * u(rng)), Vec3f(1, float(i), 1), Vec3f(0, 1, 0)};
+  Buffer<Photon> first(*backend, a.size()), second(*backend, b.size()), none(*backend, 0);
+  first.upload(a);
+  second.upload(b);
+  const auto same = [](const PhotonMap& together, const PhotonMap& alone) {
+    const auto bytes = [](const auto& v) {
+      using T = typename std::decay_t<decltype(v)>::value_type;
+      std::vector<uint8_t> out(v.size() * sizeof(T));
+      if (!v.empty()) std::memcpy(out.data(), v.data(), out.size());
+      return out;
+    };
+    EXPECT_EQ(together.bvh.root, alone.bvh.root);
+    EXPECT_EQ(together.bvh.leaf_count, alone.bvh.leaf_count);
+    EXPECT_EQ(bytes(together.bvh.nodes.download()), bytes(alone.bvh.nodes.download()));
+    EXPECT_EQ(bytes(together.positions.download()), bytes(alone.positions.download()));
+    EXPECT_EQ(bytes(together.flux.download()), bytes(alone.flux.download()));
+  };
+  for (uint32_t per_leaf : {1u, 8u, 16u}) {
+    SCOPED_TRACE(per_leaf);
+    const PhotonMapPair pair = build_photon_maps(*backend, first, second, per_leaf);
+    same(pair.first, build_photon_map(*backend, first, per_leaf));
+    same(pair.second, build_photon_map(*backend, second, per_leaf));
+    const PhotonMapPair one_empty = build_photon_maps(*backend, none, second, per_leaf);
+    EXPECT_EQ(one_empty.first.size(), 0u);
+    same(one_empty.second, pair.second);
+  }
 }
 
 // Each kernel, integrated over the unit disk, gives pi (the area), so estimates are unbiased for
