@@ -731,39 +731,43 @@ void compact_photons(Backend& backend, const PhotonStoreBuffers& buffers,
       footprints && buffers.media ? buffers.slot_volume_footprints.data() : nullptr;
   const float* overflow_volume_footprint =
       footprints && buffers.media ? buffers.overflow_volume_footprints.data() : nullptr;
-  const size_t slots = buffers.slots;
-  parallel_for(backend, "photon_compact", slots + overflowed, [=] CAUSTICA_HD(size_t i) {
-    uint8_t kind;
-    size_t to;
-    bool from_slot = i < slots;
-    if (from_slot) {
-      kind = slot_kind[i];
-      if (kind == kNotStored) return;
-      const size_t path = i / per_path, first = path * per_path;
-      uint32_t rank = 0;
-      for (size_t j = first; j < i; ++j) rank += slot_kind[j] == kind;
-      to = at[2 * size_t(kind - 1) * paths + path] + rank;
-    } else {
-      const LaterStore p = later_place[i - slots];
-      kind = p.kind;
-      to = at[(2 * size_t(kind - 1) + 1) * paths + p.path] + p.rank;
-    }
-    const size_t from = from_slot ? i : i - slots;
-    const Photon& photon = from_slot ? slot[from] : overflow[from];
-    if (kind == kVolumePhoton) {
-      to -= volume_start;
-      volume[to] = photon;
-      if (footprints)
-        volume_footprint[to] =
-            from_slot ? slot_volume_footprint[from] : overflow_volume_footprint[from];
+  // One thread per path for its slots, which it walks in order counting each kind's photons, then
+  // one per overflow entry.
+  parallel_for(backend, "photon_compact", paths + overflowed, [=] CAUSTICA_HD(size_t i) {
+    // Photon `from` of the slots or of the overflow list, of kind `kind`, to its place `to`.
+    const auto move = [&](bool from_slot, size_t from, uint8_t kind, size_t to) {
+      const Photon& photon = from_slot ? slot[from] : overflow[from];
+      if (kind == kVolumePhoton) {
+        to -= volume_start;
+        volume[to] = photon;
+        if (footprints)
+          volume_footprint[to] =
+              from_slot ? slot_volume_footprint[from] : overflow_volume_footprint[from];
+        return;
+      }
+      const bool is_caustic = kind == kCausticPhoton;
+      if (!is_caustic) to -= global_start;
+      (is_caustic ? caustic : global)[to] = photon;
+      if (footprints) {  // not by a null test: an empty kind's buffer has none
+        (is_caustic ? caustic_footprint : global_footprint)[to] =
+            from_slot ? slot_footprint[from] : overflow_footprint[from];
+      }
+    };
+    if (i >= paths) {
+      const LaterStore p = later_place[i - paths];
+      move(false, i - paths, p.kind, at[(2 * size_t(p.kind - 1) + 1) * paths + p.path] + p.rank);
       return;
     }
-    const bool is_caustic = kind == kCausticPhoton;
-    if (!is_caustic) to -= global_start;
-    (is_caustic ? caustic : global)[to] = photon;
-    if (footprints) {  // not by a null test: an empty kind's buffer has none
-      (is_caustic ? caustic_footprint : global_footprint)[to] =
-          from_slot ? slot_footprint[from] : overflow_footprint[from];
+    const size_t path = i;
+    uint32_t caustic_rank = 0, global_rank = 0, volume_rank = 0;
+    for (uint32_t j = 0; j < per_path; ++j) {
+      const size_t k = path * per_path + j;
+      const uint8_t kind = slot_kind[k];
+      if (kind == kNotStored) continue;
+      const uint32_t rank = kind == kCausticPhoton  ? caustic_rank++
+                            : kind == kGlobalPhoton ? global_rank++
+                                                    : volume_rank++;
+      move(true, k, kind, at[2 * size_t(kind - 1) * paths + path] + rank);
     }
   });
 }
