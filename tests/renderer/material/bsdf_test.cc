@@ -1,0 +1,283 @@
+// The scattering models against what they must satisfy whatever their parameters: sampled
+// directions distributed as pdf() says (a chi-square test over the hemisphere, as pbrt and Mitsuba
+// test theirs), f symmetric in its directions, the GGX distribution and its visible normals
+// normalised, and no reflection of more light than arrives (the white furnace), with GGX's loss
+// from single scattering equal to the quadrature of f.
+#include <gtest/gtest.h>
+
+#include <boost/math/special_functions/gamma.hpp>
+#include <cmath>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "renderer/material/metallic_roughness.h"
+#include "renderer/material/modified_phong.h"
+
+namespace caustica {
+namespace {
+
+constexpr double kPiD = 3.14159265358979323846;
+
+Vec3f direction_at(double theta_degrees, double phi = 0.3) {
+  const double t = theta_degrees * kPiD / 180.0;
+  return Vec3f(float(std::sin(t) * std::cos(phi)), float(std::sin(t) * std::sin(phi)),
+               float(std::cos(t)));
+}
+
+// The integral over the upper hemisphere of g(w) dw by Simpson's rule in (cos theta, phi), each
+// of `z_cells` x `phi_cells` cells cut in `sub` x `sub` panels.
+double hemisphere_integral(const std::function<double(Vec3f)>& g, int z_cells, int phi_cells,
+                           int sub, double z0 = 0.0, double z1 = 1.0) {
+  const int nz = 2 * sub * z_cells, nphi = 2 * sub * phi_cells;
+  const double hz = (z1 - z0) / nz, hphi = 2.0 * kPiD / nphi;
+  double sum = 0.0;
+  for (int i = 0; i <= nz; ++i) {
+    const double z = z0 + i * hz;
+    const double wz = (i == 0 || i == nz) ? 1.0 : (i % 2 ? 4.0 : 2.0);
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    for (int j = 0; j <= nphi; ++j) {
+      const double phi = j * hphi;
+      const double wphi = (j == 0 || j == nphi) ? 1.0 : (j % 2 ? 4.0 : 2.0);
+      sum += wz * wphi * g(Vec3f(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z)));
+    }
+  }
+  return sum * hz * hphi / 9.0;
+}
+
+// A chi-square test of `sample` against `pdf` for outgoing direction `wo`: `samples` directions
+// counted in cells of equal cos theta and phi over the upper hemisphere, plus one cell for the
+// draws that gave no direction, against the counts the pdf's integral over each cell expects.
+// Returns the p-value of the counts under the hypothesis that the sampler draws from pdf.
+template <typename Bsdf>
+double chi_square_p_value(const Bsdf& bsdf, Vec3f wo, int samples, uint32_t seed) {
+  constexpr int kZ = 10, kPhi = 20;
+  std::vector<double> observed(kZ * kPhi + 1, 0.0);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < samples; ++i) {
+    const BsdfSample s = bsdf.sample(wo, u(rng), u(rng), u(rng));
+    if (!s.valid()) {
+      observed[kZ * kPhi] += 1;
+      continue;
+    }
+    const int zi = std::min(kZ - 1, int(s.wi.z * kZ));
+    double phi = std::atan2(double(s.wi.y), double(s.wi.x));
+    if (phi < 0) phi += 2 * kPiD;
+    const int pi = std::min(kPhi - 1, int(phi / (2 * kPiD) * kPhi));
+    observed[zi * kPhi + pi] += 1;
+  }
+  std::vector<double> expected(kZ * kPhi + 1, 0.0);
+  double total = 0.0;
+  for (int zi = 0; zi < kZ; ++zi) {
+    for (int pi = 0; pi < kPhi; ++pi) {
+      // One cell: z in [zi, zi + 1) / kZ and phi in [pi, pi + 1) 2 pi / kPhi, by Simpson's rule.
+      constexpr int kSub = 40;
+      const double z0 = double(zi) / kZ, hz = 1.0 / kZ / (2 * kSub);
+      const double p0 = 2 * kPiD * pi / kPhi, hp = 2 * kPiD / kPhi / (2 * kSub);
+      double sum = 0.0;
+      for (int a = 0; a <= 2 * kSub; ++a) {
+        const double z = z0 + a * hz, r = std::sqrt(std::max(0.0, 1.0 - z * z));
+        const double wa = (a == 0 || a == 2 * kSub) ? 1.0 : (a % 2 ? 4.0 : 2.0);
+        for (int b = 0; b <= 2 * kSub; ++b) {
+          const double phi = p0 + b * hp;
+          const double wb = (b == 0 || b == 2 * kSub) ? 1.0 : (b % 2 ? 4.0 : 2.0);
+          const Vec3f wi(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z));
+          sum += wa * wb * bsdf.pdf(wo, wi);
+        }
+      }
+      expected[zi * kPhi + pi] = sum * hz * hp / 9.0 * samples;
+      total += expected[zi * kPhi + pi];
+    }
+  }
+  expected[kZ * kPhi] = std::max(0.0, samples - total);
+  // Cells expecting fewer than 5 draws are pooled, as the test's approximation needs.
+  double chi2 = 0.0, pooled_observed = 0.0, pooled_expected = 0.0;
+  int cells = 0;
+  for (size_t c = 0; c < expected.size(); ++c) {
+    if (expected[c] < 5.0) {
+      pooled_observed += observed[c];
+      pooled_expected += expected[c];
+      continue;
+    }
+    chi2 += (observed[c] - expected[c]) * (observed[c] - expected[c]) / expected[c];
+    ++cells;
+  }
+  if (pooled_expected >= 5.0) {
+    chi2 +=
+        (pooled_observed - pooled_expected) * (pooled_observed - pooled_expected) / pooled_expected;
+    ++cells;
+  } else if (pooled_observed > 10.0 * std::max(pooled_expected, 1.0)) {
+    return 0.0;  // draws where the pdf says there are none
+  }
+  return boost::math::gamma_q(0.5 * (cells - 1), 0.5 * chi2);
+}
+
+// Every test below runs a few dozen chi-square tests; each must pass at this level, so that the
+// whole file fails by chance with probability about 1%.
+constexpr double kSignificance = 0.01 / 60;
+
+std::vector<MetallicRoughnessBsdf> metallic_roughness_cases() {
+  std::vector<MetallicRoughnessBsdf> out;
+  for (float roughness : {0.3f, 0.6f, 1.0f})
+    for (float metallic : {0.0f, 0.5f, 1.0f})
+      out.push_back({Vec3f(0.9f, 0.6f, 0.2f), metallic, roughness});
+  return out;
+}
+
+std::vector<ModifiedPhongBsdf> phong_cases() {
+  return {{Vec3f(0.5f), Vec3f(0.4f), 2.0f},
+          {Vec3f(0.3f, 0.2f, 0.1f), Vec3f(0.6f), 20.0f},
+          {Vec3f(0.0f), Vec3f(0.9f), 60.0f},
+          {Vec3f(0.8f), Vec3f(0.0f), 10.0f}};
+}
+
+TEST(MetallicRoughness, SamplesFollowThePdf) {
+  uint32_t seed = 1;
+  for (const MetallicRoughnessBsdf& m : metallic_roughness_cases()) {
+    for (double theta : {0.0, 35.0, 70.0, 85.0}) {
+      const double p = chi_square_p_value(m, direction_at(theta), 400000, seed++);
+      EXPECT_GT(p, kSignificance) << "roughness " << m.roughness << " metallic " << m.metallic
+                                  << " theta " << theta;
+    }
+  }
+}
+
+TEST(ModifiedPhong, SamplesFollowThePdf) {
+  uint32_t seed = 100;
+  for (const ModifiedPhongBsdf& m : phong_cases()) {
+    for (double theta : {0.0, 35.0, 70.0, 85.0}) {
+      const double p = chi_square_p_value(m, direction_at(theta), 400000, seed++);
+      EXPECT_GT(p, kSignificance) << "exponent " << m.exponent << " theta " << theta;
+    }
+  }
+}
+
+// The test's power: a sampler whose lobe is a little too wide fails it.
+TEST(ChiSquare, RejectsASamplerThatDoesNotMatchItsPdf) {
+  struct Wider {
+    ModifiedPhongBsdf drawn{Vec3f(0.0f), Vec3f(0.9f), 18.0f};
+    ModifiedPhongBsdf claimed{Vec3f(0.0f), Vec3f(0.9f), 20.0f};
+    BsdfSample sample(Vec3f wo, float uc, float u0, float u1) const {
+      return drawn.sample(wo, uc, u0, u1);
+    }
+    float pdf(Vec3f wo, Vec3f wi) const { return claimed.pdf(wo, wi); }
+  };
+  EXPECT_LT(chi_square_p_value(Wider{}, direction_at(30.0), 400000, 7), 1e-6);
+}
+
+template <typename Bsdf>
+void expect_reciprocal(const Bsdf& bsdf, const std::string& label) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3f a = sample_cosine_hemisphere(u(rng), u(rng));
+    const Vec3f b = sample_cosine_hemisphere(u(rng), u(rng));
+    const Vec3f ab = bsdf.f(a, b), ba = bsdf.f(b, a);
+    for (int c = 0; c < 3; ++c)
+      ASSERT_NEAR(ab[c], ba[c], 1e-5f * std::max(1.0f, std::fabs(ab[c]))) << label << " " << i;
+  }
+}
+
+TEST(MetallicRoughness, IsReciprocal) {
+  for (const MetallicRoughnessBsdf& m : metallic_roughness_cases())
+    expect_reciprocal(m, "roughness " + std::to_string(m.roughness));
+}
+
+TEST(ModifiedPhong, IsReciprocal) {
+  for (const ModifiedPhongBsdf& m : phong_cases())
+    expect_reciprocal(m, "exponent " + std::to_string(m.exponent));
+}
+
+// D cos integrates to one over the hemisphere, and so do the normals each direction sees.
+TEST(TrowbridgeReitz, DistributionAndVisibleNormalsAreNormalised) {
+  for (float alpha : {0.05f, 0.2f, 0.5f, 1.0f}) {
+    const TrowbridgeReitz d{alpha};
+    // Isotropic: 2 pi times the integral over z = cos theta of D z, in fine steps near z = 1
+    // where a small alpha puts nearly all of it.
+    double projected = 0.0;
+    const int n = 200000;
+    for (int i = 0; i <= n; ++i) {
+      const double z = double(i) / n, w = (i == 0 || i == n) ? 1.0 : (i % 2 ? 4.0 : 2.0);
+      const float r = float(std::sqrt(std::max(0.0, 1.0 - z * z)));
+      projected += w * d.D(Vec3f(r, 0.0f, float(z))) * z;
+    }
+    projected *= 2 * kPiD / (3.0 * n);
+    EXPECT_NEAR(projected, 1.0, 1e-3) << "alpha " << alpha;
+    if (alpha < 0.2f) continue;  // too sharp for the hemisphere quadrature below
+    for (double theta : {0.0, 45.0, 80.0}) {
+      const Vec3f w = direction_at(theta);
+      const double visible =
+          hemisphere_integral([&](Vec3f wm) { return double(d.visible_D(w, wm)); }, 40, 40, 4);
+      EXPECT_NEAR(visible, 1.0, 2e-3) << "alpha " << alpha << " theta " << theta;
+    }
+  }
+}
+
+// The white furnace: a metal of base colour 1 has Fresnel 1, so it reflects what GGX's single
+// scattering keeps, which f's quadrature gives; every sample's weight is at most 1 (it is
+// G(wo, wi) / G1(wo) for visible normals), and the mean of the weights is the quadrature. The
+// smoother the surface, the nearer to 1.
+TEST(MetallicRoughness, WhiteFurnaceLosesOnlyWhatSingleScatteringLoses) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  double smooth_albedo = 0.0;
+  for (float roughness : {0.2f, 0.5f, 1.0f}) {
+    const MetallicRoughnessBsdf metal{Vec3f(1.0f), 1.0f, roughness};
+    for (double theta : {0.0, 45.0, 80.0}) {
+      const Vec3f wo = direction_at(theta);
+      constexpr int kSamples = 200000;
+      double sum = 0.0, sum2 = 0.0, worst = 0.0;
+      for (int i = 0; i < kSamples; ++i) {
+        const BsdfSample s = metal.sample(wo, u(rng), u(rng), u(rng));
+        const double w = s.valid() ? double(s.weight().y) : 0.0;
+        sum += w;
+        sum2 += w * w;
+        worst = std::max(worst, w);
+      }
+      const double mean = sum / kSamples;
+      const double sigma = std::sqrt(std::max(0.0, sum2 / kSamples - mean * mean) / kSamples);
+      EXPECT_LE(worst, 1.0 + 1e-4) << "roughness " << roughness << " theta " << theta;
+      if (roughness >= 0.5f) {
+        const double quadrature = hemisphere_integral(
+            [&](Vec3f wi) { return double(metal.f(wo, wi).y) * wi.z; }, 40, 40, 4);
+        EXPECT_NEAR(mean, quadrature, 4 * sigma + 1e-3)
+            << "roughness " << roughness << " theta " << theta;
+        EXPECT_LT(quadrature, 1.0);
+      }
+      if (roughness == 0.2f && theta == 0.0) smooth_albedo = mean;
+    }
+  }
+  EXPECT_GT(smooth_albedo, 0.99);
+}
+
+// Every model reflects at most what arrives, at every angle and roughness, by quadrature of f cos
+// and by the mean of sampled weights.
+TEST(Materials, WhiteFurnaceShowsNoGain) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  const auto check = [&](const auto& bsdf, const std::string& label) {
+    for (double theta : {0.0, 45.0, 75.0, 88.0}) {
+      const Vec3f wo = direction_at(theta);
+      constexpr int kSamples = 200000;
+      double sum = 0.0;
+      for (int i = 0; i < kSamples; ++i) {
+        const BsdfSample s = bsdf.sample(wo, u(rng), u(rng), u(rng));
+        if (s.valid()) sum += s.weight().y;
+      }
+      EXPECT_LT(sum / kSamples, 1.0 + 3e-3) << label << " theta " << theta;
+      std::printf("%s, theta %g: albedo %.4f\n", label.c_str(), theta, sum / kSamples);
+    }
+  };
+  for (float roughness : {0.3f, 0.6f, 1.0f})
+    for (float metallic : {0.0f, 0.5f, 1.0f})
+      check(MetallicRoughnessBsdf{Vec3f(1.0f), metallic, roughness},
+            "metallic-roughness r " + std::to_string(roughness) + " m " + std::to_string(metallic));
+  for (float exponent : {1.0f, 10.0f, 100.0f})
+    check(ModifiedPhongBsdf{Vec3f(0.5f), Vec3f(0.5f), exponent},
+          "phong n " + std::to_string(exponent));
+}
+
+}  // namespace
+}  // namespace caustica
