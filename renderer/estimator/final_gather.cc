@@ -12,9 +12,9 @@
 #include "renderer/base/sampling.h"
 #include "renderer/estimator/irradiance_gradients.h"
 #include "renderer/estimator/knn_gather.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/knn_estimate.h"
-#include "renderer/photon/scattering.h"
 #include "renderer/render/adaptive_seeds.h"
 
 namespace caustica {

@@ -167,8 +167,8 @@ CAUSTICA_HDI void reflect_differentials(PhotonDifferentials& d, Vec3f w, Vec3f n
 }
 
 // Refraction of unit `w` through a boundary whose unit normal `n` faces the incident side, `eta`
-// the ratio of the transmitted to the incident index (scattering.h's convention), `t` the unit
-// refracted direction: t = w / eta - mu n with mu = cos_t - cos_i / eta, cos_i = -w.n,
+// the ratio of the transmitted to the incident index (material/fresnel.h's convention), `t` the
+// unit refracted direction: t = w / eta - mu n with mu = cos_t - cos_i / eta, cos_i = -w.n,
 // cos_t = -t.n, so dt = dw / eta - (dmu n + mu dn) with
 // dmu = (-1 / eta - (w.n) / (eta^2 (t.n))) d(w.n), d(w.n) = dw.n + w.dn (Igehy 1999, eq. 14).
 CAUSTICA_HDI void refract_differentials(PhotonDifferentials& d, Vec3f w, Vec3f n, float eta,

@@ -9,10 +9,10 @@
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/atomic.h"
 #include "renderer/base/rng.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/differentials.h"
-#include "renderer/photon/scattering.h"
 #include "renderer/scene/scene_limits.h"
 
 namespace caustica {

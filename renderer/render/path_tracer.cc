@@ -7,9 +7,9 @@
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/sampling.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
-#include "renderer/photon/scattering.h"
 #include "renderer/render/visible_points.h"
 #include "renderer/render/whitted.h"
 

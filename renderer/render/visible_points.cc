@@ -7,8 +7,8 @@
 #include "renderer/accel/ray_queries.h"
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/parallel/parallel_for.h"
-#include "renderer/photon/scattering.h"
 #include "renderer/render/path_tracer.h"
 #include "renderer/render/whitted.h"
 

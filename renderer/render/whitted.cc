@@ -14,8 +14,8 @@
 #include "renderer/base/pixel_blocks.h"
 #include "renderer/base/rng.h"
 #include "renderer/base/uninitialized.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/parallel/parallel_for.h"
-#include "renderer/photon/scattering.h"
 
 namespace caustica {
 namespace {

@@ -14,6 +14,7 @@
 
 #include "renderer/material/metallic_roughness.h"
 #include "renderer/material/modified_phong.h"
+#include "renderer/material/rough_dielectric.h"
 
 namespace caustica {
 namespace {
@@ -47,12 +48,16 @@ double hemisphere_integral(const std::function<double(Vec3f)>& g, int z_cells, i
 }
 
 // A chi-square test of `sample` against `pdf` for outgoing direction `wo`: `samples` directions
-// counted in cells of equal cos theta and phi over the upper hemisphere, plus one cell for the
-// draws that gave no direction, against the counts the pdf's integral over each cell expects.
-// Returns the p-value of the counts under the hypothesis that the sampler draws from pdf.
+// counted in cells of equal cos theta and phi over the upper hemisphere (the whole sphere for
+// models that transmit), plus one cell for the draws that gave no direction, against the counts
+// the pdf's integral over each cell expects. Returns the p-value of the counts under the
+// hypothesis that the sampler draws from pdf.
 template <typename Bsdf>
 double chi_square_p_value(const Bsdf& bsdf, Vec3f wo, int samples, uint32_t seed) {
-  constexpr int kZ = 10, kPhi = 20;
+  const bool sphere = (bsdf.flags() & kBsdfTransmission) != 0;
+  const double z_min = sphere ? -1.0 : 0.0, z_cell = (1.0 - z_min) / (sphere ? 20 : 10);
+  const int kZ = sphere ? 20 : 10;
+  constexpr int kPhi = 20;
   std::vector<double> observed(kZ * kPhi + 1, 0.0);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
@@ -62,7 +67,7 @@ double chi_square_p_value(const Bsdf& bsdf, Vec3f wo, int samples, uint32_t seed
       observed[kZ * kPhi] += 1;
       continue;
     }
-    const int zi = std::min(kZ - 1, int(s.wi.z * kZ));
+    const int zi = std::max(0, std::min(kZ - 1, int((s.wi.z - z_min) / z_cell)));
     double phi = std::atan2(double(s.wi.y), double(s.wi.x));
     if (phi < 0) phi += 2 * kPiD;
     const int pi = std::min(kPhi - 1, int(phi / (2 * kPiD) * kPhi));
@@ -72,22 +77,29 @@ double chi_square_p_value(const Bsdf& bsdf, Vec3f wo, int samples, uint32_t seed
   double total = 0.0;
   for (int zi = 0; zi < kZ; ++zi) {
     for (int pi = 0; pi < kPhi; ++pi) {
-      // One cell: z in [zi, zi + 1) / kZ and phi in [pi, pi + 1) 2 pi / kPhi, by Simpson's rule.
+      // One cell: z in z_min + [zi, zi + 1) z_cell and phi in [pi, pi + 1) 2 pi / kPhi, by
+      // Simpson's rule over theta (d omega = sin theta d theta d phi), whose even steps resolve
+      // lobes at the poles that steps even in z would not.
+      // The cells at the poles, where a lobe of a direction along the normal peaks, in finer
+      // steps of theta.
       constexpr int kSub = 40;
-      const double z0 = double(zi) / kZ, hz = 1.0 / kZ / (2 * kSub);
+      const int theta_sub = (zi == 0 || zi == kZ - 1) ? 8 * kSub : kSub;
+      const double t_low = std::acos(std::min(1.0, z_min + (zi + 1) * z_cell));
+      const double t_high = std::acos(std::max(-1.0, z_min + zi * z_cell));
+      const double ht = (t_high - t_low) / (2 * theta_sub);
       const double p0 = 2 * kPiD * pi / kPhi, hp = 2 * kPiD / kPhi / (2 * kSub);
       double sum = 0.0;
-      for (int a = 0; a <= 2 * kSub; ++a) {
-        const double z = z0 + a * hz, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-        const double wa = (a == 0 || a == 2 * kSub) ? 1.0 : (a % 2 ? 4.0 : 2.0);
+      for (int a = 0; a <= 2 * theta_sub; ++a) {
+        const double theta = t_low + a * ht, r = std::sin(theta), z = std::cos(theta);
+        const double wa = (a == 0 || a == 2 * theta_sub) ? 1.0 : (a % 2 ? 4.0 : 2.0);
         for (int b = 0; b <= 2 * kSub; ++b) {
           const double phi = p0 + b * hp;
           const double wb = (b == 0 || b == 2 * kSub) ? 1.0 : (b % 2 ? 4.0 : 2.0);
           const Vec3f wi(float(r * std::cos(phi)), float(r * std::sin(phi)), float(z));
-          sum += wa * wb * bsdf.pdf(wo, wi);
+          sum += wa * wb * bsdf.pdf(wo, wi) * r;
         }
       }
-      expected[zi * kPhi + pi] = sum * hz * hp / 9.0 * samples;
+      expected[zi * kPhi + pi] = sum * ht * hp / 9.0 * samples;
       total += expected[zi * kPhi + pi];
     }
   }
@@ -163,6 +175,7 @@ TEST(ChiSquare, RejectsASamplerThatDoesNotMatchItsPdf) {
       return drawn.sample(wo, uc, u0, u1);
     }
     float pdf(Vec3f wo, Vec3f wi) const { return claimed.pdf(wo, wi); }
+    uint32_t flags() const { return claimed.flags(); }
   };
   EXPECT_LT(chi_square_p_value(Wider{}, direction_at(30.0), 400000, 7), 1e-6);
 }
@@ -277,6 +290,82 @@ TEST(Materials, WhiteFurnaceShowsNoGain) {
   for (float exponent : {1.0f, 10.0f, 100.0f})
     check(ModifiedPhongBsdf{Vec3f(0.5f), Vec3f(0.5f), exponent},
           "phong n " + std::to_string(exponent));
+}
+
+std::vector<RoughDielectricBsdf> dielectric_cases(Transport transport) {
+  std::vector<RoughDielectricBsdf> out;
+  for (float ior : {1.5f, 1.33f})
+    for (float roughness : {0.3f, 0.6f, 1.0f}) out.push_back({ior, roughness, transport});
+  return out;
+}
+
+// From outside (0 to 70 degrees) and from inside (120 and 150), over the whole sphere.
+TEST(RoughDielectric, SamplesFollowThePdf) {
+  uint32_t seed = 200;
+  for (const RoughDielectricBsdf& m : dielectric_cases(Transport::kRadiance)) {
+    for (double theta : {0.0, 35.0, 70.0, 120.0, 150.0}) {
+      const double p = chi_square_p_value(m, direction_at(theta), 400000, seed++);
+      EXPECT_GT(p, kSignificance) << "ior " << m.ior << " roughness " << m.roughness << " theta "
+                                  << theta;
+    }
+  }
+}
+
+// Reflection is reciprocal; transmission for radiance is the adjoint of transmission for
+// importance: f_radiance(wo, wi) = f_importance(wi, wo).
+TEST(RoughDielectric, RadianceIsTheAdjointOfImportance) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int transmissions = 0;
+  for (const RoughDielectricBsdf& radiance : dielectric_cases(Transport::kRadiance)) {
+    RoughDielectricBsdf importance = radiance;
+    importance.transport = Transport::kImportance;
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3f a = sample_uniform_sphere(u(rng), u(rng));
+      const Vec3f b = sample_uniform_sphere(u(rng), u(rng));
+      const float ab = radiance.f(a, b).x, ba = importance.f(b, a).x;
+      ASSERT_NEAR(ab, ba, 2e-4f * std::max(1.0f, std::fabs(ab))) << radiance.roughness << " " << i;
+      if (same_hemisphere(a, b)) {
+        ASSERT_NEAR(ab, radiance.f(b, a).x, 2e-4f * std::max(1.0f, std::fabs(ab))) << i;
+      } else if (ab > 0.0f) {
+        ++transmissions;
+      }
+    }
+  }
+  EXPECT_GT(transmissions, 1000);
+}
+
+// The white furnace, carrying importance (as photons do): no sample's weight is above 1 (it is
+// G(wo, wi) / G1(wo)), and a nearly smooth boundary at normal incidence reflects the Fresnel
+// reflectance ((ior - 1) / (ior + 1))^2 and transmits the rest.
+TEST(RoughDielectric, WhiteFurnaceAndFresnel) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  for (const RoughDielectricBsdf& m : dielectric_cases(Transport::kImportance)) {
+    for (double theta : {0.0, 45.0, 80.0, 130.0}) {
+      const Vec3f wo = direction_at(theta);
+      double sum = 0.0, worst = 0.0;
+      constexpr int kSamples = 100000;
+      for (int i = 0; i < kSamples; ++i) {
+        const BsdfSample s = m.sample(wo, u(rng), u(rng), u(rng));
+        if (!s.valid()) continue;
+        sum += s.weight().x;
+        worst = std::max(worst, double(s.weight().x));
+      }
+      EXPECT_LE(worst, 1.0 + 1e-4) << "ior " << m.ior << " roughness " << m.roughness;
+      EXPECT_LE(sum / kSamples, 1.0) << "ior " << m.ior << " roughness " << m.roughness;
+    }
+  }
+  const RoughDielectricBsdf smooth{1.5f, 0.05f, Transport::kImportance};
+  double reflected = 0.0, transmitted = 0.0;
+  constexpr int kSamples = 200000;
+  for (int i = 0; i < kSamples; ++i) {
+    const BsdfSample s = smooth.sample(direction_at(0.0), u(rng), u(rng), u(rng));
+    if (!s.valid()) continue;
+    (s.wi.z > 0.0f ? reflected : transmitted) += s.weight().x;
+  }
+  EXPECT_NEAR(reflected / kSamples, 0.04, 0.002);
+  EXPECT_NEAR(transmitted / kSamples, 0.96, 0.005);
 }
 
 }  // namespace

@@ -12,9 +12,9 @@
 #include <string>
 
 #include "absl/strings/str_format.h"
+#include "renderer/material/fresnel.h"
 #include "renderer/medium/medium.h"
 #include "renderer/photon/photon_tracer.h"
-#include "renderer/photon/scattering.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/load_scene.h"
 

@@ -1,5 +1,6 @@
-// Specular scattering shared by photon tracing and camera rays: Fresnel reflectance for smooth
-// dielectrics (exact unpolarised formula, pbrt-v4 FrDielectric) and Snell refraction.
+// Scattering at a smooth dielectric boundary, shared by photon tracing, camera rays and the rough
+// dielectric model: Fresnel reflectance (the exact unpolarised formula, pbrt-v4 FrDielectric) and
+// Snell refraction.
 #pragma once
 
 #include "renderer/base/vec.h"
