@@ -349,7 +349,7 @@ TEST(KdTree, StructureHandsOutTheViewOfItsTraversal) {
                      }));
     TriangleStructure structure =
         build_structure(*backend, kind, input.data(), uint32_t(tris.size()),
-                        BuildOptions{.kd_traversal = KdTraversal::kStackless});
+                        BuildOptions{.binned_sah = {}, .kd_traversal = KdTraversal::kStackless});
     auto is_stackless = [](const auto& view) {
       return std::is_same_v<std::decay_t<decltype(view)>, KdTreeStacklessView>;
     };

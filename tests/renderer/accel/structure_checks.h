@@ -225,7 +225,9 @@ inline void expect_same_binary_tree(const BinaryTriangleBvh& first,
   const std::vector<BvhNode> a = first.bvh.nodes.download(), b = second.bvh.nodes.download();
   ASSERT_EQ(a.size(), b.size());
   // An empty vector's data() may be null, which memcmp must not be given even for no bytes.
-  if (!a.empty()) EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(BvhNode)));
+  if (!a.empty()) {
+    EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(BvhNode)));
+  }
 }
 
 // The SAH cost of a binary tree without its leaves' part, which every tree over the same triangles

@@ -449,7 +449,7 @@ TEST(BuildOptions, StructureOptionsApplyInOrderAndNameEachProblem) {
   EXPECT_EQ(build_options_text(o),
             "binned-sah-stages=1024:16,64:4 binned-sah-reorder=split kd-traversal=stackless");
   EXPECT_EQ(apply_structure_options({"kd-traversal=stack", "kd-traversal=stackless"}, {}),
-            (BuildOptions{.kd_traversal = KdTraversal::kStackless}));
+            (BuildOptions{.binned_sah = {}, .kd_traversal = KdTraversal::kStackless}));
 
   const BuildOptions before = o;
   auto refusal_of = [&](const char* option) {

@@ -68,7 +68,9 @@ TEST(Emitters, OffDarkensAndOnRestoresTheFirstImage) {
   EXPECT_EQ(material_named(*engine, "light").radiance, Vec3f(17, 12, 4));  // kept for later
   const std::vector<float> dark = render_image(*engine, 2);
   for (size_t i = 0; i < dark.size(); ++i) {
-    if (i % 4 != 3) ASSERT_EQ(dark[i], 0.0f) << "value " << i;
+    if (i % 4 != 3) {
+      ASSERT_EQ(dark[i], 0.0f) << "value " << i;
+    }
   }
   ASSERT_TRUE(engine->set_lights({}, {{"light", std::nullopt, false}}).ok());
   EXPECT_EQ(render_image(*engine, 2), first);
