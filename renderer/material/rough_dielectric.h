@@ -73,16 +73,11 @@ struct RoughDielectricBsdf {
     return Vec3f(t);
   }
 
-  // The density of the visible normal wm from `wo`'s side, either side of the boundary.
-  CAUSTICA_HDI float visible_density(Vec3f wo, Vec3f wm) const {
-    const TrowbridgeReitz d = distribution();
-    return d.G1(wo) / abs_cos_theta(wo) * d.D(wm) * fabsf(dot(wo, wm));
-  }
-
   CAUSTICA_HDI float pdf(Vec3f wo, Vec3f wi) const {
     const Pair p = pair(wo, wi);
     if (!p.valid) return 0.0f;
-    const float normal = visible_density(wo, p.wm);
+    // The density of the visible normal wm (facing +z) as seen from wo's side of the boundary.
+    const float normal = distribution().visible_D(wo.z > 0.0f ? wo : -wo, p.wm);
     if (p.reflects) return normal / (4.0f * fabsf(dot(wo, p.wm))) * p.reflectance;
     return normal * fabsf(dot(wi, p.wm)) / p.denominator * (1.0f - p.reflectance);
   }

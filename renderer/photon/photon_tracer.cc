@@ -517,6 +517,9 @@ struct PhotonStoreBuffers {
             footprints && media ? overflow_volume_footprints.data() : nullptr};
   }
 
+  // The maps a trace stores photons for: caustic and global, and volume with media.
+  uint32_t kinds() const { return media ? 3 : 2; }
+
   uint32_t paths;
   size_t slots;
   uint32_t per_path, first_slot_bounce;
@@ -607,7 +610,7 @@ struct PhotonPlaces {
 PhotonPlaces place_photons(Backend& backend, const PhotonStoreBuffers& buffers) {
   const uint32_t paths = buffers.paths;
   const uint32_t per_path = buffers.per_path;
-  const uint32_t kinds = buffers.media ? 3 : 2;
+  const uint32_t kinds = buffers.kinds();
   const size_t runs = 2 * size_t(kinds);
   PhotonPlaces out{Buffer<uint32_t>(backend, runs * paths + 1), {}, {}};
   uint32_t* count = out.place.data();
@@ -689,7 +692,6 @@ void compact_photons(Backend& backend, const PhotonStoreBuffers& buffers,
                      const PhotonPlaces& places, TracedPhotons& out) {
   const uint32_t paths = buffers.paths;
   const uint32_t per_path = buffers.per_path;
-  const uint32_t kinds = buffers.media ? 3 : 2;
   const uint8_t* slot_kind = buffers.slot_kinds.data();
   const uint32_t* at = places.place.data();
   const std::vector<uint32_t>& start = places.run_start;
@@ -720,7 +722,7 @@ void compact_photons(Backend& backend, const PhotonStoreBuffers& buffers,
   PhotonFootprint* const global_footprint = footprints ? out.global_footprints.data() : nullptr;
   float* const volume_footprint =
       footprints && buffers.media ? out.volume_footprints.data() : nullptr;
-  const uint32_t global_start = start[2], volume_start = kinds == 3 ? start[4] : 0;
+  const uint32_t global_start = start[2], volume_start = buffers.media ? start[4] : 0;
   const Photon* slot = buffers.slot_photons.data();
   const Photon* overflow = buffers.overflow.data();
   const LaterStore* later_place = buffers.overflow_places.data();
