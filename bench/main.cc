@@ -6,10 +6,12 @@
 #include "absl/strings/str_join.h"
 #include "bench/benchmarks.h"
 #include "bench/soak.h"
+#include "proto/wire/frame_heap.h"
 #include "tools/cli/setting_names.h"
 #include "tools/cli/structure_option.h"
 
 int main(int argc, char** argv) {
+  caustica::wire::keep_frame_buffers();
   caustica::BenchOptions options;
   caustica::SoakOptions soak;
   CLI::App app{

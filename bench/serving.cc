@@ -209,7 +209,9 @@ absl::Status animation_benchmark(const BenchOptions& o, client::Connection& conn
 // animating a light sees it, with the frame RAW (`update_to_frame`) or as a JPEG or PNG file
 // (`update_to_frame_jpeg`, `update_to_frame_png`: what a viewer shows). Rebuild, render and
 // encode come from the server's own stage timings; the rest of the client's wall time is
-// transport (RPCs, tone mapping excluded, bytes on the wire).
+// transport (RPCs, tone mapping excluded, bytes on the wire), reported also per call: what the
+// light change's call (`_update_call`) and the frame's call (`_frame_call`) cost beyond the
+// server's stages.
 absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection& connection,
                                        const std::string& benchmark, v1::Encoding encoding,
                                        Reporter& report) {
@@ -217,7 +219,7 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
       upload_photon_scene(o, connection, "latency benchmark");
   if (!uploaded.ok()) return uploaded.status();
   const auto& [scene, id] = *uploaded;
-  std::vector<double> total, rebuild, render, encode, transport, bytes;
+  std::vector<double> total, rebuild, render, encode, transport, update_call, frame_call, bytes;
   for (int i = 0; i < o.warmup + o.runs; ++i) {
     v1::UpdateLightsRequest update;
     update.set_scene_id(id);
@@ -232,10 +234,12 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     absl::StatusOr<v1::RebuildReport> rebuilt =
         connection.call(&v1::RenderService::Stub::UpdateLights, update);
     if (!rebuilt.ok()) return rebuilt.status();
+    const Clock::time_point updated = Clock::now();
     absl::StatusOr<v1::Frame> frame =
         connection.call(&v1::RenderService::Stub::RenderFrame, render_request);
     if (!frame.ok()) return frame.status();
-    const double ms = ms_between(start, Clock::now());
+    const Clock::time_point end = Clock::now();
+    const double ms = ms_between(start, end);
     if (frame->epochs().lights() != rebuilt->epochs().lights()) {
       return absl::InternalError("the frame does not show the new lights epoch");
     }
@@ -251,6 +255,8 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     render.push_back(render_ms);
     encode.push_back(f.encode_ms());
     transport.push_back(ms - rebuild_ms - render_ms - f.encode_ms());
+    update_call.push_back(ms_between(start, updated) - rebuild_ms);
+    frame_call.push_back(ms_between(updated, end) - render_ms - f.encode_ms());
     bytes.push_back(static_cast<double>(frame->data().size()));
   }
   const std::string name = photon_scene_label(o);
@@ -262,6 +268,8 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
     report.line(benchmark + "_encode", name, summarize(encode).median, "ms");
   }
   report.line(benchmark + "_transport", name, summarize(transport).median, "ms");
+  report.line(benchmark + "_update_call", name, summarize(update_call).median, "ms");
+  report.line(benchmark + "_frame_call", name, summarize(frame_call).median, "ms");
   report.line(benchmark + "_bytes", name, summarize(bytes).median, "bytes");
   return delete_scene(connection, id);
 }

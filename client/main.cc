@@ -12,6 +12,7 @@
 #include "client/progress_bar.h"
 #include "client/rpc_status.h"
 #include "proto/wire/api_version.h"
+#include "proto/wire/frame_heap.h"
 #include "renderer/accel/structure_kind.h"
 #include "tools/cli/setting_names.h"
 #include "tools/cli/structure_option.h"
@@ -97,6 +98,7 @@ void add_frame_files(CLI::App* command, std::filesystem::path& directory, std::s
 }  // namespace
 
 int main(int argc, char** argv) {
+  caustica::wire::keep_frame_buffers();
   CLI::App app{
       "Caustica client: upload scenes, change lights and fetch photon-mapped frames "
       "from a caustica-server (without --server: localhost:50051, else a local server "

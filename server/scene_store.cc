@@ -193,9 +193,11 @@ CREATE INDEX IF NOT EXISTS scenes_by_blob ON scenes(blob);
 
 }  // namespace
 
-absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(const fs::path& dir) {
+absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(
+    const fs::path& dir, std::chrono::milliseconds update_sync_delay) {
   std::unique_ptr<SceneStore> store(new SceneStore());
   store->dir_ = dir;
+  store->update_sync_delay_ = update_sync_delay;
   std::error_code error;
   fs::create_directories(dir / "blobs", error);
   if (!error) fs::create_directories(dir / "tmp", error);
@@ -223,7 +225,8 @@ absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(const fs::path& dir
   }
   sqlite3_busy_timeout(store->db_, 5000);
   // WAL keeps readers off the writer's way; FULL syncs the log at every commit, which is what
-  // makes an acknowledged change survive a power loss as well as a killed process.
+  // makes an acknowledged upload or delete survive a power loss as well as a killed process.
+  // Updates commit at NORMAL (update()).
   for (const char* sql : {"PRAGMA journal_mode=WAL;", "PRAGMA synchronous=FULL;", kSchema}) {
     if (absl::Status s = store->exec(sql); !s.ok()) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -232,10 +235,19 @@ absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(const fs::path& dir
   }
   if (absl::Status synced = fsync_path(dir, O_RDONLY | O_DIRECTORY); !synced.ok()) return synced;
   store->collect_garbage();
+  store->syncer_ = std::thread([s = store.get()] { s->sync_updates(); });
   return store;
 }
 
 SceneStore::~SceneStore() {
+  if (syncer_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closing_ = true;
+    }
+    sync_wake_.notify_all();
+    syncer_.join();
+  }
   if (db_ != nullptr) sqlite3_close(db_);
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the lock
 }
@@ -248,6 +260,34 @@ absl::Status SceneStore::exec(const char* sql) const {
     return status;
   }
   return absl::OkStatus();
+}
+
+absl::Status SceneStore::checkpoint_locked() const {
+  return exec("PRAGMA wal_checkpoint(PASSIVE);");
+}
+
+void SceneStore::sync_updates() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    sync_wake_.wait(lock, [&] { return closing_ || unsynced_since_.has_value(); });
+    if (!closing_) {
+      const auto due = *unsynced_since_ + update_sync_delay_;
+      sync_wake_.wait_until(lock, due, [&] { return closing_; });
+    }
+    if (unsynced_since_) {
+      if (absl::Status synced = checkpoint_locked(); !synced.ok()) {
+        log_line(LogLevel::kError,
+                 absl::StrCat("--data-dir: cannot sync the scene index: ", synced.message()));
+      }
+      unsynced_since_.reset();
+    }
+    if (closing_) return;
+  }
+}
+
+bool SceneStore::sync_pending() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return unsynced_since_.has_value();
 }
 
 fs::path SceneStore::blob_path(const std::string& digest) const {
@@ -396,7 +436,16 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
   update.bind(4, static_cast<int64_t>(epochs.camera));
   update.bind(5, static_cast<int64_t>(epochs.settings));
   update.bind_text(6, id);
-  if (update.step() != SQLITE_DONE) return update.error(absl::StrCat("cannot store scene ", id));
+  // NORMAL: the commit is in the log (the operating system's cache) when step returns, which a
+  // killed server does not lose; sync_updates puts it on the disk.
+  if (absl::Status s = exec("PRAGMA synchronous=NORMAL;"); !s.ok()) return s;
+  const int stepped = update.step();
+  if (absl::Status s = exec("PRAGMA synchronous=FULL;"); !s.ok()) return s;
+  if (stepped != SQLITE_DONE) return update.error(absl::StrCat("cannot store scene ", id));
+  if (!unsynced_since_) {
+    unsynced_since_ = std::chrono::steady_clock::now();
+    sync_wake_.notify_all();
+  }
   return absl::OkStatus();
 }
 

@@ -2,16 +2,22 @@
 // geometry is a content-addressed blob, blobs/<sha256>.scene, written to a temporary file,
 // fsynced and renamed into place; an SQLite index in WAL mode (index.db) holds each scene's id,
 // tenant, blob and its current lights, camera, settings and epochs. Every write is committed
-// (synchronous=FULL) before the call that caused it is acknowledged, so a killed server restores
-// exactly what clients were told. One server owns a directory at a time (an flock on its lock
-// file).
+// before the call that caused it is acknowledged, so a killed server restores exactly what clients
+// were told. Uploads and deletes also reach the disk before that (synchronous=FULL); an update's
+// commit is left to the operating system and synced by a background checkpoint within
+// `update_sync_delay`, so that a light animation does not wait for the disk at every step. One
+// server owns a directory at a time (an flock on its lock file).
 #pragma once
 
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -43,7 +49,10 @@ class SceneStore {
  public:
   // Creates the directory and index when missing, takes the lock, and removes temporary files a
   // killed server left behind and blobs no scene references.
-  static absl::StatusOr<std::unique_ptr<SceneStore>> open(const std::filesystem::path& dir);
+  // Updates committed since the last sync reach the disk at most `update_sync_delay` later.
+  static absl::StatusOr<std::unique_ptr<SceneStore>> open(
+      const std::filesystem::path& dir,
+      std::chrono::milliseconds update_sync_delay = std::chrono::seconds(1));
   ~SceneStore();
   SceneStore(const SceneStore&) = delete;
   SceneStore& operator=(const SceneStore&) = delete;
@@ -59,13 +68,15 @@ class SceneStore {
   // blob was written).
   void discard_blob(const std::string& digest);
 
-  // Each commits before it returns.
+  // Each commits before it returns; add and remove also sync the index to the disk.
   absl::Status add(const StoredScene& scene);
   // Stores `state`'s lights, emission, camera and settings and `epochs` as scene `id`'s current
-  // state.
+  // state; it survives a killed server at once, and a power loss once the next sync has run.
   absl::Status update(const std::string& id, const Scene& state, const Epochs& epochs);
   // Removes the row, then its blob once no row references it. A missing id is not an error.
   absl::Status remove(const std::string& id);
+  // Whether an update waits for the background sync.
+  bool sync_pending() const;
   // Every stored scene in upload order.
   absl::StatusOr<std::vector<StoredScene>> list() const;
 
@@ -74,6 +85,10 @@ class SceneStore {
   absl::Status exec(const char* sql) const;
   // Blobs in blobs/ that no row references are removed; so are leftovers in tmp/.
   void collect_garbage();
+  // The background sync: a checkpoint, which syncs the write-ahead log first, once
+  // `update_sync_delay_` after the first unsynced update.
+  void sync_updates();
+  absl::Status checkpoint_locked() const;
   bool blob_referenced(const std::string& digest) const;
   std::filesystem::path blob_path(const std::string& digest) const;
 
@@ -81,6 +96,13 @@ class SceneStore {
   int lock_fd_ = -1;
   sqlite3* db_ = nullptr;
   mutable std::mutex mutex_;  // one connection, used by one call at a time
+  std::chrono::milliseconds update_sync_delay_{0};
+  // Guarded by mutex_: when the oldest update not yet on the disk committed, and whether the
+  // store is closing.
+  std::optional<std::chrono::steady_clock::time_point> unsynced_since_;
+  bool closing_ = false;
+  std::condition_variable sync_wake_;
+  std::thread syncer_;
 };
 
 // A scene's stored state applied to the geometry of its blob.
