@@ -3,12 +3,10 @@
 #include <string>
 
 #include "proto/wire/api_version.h"
-#include "proto/wire/frame_heap.h"
 #include "server/log.h"
 #include "server/server_main.h"
 
 int main(int argc, char** argv) {
-  caustica::wire::keep_frame_buffers();
   caustica::server::ServerOptions options;
   std::string memory_budget = "8G";
   CLI::App app{"Caustica render server: resident scenes, photon-mapped frames over gRPC."};

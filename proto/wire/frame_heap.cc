@@ -11,8 +11,7 @@ void keep_frame_buffers() {
 #if defined(__GLIBC__)
   // glibc maps a block above its threshold on its own and unmaps it when freed, and it gives the
   // heap's free top back past the trim threshold. Both thresholds fixed high keep a frame's few
-  // blocks of megabytes for reuse (setting them also stops glibc moving them). A long-running
-  // server gives idle free memory back with malloc_trim instead (server/heap.h).
+  // blocks of megabytes for reuse (setting them also stops glibc moving them).
   constexpr int kMapAbove = 32 << 20;  // the largest glibc takes
   constexpr int kTrimAbove = 256 << 20;
   mallopt(M_MMAP_THRESHOLD, kMapAbove);
