@@ -6,22 +6,32 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <iterator>
 #include <optional>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "renderer/scene/scene_limits.h"
+#include "renderer/scene/validate.h"
 
 namespace caustica::wire {
 namespace {
 
-// Element sizes of the MeshChunk arrays, indexed by MeshChunk::Array.
-constexpr size_t kElementBytes[5] = {0, 3 * sizeof(float), 3 * sizeof(float), 3 * sizeof(uint32_t),
-                                     sizeof(uint32_t)};
-constexpr const char* kArrayNames[5] = {"unspecified", "positions", "normals", "indices",
-                                        "material_ids"};
+// The MeshChunk arrays, indexed by MeshChunk::Array: element sizes and names.
+constexpr int kMeshArrays = v1::MeshChunk::Array_ARRAYSIZE;
+constexpr size_t kElementBytes[] = {0,
+                                    3 * sizeof(float),
+                                    3 * sizeof(float),
+                                    3 * sizeof(uint32_t),
+                                    sizeof(uint32_t),
+                                    2 * sizeof(float),
+                                    4 * sizeof(float)};
+constexpr const char* kArrayNames[] = {"unspecified",  "positions", "normals", "indices",
+                                       "material_ids", "texcoords", "tangents"};
+static_assert(std::size(kElementBytes) == kMeshArrays && std::size(kArrayNames) == kMeshArrays);
 
 // Debian's Abseil has its own string_view, which StrCat takes; std's converts through this.
 absl::string_view as_absl(std::string_view s) { return {s.data(), s.size()}; }
@@ -38,6 +48,27 @@ bool all_finite(const Vec3f& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// Appends a chunk's elements to `out` (room for the whole array's `total` reserved with the first
+// chunk) and checks each with `check(element, its index in the whole array)`; after a failure
+// nothing of the chunk stays. `received_bytes`: the array's bytes before this chunk.
+template <typename T, typename Check>
+absl::Status append_elements(std::vector<T>& out, size_t total, const std::string& data,
+                             size_t received_bytes, Check check) {
+  if (out.empty()) out.reserve(total);
+  const size_t base = out.size();
+  const size_t count = data.size() / sizeof(T);
+  out.resize(base + count);
+  std::memcpy(out.data() + base, data.data(), data.size());
+  const size_t first = received_bytes / sizeof(T);
+  for (size_t i = 0; i < count; ++i) {
+    if (absl::Status s = check(out[base + i], first + i); !s.ok()) {
+      out.resize(base);
+      return s;
+    }
+  }
+  return absl::OkStatus();
+}
+
 // Bytes one (mesh, array) must deliver according to the header.
 size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
   switch (array) {
@@ -49,6 +80,10 @@ size_t expected_bytes(const MeshHeaderCounts& counts, int array) {
       return counts.triangles * kElementBytes[array];
     case v1::MeshChunk::MATERIAL_IDS:
       return counts.per_triangle_materials ? counts.triangles * kElementBytes[array] : 0;
+    case v1::MeshChunk::TEXCOORDS:
+      return counts.has_texcoords ? counts.vertices * kElementBytes[array] : 0;
+    case v1::MeshChunk::TANGENTS:
+      return counts.has_tangents ? counts.vertices * kElementBytes[array] : 0;
   }
   return 0;
 }
@@ -297,6 +332,8 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
     h->set_vertex_count(mesh.positions.size());
     h->set_triangle_count(mesh.triangle_count());
     h->set_has_normals(!mesh.normals.empty());
+    h->set_has_texcoords(!mesh.uvs.empty());
+    h->set_has_tangents(!mesh.tangents.empty());
     h->set_material(mesh.material_ids.empty() ? 0 : mesh.material_ids.front());
     h->set_per_triangle_materials(!has_one_material(mesh));
     h->set_interior_medium(encode_medium_ref(mesh.interior_medium));
@@ -307,13 +344,17 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
 namespace {
 
 // The arrays of one mesh in wire order, with the bytes each sends (empty when not sent).
-std::array<std::string_view, 5> mesh_arrays(const Mesh& mesh) {
+std::array<std::string_view, kMeshArrays> mesh_arrays(const Mesh& mesh) {
   auto bytes_of = [](const auto& v) {
     return std::string_view(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(v.front()));
   };
-  return {std::string_view(), bytes_of(mesh.positions), bytes_of(mesh.normals),
+  return {std::string_view(),
+          bytes_of(mesh.positions),
+          bytes_of(mesh.normals),
           bytes_of(mesh.indices),
-          has_one_material(mesh) ? std::string_view() : bytes_of(mesh.material_ids)};
+          has_one_material(mesh) ? std::string_view() : bytes_of(mesh.material_ids),
+          bytes_of(mesh.uvs),
+          bytes_of(mesh.tangents)};
 }
 
 }  // namespace
@@ -337,8 +378,8 @@ bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
   max_chunk_bytes = std::clamp<size_t>(max_chunk_bytes, 16 * sizeof(float), kMaxChunkBytes);
   v1::SceneChunk chunk;
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
-    const std::array<std::string_view, 5> arrays = mesh_arrays(scene.meshes[m]);
-    for (int a = 1; a < 5; ++a) {
+    const std::array<std::string_view, kMeshArrays> arrays = mesh_arrays(scene.meshes[m]);
+    for (int a = 1; a < kMeshArrays; ++a) {
       std::string_view bytes = arrays[a];
       // Whole elements per chunk, so the receiver can check each chunk on its own.
       const size_t step = max_chunk_bytes / kElementBytes[a] * kElementBytes[a];
@@ -674,9 +715,18 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
                      absl::StrCat(h.material(), " is out of range (the scene has ",
                                   scene_.materials.size(), " materials)"));
     }
-    counts_[i] = {h.vertex_count(), h.triangle_count(), h.has_normals(), h.per_triangle_materials(),
-                  h.material()};
-    for (int a = 1; a < 5; ++a) bytes_declared_ += expected_bytes(counts_[i], a);
+    if (h.has_tangents() && !h.has_normals()) {
+      return invalid(join_field(field, "has_tangents"),
+                     "is set without has_normals (a tangent frame needs both)");
+    }
+    counts_[i] = {.vertices = h.vertex_count(),
+                  .triangles = h.triangle_count(),
+                  .has_normals = h.has_normals(),
+                  .has_texcoords = h.has_texcoords(),
+                  .has_tangents = h.has_tangents(),
+                  .per_triangle_materials = h.per_triangle_materials(),
+                  .material = h.material()};
+    for (int a = 1; a < kMeshArrays; ++a) bytes_declared_ += expected_bytes(counts_[i], a);
     // Arrays are allocated as their data arrives, after the server has checked the declared
     // bytes against its memory budget; a one-material mesh's ids are filled in by finish().
     Mesh mesh;
@@ -763,7 +813,9 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
                                              scene_.meshes.size(), " meshes)"));
   }
   const int a = chunk.array();
-  if (a < 1 || a > 4) return invalid("mesh.array", absl::StrCat(a, " is not an array kind"));
+  if (a < 1 || a >= kMeshArrays) {
+    return invalid("mesh.array", absl::StrCat(a, " is not an array kind"));
+  }
   Mesh& mesh = scene_.meshes[chunk.mesh()];
   const MeshHeaderCounts& counts = counts_[chunk.mesh()];
   const std::string where = absl::StrCat("mesh '", mesh.name, "' ", kArrayNames[a]);
@@ -793,60 +845,57 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
                    absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ", expected,
                                 " the header declares"));
   }
-  const size_t first = received / kElementBytes[a];
-  const size_t count = data.size() / kElementBytes[a];
   // Checks per element, so the error names the vertex or triangle like a scene file's would.
+  const auto bad = [&](const std::string& problem) {
+    return invalid("mesh.data", absl::StrCat(where, ": ", problem));
+  };
+  const auto not_finite = [&](size_t vertex, std::initializer_list<float> values) {
+    return bad(absl::StrCat("vertex ", vertex, " is (", absl::StrJoin(values, ", "),
+                            "), not finite"));
+  };
+  absl::Status appended;
   switch (a) {
     case v1::MeshChunk::POSITIONS:
-    case v1::MeshChunk::NORMALS: {
-      std::vector<Vec3f>& out = a == v1::MeshChunk::POSITIONS ? mesh.positions : mesh.normals;
-      if (out.empty()) out.reserve(counts.vertices);
-      const size_t base = out.size();
-      out.resize(base + count);
-      std::memcpy(out.data() + base, data.data(), data.size());
-      for (size_t i = 0; i < count; ++i) {
-        if (!all_finite(out[base + i])) {
-          const Vec3f v = out[base + i];
-          out.resize(base);
-          return invalid("mesh.data", absl::StrFormat("%s: vertex %d is (%g, %g, %g), not finite",
-                                                      where, first + i, v.x, v.y, v.z));
-        }
-      }
+    case v1::MeshChunk::NORMALS:
+      appended = append_elements(a == v1::MeshChunk::POSITIONS ? mesh.positions : mesh.normals,
+                                 counts.vertices, data, received, [&](Vec3f v, size_t i) {
+                                   return all_finite(v) ? absl::OkStatus()
+                                                        : not_finite(i, {v.x, v.y, v.z});
+                                 });
       break;
-    }
-    case v1::MeshChunk::INDICES: {
-      if (mesh.indices.empty()) mesh.indices.reserve(3 * counts.triangles);
-      const size_t base = mesh.indices.size();
-      mesh.indices.resize(base + 3 * count);
-      std::memcpy(mesh.indices.data() + base, data.data(), data.size());
-      for (size_t i = 0; i < 3 * count; ++i) {
-        if (mesh.indices[base + i] >= counts.vertices) {
-          const uint32_t bad = mesh.indices[base + i];
-          mesh.indices.resize(base);
-          return invalid("mesh.data",
-                         absl::StrCat(where, ": triangle ", first + i / 3, " refers to vertex ",
-                                      bad, " of ", counts.vertices));
-        }
-      }
+    case v1::MeshChunk::INDICES:
+      appended = append_elements(mesh.indices, 3 * counts.triangles, data, received,
+                                 [&](uint32_t vertex, size_t i) {
+                                   if (vertex < counts.vertices) return absl::OkStatus();
+                                   return bad(absl::StrCat("triangle ", i / 3, " refers to vertex ",
+                                                           vertex, " of ", counts.vertices));
+                                 });
       break;
-    }
-    case v1::MeshChunk::MATERIAL_IDS: {
-      if (mesh.material_ids.empty()) mesh.material_ids.reserve(counts.triangles);
-      const size_t base = mesh.material_ids.size();
-      mesh.material_ids.resize(base + count);
-      std::memcpy(mesh.material_ids.data() + base, data.data(), data.size());
-      for (size_t i = 0; i < count; ++i) {
-        if (mesh.material_ids[base + i] >= scene_.materials.size()) {
-          const uint32_t bad = mesh.material_ids[base + i];
-          mesh.material_ids.resize(base);
-          return invalid("mesh.data",
-                         absl::StrCat(where, ": triangle ", first + i, " uses material ", bad,
-                                      " of ", scene_.materials.size()));
-        }
-      }
+    case v1::MeshChunk::MATERIAL_IDS:
+      appended = append_elements(mesh.material_ids, counts.triangles, data, received,
+                                 [&](uint32_t material, size_t i) {
+                                   if (material < scene_.materials.size()) return absl::OkStatus();
+                                   return bad(absl::StrCat("triangle ", i, " uses material ",
+                                                           material, " of ",
+                                                           scene_.materials.size()));
+                                 });
       break;
-    }
+    case v1::MeshChunk::TEXCOORDS:
+      appended = append_elements(mesh.uvs, counts.vertices, data, received, [&](Vec2f uv, size_t i) {
+        return std::isfinite(uv.x) && std::isfinite(uv.y) ? absl::OkStatus()
+                                                          : not_finite(i, {uv.x, uv.y});
+      });
+      break;
+    case v1::MeshChunk::TANGENTS:
+      appended = append_elements(mesh.tangents, counts.vertices, data, received,
+                                 [&](const Vec4f& t, size_t i) {
+                                   absl::Status s = check_tangent(t);
+                                   if (s.ok()) return s;
+                                   return bad(absl::StrCat("vertex ", i, " is ", s.message()));
+                                 });
+      break;
   }
+  if (!appended.ok()) return appended;
   received += data.size();
   bytes_received_ += data.size();
   return absl::OkStatus();
@@ -855,7 +904,7 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
 absl::StatusOr<Scene> SceneAssembler::finish() {
   if (!has_header_) return invalid("header", "the upload ended before the scene header");
   for (size_t m = 0; m < scene_.meshes.size(); ++m) {
-    for (int a = 1; a < 5; ++a) {
+    for (int a = 1; a < kMeshArrays; ++a) {
       const size_t expected = expected_bytes(counts_[m], a);
       const size_t got = progress_[m].received[a];
       if (got != expected) {

@@ -4,6 +4,7 @@
 // both sides agree byte for byte on chunk layout and checksums.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -75,6 +76,8 @@ struct MeshHeaderCounts {
   uint64_t vertices = 0;
   uint64_t triangles = 0;
   bool has_normals = false;
+  bool has_texcoords = false;
+  bool has_tangents = false;
   bool per_triangle_materials = false;
   uint32_t material = 0;  // the whole mesh's, without per-triangle materials
 };
@@ -103,7 +106,7 @@ class SceneAssembler {
   absl::Status add_grid_chunk(const v1::GridChunk& chunk);
 
   struct MeshProgress {
-    size_t received[5] = {0, 0, 0, 0, 0};  // bytes, by MeshChunk::Array
+    std::array<size_t, v1::MeshChunk::Array_ARRAYSIZE> received{};  // bytes, by MeshChunk::Array
   };
   bool has_header_ = false;
   std::string name_;

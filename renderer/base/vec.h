@@ -38,6 +38,10 @@ struct Vec2f {
   float x = 0, y = 0;
 };
 
+struct Vec4f {
+  float x = 0, y = 0, z = 0, w = 0;
+};
+
 struct Vec3f {
   float x = 0, y = 0, z = 0;
 

@@ -183,6 +183,25 @@ class AssimpReader {
         mesh.normals[v] = {n.x, n.y, n.z};
       }
     }
+    // Assimp keeps bitangents where glTF keeps their sign; the sign says whether the file's
+    // bitangent is cross(normal, tangent) or its opposite.
+    if (source.HasNormals() && source.HasTangentsAndBitangents()) {
+      mesh.tangents.resize(source.mNumVertices);
+      for (unsigned v = 0; v < source.mNumVertices; ++v) {
+        const aiVector3D& t = source.mTangents[v];
+        const aiVector3D& b = source.mBitangents[v];
+        const Vec3f tangent{t.x, t.y, t.z};
+        // Assimp marks a tangent it could not derive (degenerate texture coordinates) with NaN;
+        // a zero tangent says the same to the renderer.
+        if (!is_finite(tangent)) {
+          mesh.tangents[v] = {0.0f, 0.0f, 0.0f, 1.0f};
+          continue;
+        }
+        const float sign =
+            dot(cross(mesh.normals[v], tangent), Vec3f{b.x, b.y, b.z}) < 0.0f ? -1.0f : 1.0f;
+        mesh.tangents[v] = {t.x, t.y, t.z, sign};
+      }
+    }
     if (source.HasTextureCoords(0)) {
       mesh.uvs.resize(source.mNumVertices);
       for (unsigned v = 0; v < source.mNumVertices; ++v) {

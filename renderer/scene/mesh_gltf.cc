@@ -27,6 +27,7 @@
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/transform.h"
+#include "renderer/scene/validate.h"
 
 namespace caustica {
 namespace {
@@ -412,26 +413,49 @@ class GltfReader {
     mesh.positions.resize(vertex_count);
     for (size_t i = 0; i < vertex_count; ++i) mesh.positions[i] = positions.get_vec3(i);
 
+    // glTF gives every attribute of a primitive the same count; another count is a broken file.
+    const auto same_count = [&](const AccessorView& view, const char* attribute) {
+      if (view.count() == vertex_count) return absl::OkStatus();
+      return absl::InvalidArgumentError(absl::StrCat(name, ": ", attribute, " has ", view.count(),
+                                                     " elements but POSITION has ", vertex_count));
+    };
     if (const auto normal = primitive.attributes.find("NORMAL");
         normal != primitive.attributes.end()) {
       SCENE_ASSIGN_OR_RETURN(const AccessorView normals,
                              AccessorView::open(model_, normal->second, TINYGLTF_TYPE_VEC3,
                                                 {kFloat}, absl::StrCat(name, ": NORMAL")));
-      if (normals.count() == vertex_count) {
-        mesh.normals.resize(vertex_count);
-        for (size_t i = 0; i < vertex_count; ++i) mesh.normals[i] = normals.get_vec3(i);
-      }
+      SCENE_RETURN_IF_ERROR(same_count(normals, "NORMAL"));
+      mesh.normals.resize(vertex_count);
+      for (size_t i = 0; i < vertex_count; ++i) mesh.normals[i] = normals.get_vec3(i);
     }
     if (const auto uv = primitive.attributes.find("TEXCOORD_0"); uv != primitive.attributes.end()) {
       SCENE_ASSIGN_OR_RETURN(
           const AccessorView uvs,
           AccessorView::open(model_, uv->second, TINYGLTF_TYPE_VEC2, {kFloat, kUbyte, kUshort},
                              absl::StrCat(name, ": TEXCOORD_0")));
-      if (uvs.count() == vertex_count) {
-        mesh.uvs.resize(vertex_count);
-        for (size_t i = 0; i < vertex_count; ++i) {
-          mesh.uvs[i] = {static_cast<float>(uvs.get(i, 0)), static_cast<float>(uvs.get(i, 1))};
+      SCENE_RETURN_IF_ERROR(same_count(uvs, "TEXCOORD_0"));
+      mesh.uvs.resize(vertex_count);
+      for (size_t i = 0; i < vertex_count; ++i) {
+        mesh.uvs[i] = {static_cast<float>(uvs.get(i, 0)), static_cast<float>(uvs.get(i, 1))};
+      }
+    }
+    // Tangents mean something only beside normals; without them a renderer derives its own.
+    if (const auto tangent = primitive.attributes.find("TANGENT");
+        tangent != primitive.attributes.end() && !mesh.normals.empty()) {
+      SCENE_ASSIGN_OR_RETURN(const AccessorView tangents,
+                             AccessorView::open(model_, tangent->second, TINYGLTF_TYPE_VEC4,
+                                                {kFloat}, absl::StrCat(name, ": TANGENT")));
+      SCENE_RETURN_IF_ERROR(same_count(tangents, "TANGENT"));
+      mesh.tangents.resize(vertex_count);
+      for (size_t i = 0; i < vertex_count; ++i) {
+        const Vec4f t{
+            static_cast<float>(tangents.get(i, 0)), static_cast<float>(tangents.get(i, 1)),
+            static_cast<float>(tangents.get(i, 2)), static_cast<float>(tangents.get(i, 3))};
+        if (absl::Status bad = check_tangent(t); !bad.ok()) {
+          return absl::InvalidArgumentError(
+              absl::StrCat(name, ": TANGENT ", i, " ", bad.message()));
         }
+        mesh.tangents[i] = t;
       }
     }
 

@@ -84,6 +84,9 @@ struct Mesh {
   std::vector<Vec3f> positions;
   std::vector<Vec3f> normals;          // optional: per-vertex shading normals
   std::vector<Vec2f> uvs;              // optional: per-vertex texture coordinates
+  // Optional, with normals only: per-vertex tangents, xyz a unit vector and w the bitangent's
+  // sign (bitangent = w * cross(normal, tangent)), as glTF's TANGENT.
+  std::vector<Vec4f> tangents;
   std::vector<uint32_t> indices;       // 3 per triangle
   std::vector<uint32_t> material_ids;  // 1 per triangle
   // The medium this mesh encloses (an index into Scene::media), or kNoMedium. A mesh that

@@ -147,6 +147,13 @@ void transform_mesh(const Affine& transform, Mesh* mesh) {
   for (Vec3f& p : mesh->positions) p = transform.apply_to_point(p);
   const Affine normal_transform = transform.normal_transform();
   for (Vec3f& n : mesh->normals) n = normalized_or_zero(normal_transform.apply_to_vector(n));
+  // A tangent lies in the surface, so it moves as a direction; a mirroring transform turns the
+  // frame's handedness, and with it the bitangent's sign.
+  const float handedness = transform.determinant() < 0 ? -1.0f : 1.0f;
+  for (Vec4f& t : mesh->tangents) {
+    const Vec3f d = normalized_or_zero(transform.apply_to_vector({t.x, t.y, t.z}));
+    t = {d.x, d.y, d.z, t.w * handedness};
+  }
   if (transform.determinant() < 0) {
     for (size_t t = 0; t + 2 < mesh->indices.size(); t += 3) {
       std::swap(mesh->indices[t + 1], mesh->indices[t + 2]);

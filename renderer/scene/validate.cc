@@ -45,6 +45,18 @@ absl::Status check_in_range(absl::string_view field, int64_t value, int64_t lo, 
 
 }  // namespace
 
+absl::Status check_tangent(const Vec4f& t) {
+  const std::string value = absl::StrFormat("(%g, %g, %g, %g)", t.x, t.y, t.z, t.w);
+  if (!std::isfinite(t.x) || !std::isfinite(t.y) || !std::isfinite(t.z) || !std::isfinite(t.w)) {
+    return absl::InvalidArgumentError(absl::StrCat(value, " is not finite"));
+  }
+  if (t.w != 1.0f && t.w != -1.0f) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(value, " has w = ", t.w, ", not 1 or -1 (the bitangent's sign)"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status validate_camera(const Camera& camera) {
   if (!is_finite(camera.position)) return invalid_field("camera.position", "is not finite");
   if (!is_finite(camera.look_at)) return invalid_field("camera.look_at", "is not finite");
@@ -291,6 +303,25 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
   if (!mesh.uvs.empty() && mesh.uvs.size() != mesh.positions.size()) {
     return invalid_field(field, absl::StrCat(mesh.positions.size(), " vertices but ",
                                              mesh.uvs.size(), " texture coordinates"));
+  }
+  if (!mesh.tangents.empty() && mesh.tangents.size() != mesh.positions.size()) {
+    return invalid_field(field, absl::StrCat(mesh.positions.size(), " vertices but ",
+                                             mesh.tangents.size(), " tangents"));
+  }
+  if (!mesh.tangents.empty() && mesh.normals.empty()) {
+    return invalid_field(field, "has tangents but no normals (a tangent frame needs both)");
+  }
+  for (size_t v = 0; v < mesh.uvs.size(); ++v) {
+    if (!std::isfinite(mesh.uvs[v].x) || !std::isfinite(mesh.uvs[v].y)) {
+      return invalid_field(field,
+                           absl::StrCat("vertex ", v, " texture coordinates (", mesh.uvs[v].x, ", ",
+                                        mesh.uvs[v].y, ") are not finite"));
+    }
+  }
+  for (size_t v = 0; v < mesh.tangents.size(); ++v) {
+    if (absl::Status s = check_tangent(mesh.tangents[v]); !s.ok()) {
+      return invalid_field(field, absl::StrCat("vertex ", v, " tangent ", s.message()));
+    }
   }
   for (size_t v = 0; v < mesh.positions.size(); ++v) {
     if (!is_finite(mesh.positions[v])) {

@@ -26,5 +26,8 @@ absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_t
 // The scene's triangle count, all meshes together, against kMaxSceneTriangles: on its own so that
 // a count can be checked before the triangles exist (and tested without allocating them).
 absl::Status validate_triangle_total(size_t triangles);
+// One vertex tangent (Mesh::tangents): finite, its w the bitangent's sign, 1 or -1. The message
+// names the value and the problem; the caller names the vertex.
+absl::Status check_tangent(const Vec4f& tangent);
 
 }  // namespace caustica

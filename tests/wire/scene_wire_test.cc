@@ -55,8 +55,14 @@ absl::StatusOr<Scene> assemble(const std::vector<v1::SceneChunk>& chunks) {
 
 TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
   Scene scene = bundled("cornell-caustics");
-  // Some normals and a mixed-material mesh exercise the optional arrays.
-  scene.meshes[0].normals.assign(scene.meshes[0].positions.size(), Vec3f(0, 1, 0));
+  // Normals, texture coordinates, tangents and a mixed-material mesh exercise the optional
+  // arrays.
+  Mesh& textured = scene.meshes[0];
+  textured.normals.assign(textured.positions.size(), Vec3f(0, 1, 0));
+  for (size_t v = 0; v < textured.positions.size(); ++v) {
+    textured.uvs.push_back({0.25f * float(v), 1.0f - 0.5f * float(v)});
+    textured.tangents.push_back({1, 0, 0, v % 2 ? -1.0f : 1.0f});
+  }
   scene.meshes[1].material_ids[0] = 1;
   std::vector<v1::SceneChunk> chunks = encode(scene, 4096);
   size_t data_bytes = 0;
@@ -83,7 +89,14 @@ TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
     ASSERT_EQ(a.positions.size(), b.positions.size());
     EXPECT_EQ(0, std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * 12));
     ASSERT_EQ(a.normals.size(), b.normals.size());
+    ASSERT_EQ(a.uvs.size(), b.uvs.size());
+    EXPECT_EQ(0, std::memcmp(a.uvs.data(), b.uvs.data(), a.uvs.size() * sizeof(Vec2f)));
+    ASSERT_EQ(a.tangents.size(), b.tangents.size());
+    EXPECT_EQ(0,
+              std::memcmp(a.tangents.data(), b.tangents.data(), a.tangents.size() * sizeof(Vec4f)));
   }
+  EXPECT_EQ(back->meshes[0].uvs.size(), textured.positions.size());
+  EXPECT_EQ(back->meshes[0].tangents[1].w, -1.0f);
   ASSERT_EQ(back->materials.size(), scene.materials.size());
   for (size_t i = 0; i < scene.materials.size(); ++i) {
     EXPECT_EQ(back->materials[i].name, scene.materials[i].name);
@@ -393,12 +406,25 @@ struct BadUpload {
   std::function<void(std::vector<v1::SceneChunk>&)> corrupt;
   absl::StatusCode code;
   const char* message;
+  bool textured = false;  // every mesh with normals, texture coordinates and tangents
 };
 
 class SceneWireRefuses : public testing::TestWithParam<BadUpload> {};
 
+// cornell-box with every mesh carrying normals, texture coordinates and tangents.
+Scene textured_box() {
+  Scene scene = bundled("cornell-box");
+  for (Mesh& mesh : scene.meshes) {
+    mesh.normals.assign(mesh.positions.size(), Vec3f(0, 0, 1));
+    mesh.uvs.assign(mesh.positions.size(), Vec2f{0.5f, 0.5f});
+    mesh.tangents.assign(mesh.positions.size(), Vec4f{1, 0, 0, 1});
+  }
+  return scene;
+}
+
 TEST_P(SceneWireRefuses, NamingTheProblem) {
-  std::vector<v1::SceneChunk> chunks = encode(bundled("cornell-box"), 1 << 20);
+  std::vector<v1::SceneChunk> chunks =
+      encode(GetParam().textured ? textured_box() : bundled("cornell-box"), 1 << 20);
   GetParam().corrupt(chunks);
   absl::StatusOr<Scene> result = assemble(chunks);
   EXPECT_EQ(result.status().code(), GetParam().code) << result.status();
@@ -519,7 +545,33 @@ INSTANTIATE_TEST_SUITE_P(
         BadUpload{"no header at all", [](auto& c) { c.clear(); },
                   absl::StatusCode::kInvalidArgument, "ended before the scene header"},
         BadUpload{"second header", [](auto& c) { c.push_back(c[0]); },
-                  absl::StatusCode::kInvalidArgument, "a second header"}),
+                  absl::StatusCode::kInvalidArgument, "a second header"},
+        BadUpload{"tangent w not a sign",
+                  [](auto& c) {
+                    float half = 0.5f;
+                    rewrite(first_chunk_of(c, v1::MeshChunk::TANGENTS), 16 + 12, &half, 4);
+                  },
+                  absl::StatusCode::kInvalidArgument,
+                  "tangents: vertex 1 is (1, 0, 0, 0.5) has w = 0.5, not 1 or -1", true},
+        BadUpload{"NaN texture coordinate",
+                  [](auto& c) {
+                    float nan = std::nanf("");
+                    rewrite(first_chunk_of(c, v1::MeshChunk::TEXCOORDS), 8, &nan, 4);
+                  },
+                  absl::StatusCode::kInvalidArgument,
+                  "texcoords: vertex 1 is (nan, 0.5), not finite", true},
+        BadUpload{"tangents without normals",
+                  [](auto& c) { c[0].mutable_header()->mutable_meshes(0)->set_has_normals(false); },
+                  absl::StatusCode::kInvalidArgument, "has_tangents: is set without has_normals",
+                  true},
+        BadUpload{"texture coordinates declared but not sent",
+                  [](auto& c) {
+                    std::erase_if(c, [](const v1::SceneChunk& chunk) {
+                      return chunk.has_mesh() && chunk.mesh().array() == v1::MeshChunk::TEXCOORDS;
+                    });
+                  },
+                  absl::StatusCode::kInvalidArgument,
+                  "texcoords has 0 bytes but the header declares 32 (8 per element)", true}),
     [](const testing::TestParamInfo<BadUpload>& info) {
       std::string name = info.param.what;
       for (char& ch : name)

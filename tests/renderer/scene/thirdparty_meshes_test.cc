@@ -206,6 +206,24 @@ TEST(ThirdPartyPly, PointCloudIsANamedError) {
   EXPECT_THAT(message_of(status), HasSubstr("points.ply: PLY header: no 'face' element"));
 }
 
+TEST(ThirdPartyGltf, UnityCubeTangentsTurnWithItsNode) {
+  // glTF Tools for Unity: 24 vertices with NORMAL and TANGENT, every tangent (1, 0, 0)
+  // with w = 1 in the file, under a node turned 180 degrees about (0, 1, -1) and scaled 100.
+  const absl::StatusOr<MeshFile> file = load("gltf2/AnimatedMorphCube.gltf");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->meshes.size(), 1u);
+  const Mesh& cube = file->meshes[0];
+  ASSERT_EQ(cube.tangents.size(), 24u);
+  EXPECT_EQ(cube.normals.size(), 24u);
+  EXPECT_TRUE(cube.uvs.empty());
+  for (const Vec4f& t : cube.tangents) {
+    EXPECT_NEAR(t.x, -1.0f, 1e-6f);  // the turn takes +x to -x
+    EXPECT_NEAR(t.y, 0.0f, 1e-6f);
+    EXPECT_NEAR(t.z, 0.0f, 1e-6f);
+    EXPECT_EQ(t.w, 1.0f);  // no mirror
+  }
+}
+
 TEST(ThirdPartyAssimp, AsciiStl) {
   const absl::StatusOr<MeshFile> file = load("stl/triangle.stl");
   ASSERT_TRUE(file.ok()) << file.status();

@@ -47,6 +47,27 @@ TEST(Transform, NormalsUseTheInverseTranspose) {
   EXPECT_THAT(normalize(triangle_cross(mesh, 0)), Vec3Near(mesh.normals[0], 1e-6f));
 }
 
+TEST(Transform, TangentsTurnAsDirectionsAndMirrorsFlipTheirSign) {
+  // A slope in the xy plane with its tangent along the slope and the bitangent along +z; moved
+  // by a mirror in x with a stretch in y and a turn about y.
+  const Affine transform = rotation_y_deg(30) * scaling({-1, 2, 1});
+  Mesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 1, 0}, {0, 0, 1}};
+  const Vec3f normal = normalize(Vec3f(-1, 1, 0));
+  const Vec3f tangent = normalize(Vec3f(1, 1, 0));
+  mesh.normals.assign(3, normal);
+  mesh.tangents.assign(3, Vec4f{tangent.x, tangent.y, tangent.z, -1});
+  mesh.indices = {0, 2, 1};
+  const Vec3f bitangent = -1.0f * cross(normal, tangent);  // w * cross(n, t)
+  transform_mesh(transform, &mesh);
+  const Vec4f& t = mesh.tangents[0];
+  EXPECT_THAT(Vec3f(t.x, t.y, t.z), Vec3Near(normalize(transform.apply_to_vector(tangent)), 1e-6f));
+  EXPECT_EQ(t.w, 1.0f);  // the mirror turned the frame's handedness
+  // The frame the new sign rebuilds points its bitangent where the transform took the old one.
+  const Vec3f rebuilt = t.w * cross(mesh.normals[0], Vec3f(t.x, t.y, t.z));
+  EXPECT_THAT(normalize(rebuilt), Vec3Near(normalize(transform.apply_to_vector(bitangent)), 1e-5f));
+}
+
 TEST(Transform, LightsMoveAndTurn) {
   Light light;
   light.position = {1, 0, 0};

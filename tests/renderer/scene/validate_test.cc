@@ -70,6 +70,30 @@ TEST(ValidateScene, AttributeArraysMatchPositions) {
   scene = minimal_scene();
   scene.meshes[0].uvs.resize(5);
   EXPECT_THAT(error_of(scene), HasSubstr("4 vertices but 5 texture coordinates"));
+  scene = minimal_scene();
+  scene.meshes[0].normals.assign(4, Vec3f(0, 1, 0));
+  scene.meshes[0].tangents.assign(2, Vec4f{1, 0, 0, 1});
+  EXPECT_THAT(error_of(scene), HasSubstr("4 vertices but 2 tangents"));
+}
+
+TEST(ValidateScene, TangentsNeedNormalsAndASign) {
+  Scene scene = minimal_scene();
+  scene.meshes[0].tangents.assign(4, Vec4f{1, 0, 0, 1});
+  EXPECT_THAT(error_of(scene), HasSubstr("mesh floor: has tangents but no normals"));
+  scene.meshes[0].normals.assign(4, Vec3f(0, 1, 0));
+  EXPECT_TRUE(validate_scene(scene).ok());
+  scene.meshes[0].tangents[2].w = 0;
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("mesh floor: vertex 2 tangent (1, 0, 0, 0) has w = 0, not 1 or -1"));
+  scene.meshes[0].tangents[2] = {NAN, 0, 0, -1};
+  EXPECT_THAT(error_of(scene), HasSubstr("vertex 2 tangent (nan, 0, 0, -1) is not finite"));
+}
+
+TEST(ValidateScene, TextureCoordinatesMustBeFinite) {
+  Scene scene = minimal_scene();
+  scene.meshes[0].uvs.assign(4, Vec2f{0.5f, 0.5f});
+  scene.meshes[0].uvs[3].y = INFINITY;
+  EXPECT_THAT(error_of(scene), HasSubstr("mesh floor: vertex 3 texture coordinates (0.5, inf)"));
 }
 
 TEST(ValidateScene, VerticesAndNormalsMustBeFinite) {
