@@ -27,6 +27,16 @@ constexpr uint64_t kMaxRecordBytes = uint64_t{64} << 20;
 
 std::string errno_text() { return std::strerror(errno); }
 
+absl::Status exec_sql(sqlite3* db, const char* sql) {
+  char* message = nullptr;
+  if (sqlite3_exec(db, sql, nullptr, nullptr, &message) != SQLITE_OK) {
+    absl::Status status = absl::InternalError(message != nullptr ? message : "sqlite error");
+    sqlite3_free(message);
+    return status;
+  }
+  return absl::OkStatus();
+}
+
 absl::Status fsync_path(const fs::path& path, int flags) {
   const int fd = ::open(path.c_str(), flags | O_CLOEXEC);
   if (fd < 0)
@@ -233,6 +243,17 @@ absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(
           "--data-dir: ", index.string(), " is not a usable scene index: ", s.message()));
     }
   }
+  // The syncer's connection syncs at FULL, so that its checkpoints put the log on the disk.
+  if (sqlite3_open_v2(index.c_str(), &store->sync_db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX,
+                      nullptr) != SQLITE_OK) {
+    return absl::InvalidArgumentError(absl::StrCat("--data-dir: cannot open ", index.string(),
+                                                   ": ", sqlite3_errmsg(store->sync_db_)));
+  }
+  sqlite3_busy_timeout(store->sync_db_, 5000);
+  if (absl::Status s = exec_sql(store->sync_db_, "PRAGMA synchronous=FULL;"); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--data-dir: ", index.string(), " is not a usable scene index: ", s.message()));
+  }
   if (absl::Status synced = fsync_path(dir, O_RDONLY | O_DIRECTORY); !synced.ok()) return synced;
   store->collect_garbage();
   store->syncer_ = std::thread([s = store.get()] { s->sync_updates(); });
@@ -248,23 +269,12 @@ SceneStore::~SceneStore() {
     sync_wake_.notify_all();
     syncer_.join();
   }
+  if (sync_db_ != nullptr) sqlite3_close(sync_db_);
   if (db_ != nullptr) sqlite3_close(db_);
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the lock
 }
 
-absl::Status SceneStore::exec(const char* sql) const {
-  char* message = nullptr;
-  if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    absl::Status status = absl::InternalError(message != nullptr ? message : "sqlite error");
-    sqlite3_free(message);
-    return status;
-  }
-  return absl::OkStatus();
-}
-
-absl::Status SceneStore::checkpoint_locked() const {
-  return exec("PRAGMA wal_checkpoint(PASSIVE);");
-}
+absl::Status SceneStore::exec(const char* sql) const { return exec_sql(db_, sql); }
 
 void SceneStore::sync_updates() {
   std::unique_lock<std::mutex> lock(mutex_);
@@ -275,11 +285,22 @@ void SceneStore::sync_updates() {
       sync_wake_.wait_until(lock, due, [&] { return closing_; });
     }
     if (unsynced_since_) {
-      if (absl::Status synced = checkpoint_locked(); !synced.ok()) {
+      const uint64_t covered = updates_;
+      const auto started = std::chrono::steady_clock::now();
+      lock.unlock();
+      const absl::Status synced = exec_sql(sync_db_, "PRAGMA wal_checkpoint(PASSIVE);");
+      lock.lock();
+      if (!synced.ok()) {
         log_line(LogLevel::kError,
                  absl::StrCat("--data-dir: cannot sync the scene index: ", synced.message()));
       }
-      unsynced_since_.reset();
+      // An update that committed while the checkpoint ran may have missed it: it gets one of
+      // its own.
+      if (updates_ == covered) {
+        unsynced_since_.reset();
+      } else {
+        unsynced_since_ = started;
+      }
     }
     if (closing_) return;
   }
@@ -442,6 +463,7 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
   const int stepped = update.step();
   if (absl::Status s = exec("PRAGMA synchronous=FULL;"); !s.ok()) return s;
   if (stepped != SQLITE_DONE) return update.error(absl::StrCat("cannot store scene ", id));
+  ++updates_;
   if (!unsynced_since_) {
     unsynced_since_ = std::chrono::steady_clock::now();
     sync_wake_.notify_all();

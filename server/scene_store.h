@@ -86,20 +86,23 @@ class SceneStore {
   // Blobs in blobs/ that no row references are removed; so are leftovers in tmp/.
   void collect_garbage();
   // The background sync: a checkpoint, which syncs the write-ahead log first, once
-  // `update_sync_delay_` after the first unsynced update.
+  // `update_sync_delay_` after the first unsynced update, on a connection of its own and without
+  // mutex_, so that updates go on while it waits for the disk.
   void sync_updates();
-  absl::Status checkpoint_locked() const;
   bool blob_referenced(const std::string& digest) const;
   std::filesystem::path blob_path(const std::string& digest) const;
 
   std::filesystem::path dir_;
   int lock_fd_ = -1;
   sqlite3* db_ = nullptr;
+  sqlite3* sync_db_ = nullptr;  // sync_updates' own connection
   mutable std::mutex mutex_;  // one connection, used by one call at a time
   std::chrono::milliseconds update_sync_delay_{0};
-  // Guarded by mutex_: when the oldest update not yet on the disk committed, and whether the
-  // store is closing.
+  // Guarded by mutex_: when the oldest update not yet on the disk committed, how many updates
+  // have committed (so that the syncer knows which its checkpoint covered), and whether the store
+  // is closing.
   std::optional<std::chrono::steady_clock::time_point> unsynced_since_;
+  uint64_t updates_ = 0;
   bool closing_ = false;
   std::condition_variable sync_wake_;
   std::thread syncer_;
