@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <initializer_list>
 #include <fstream>
 
 #include "absl/strings/str_cat.h"
@@ -36,6 +37,38 @@ absl::Status exec_sql(sqlite3* db, const char* sql) {
   }
   return absl::OkStatus();
 }
+
+// Opens `index` with `flags` on `*db` and runs `setup` on it, each failure named for --data-dir.
+absl::Status open_index(const fs::path& index, int flags,
+                        std::initializer_list<const char*> setup, sqlite3** db) {
+  if (sqlite3_open_v2(index.c_str(), db, flags | SQLITE_OPEN_FULLMUTEX, nullptr) != SQLITE_OK) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--data-dir: cannot open ", index.string(), ": ", sqlite3_errmsg(*db)));
+  }
+  sqlite3_busy_timeout(*db, 5000);
+  for (const char* sql : setup) {
+    if (absl::Status s = exec_sql(*db, sql); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--data-dir: ", index.string(), " is not a usable scene index: ", s.message()));
+    }
+  }
+  return absl::OkStatus();
+}
+
+// Commits in its scope sync the log to the disk (synchronous=FULL) on the store's connection,
+// whose commits otherwise leave that to the syncer (NORMAL).
+class FullSync {
+ public:
+  explicit FullSync(sqlite3* db) : db_(db), status_(exec_sql(db, "PRAGMA synchronous=FULL;")) {}
+  ~FullSync() { exec_sql(db_, "PRAGMA synchronous=NORMAL;").IgnoreError(); }
+  FullSync(const FullSync&) = delete;
+  FullSync& operator=(const FullSync&) = delete;
+  const absl::Status& status() const { return status_; }
+
+ private:
+  sqlite3* db_;
+  absl::Status status_;
+};
 
 absl::Status fsync_path(const fs::path& path, int flags) {
   const int fd = ::open(path.c_str(), flags | O_CLOEXEC);
@@ -227,32 +260,20 @@ absl::StatusOr<std::unique_ptr<SceneStore>> SceneStore::open(
                                                       lock.string(), " is locked)"));
   }
   const fs::path index = dir / "index.db";
-  if (sqlite3_open_v2(index.c_str(), &store->db_,
-                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
-                      nullptr) != SQLITE_OK) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--data-dir: cannot open ", index.string(), ": ", sqlite3_errmsg(store->db_)));
+  // WAL keeps readers off the writer's way. The store's commits leave the log in the operating
+  // system's cache (NORMAL), which a killed process does not lose; uploads and deletes sync it
+  // themselves (FullSync), updates leave it to the syncer, whose connection syncs at FULL so that
+  // its checkpoints put the log on the disk.
+  if (absl::Status s = open_index(index, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE,
+                                  {"PRAGMA journal_mode=WAL;", "PRAGMA synchronous=NORMAL;", kSchema},
+                                  &store->db_);
+      !s.ok()) {
+    return s;
   }
-  sqlite3_busy_timeout(store->db_, 5000);
-  // WAL keeps readers off the writer's way; FULL syncs the log at every commit, which is what
-  // makes an acknowledged upload or delete survive a power loss as well as a killed process.
-  // Updates commit at NORMAL (update()).
-  for (const char* sql : {"PRAGMA journal_mode=WAL;", "PRAGMA synchronous=FULL;", kSchema}) {
-    if (absl::Status s = store->exec(sql); !s.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "--data-dir: ", index.string(), " is not a usable scene index: ", s.message()));
-    }
-  }
-  // The syncer's connection syncs at FULL, so that its checkpoints put the log on the disk.
-  if (sqlite3_open_v2(index.c_str(), &store->sync_db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_FULLMUTEX,
-                      nullptr) != SQLITE_OK) {
-    return absl::InvalidArgumentError(absl::StrCat("--data-dir: cannot open ", index.string(),
-                                                   ": ", sqlite3_errmsg(store->sync_db_)));
-  }
-  sqlite3_busy_timeout(store->sync_db_, 5000);
-  if (absl::Status s = exec_sql(store->sync_db_, "PRAGMA synchronous=FULL;"); !s.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--data-dir: ", index.string(), " is not a usable scene index: ", s.message()));
+  if (absl::Status s =
+          open_index(index, SQLITE_OPEN_READWRITE, {"PRAGMA synchronous=FULL;"}, &store->sync_db_);
+      !s.ok()) {
+    return s;
   }
   if (absl::Status synced = fsync_path(dir, O_RDONLY | O_DIRECTORY); !synced.ok()) return synced;
   store->collect_garbage();
@@ -273,8 +294,6 @@ SceneStore::~SceneStore() {
   if (db_ != nullptr) sqlite3_close(db_);
   if (lock_fd_ >= 0) ::close(lock_fd_);  // releases the lock
 }
-
-absl::Status SceneStore::exec(const char* sql) const { return exec_sql(db_, sql); }
 
 void SceneStore::sync_updates() {
   std::unique_lock<std::mutex> lock(mutex_);
@@ -423,6 +442,8 @@ void SceneStore::discard_blob(const std::string& digest) {
 
 absl::Status SceneStore::add(const StoredScene& scene) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const FullSync full(db_);
+  if (!full.status().ok()) return full.status();
   Statement insert(db_,
                    "INSERT INTO scenes (id, tenant, name, blob, state, epoch_geometry, "
                    "epoch_lights, epoch_camera, epoch_settings, upload_bytes, upload_ms) "
@@ -457,12 +478,9 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
   update.bind(4, static_cast<int64_t>(epochs.camera));
   update.bind(5, static_cast<int64_t>(epochs.settings));
   update.bind_text(6, id);
-  // NORMAL: the commit is in the log (the operating system's cache) when step returns, which a
-  // killed server does not lose; sync_updates puts it on the disk.
-  if (absl::Status s = exec("PRAGMA synchronous=NORMAL;"); !s.ok()) return s;
-  const int stepped = update.step();
-  if (absl::Status s = exec("PRAGMA synchronous=FULL;"); !s.ok()) return s;
-  if (stepped != SQLITE_DONE) return update.error(absl::StrCat("cannot store scene ", id));
+  // The commit is in the log (the operating system's cache) when step returns, which a killed
+  // server does not lose; sync_updates puts it on the disk.
+  if (update.step() != SQLITE_DONE) return update.error(absl::StrCat("cannot store scene ", id));
   ++updates_;
   if (!unsynced_since_) {
     unsynced_since_ = std::chrono::steady_clock::now();
@@ -473,6 +491,8 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
 
 absl::Status SceneStore::remove(const std::string& id) {
   std::lock_guard<std::mutex> lock(mutex_);
+  const FullSync full(db_);
+  if (!full.status().ok()) return full.status();
   std::string blob;
   {
     Statement query(db_, "SELECT blob FROM scenes WHERE id = ?");

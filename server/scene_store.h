@@ -82,7 +82,6 @@ class SceneStore {
 
  private:
   SceneStore() = default;
-  absl::Status exec(const char* sql) const;
   // Blobs in blobs/ that no row references are removed; so are leftovers in tmp/.
   void collect_garbage();
   // The background sync: a checkpoint, which syncs the write-ahead log first, once

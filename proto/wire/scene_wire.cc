@@ -44,9 +44,6 @@ std::string join_field(std::string_view field, std::string_view member) {
   return absl::StrCat(as_absl(field), ".", as_absl(member));
 }
 
-bool all_finite(const Vec3f& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
 
 // Appends a chunk's elements to `out` (room for the whole array's `total` reserved with the first
 // chunk) and checks each with `check(element, its index in the whole array)`; after a failure
@@ -414,7 +411,7 @@ bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
 
 absl::StatusOr<Vec3f> decode_vec3(const v1::Vec3& v, std::string_view field) {
   Vec3f out(v.x(), v.y(), v.z());
-  if (!all_finite(out)) {
+  if (!is_finite(out)) {
     return invalid(field, absl::StrFormat("(%g, %g, %g) is not finite", v.x(), v.y(), v.z()));
   }
   return out;
@@ -859,7 +856,7 @@ absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
     case v1::MeshChunk::NORMALS:
       appended = append_elements(a == v1::MeshChunk::POSITIONS ? mesh.positions : mesh.normals,
                                  counts.vertices, data, received, [&](Vec3f v, size_t i) {
-                                   return all_finite(v) ? absl::OkStatus()
+                                   return is_finite(v) ? absl::OkStatus()
                                                         : not_finite(i, {v.x, v.y, v.z});
                                  });
       break;

@@ -149,12 +149,12 @@ void transform_mesh(const Affine& transform, Mesh* mesh) {
   for (Vec3f& n : mesh->normals) n = normalized_or_zero(normal_transform.apply_to_vector(n));
   // A tangent lies in the surface, so it moves as a direction; a mirroring transform turns the
   // frame's handedness, and with it the bitangent's sign.
-  const float handedness = transform.determinant() < 0 ? -1.0f : 1.0f;
+  const bool mirrors = transform.determinant() < 0;
   for (Vec4f& t : mesh->tangents) {
     const Vec3f d = normalized_or_zero(transform.apply_to_vector({t.x, t.y, t.z}));
-    t = {d.x, d.y, d.z, t.w * handedness};
+    t = {d.x, d.y, d.z, mirrors ? -t.w : t.w};
   }
-  if (transform.determinant() < 0) {
+  if (mirrors) {
     for (size_t t = 0; t + 2 < mesh->indices.size(); t += 3) {
       std::swap(mesh->indices[t + 1], mesh->indices[t + 2]);
     }

@@ -46,15 +46,12 @@ absl::Status check_in_range(absl::string_view field, int64_t value, int64_t lo, 
 }  // namespace
 
 absl::Status check_tangent(const Vec4f& t) {
+  const bool finite = is_finite(Vec3f(t.x, t.y, t.z)) && std::isfinite(t.w);
+  if (finite && (t.w == 1.0f || t.w == -1.0f)) return absl::OkStatus();
   const std::string value = absl::StrFormat("(%g, %g, %g, %g)", t.x, t.y, t.z, t.w);
-  if (!std::isfinite(t.x) || !std::isfinite(t.y) || !std::isfinite(t.z) || !std::isfinite(t.w)) {
-    return absl::InvalidArgumentError(absl::StrCat(value, " is not finite"));
-  }
-  if (t.w != 1.0f && t.w != -1.0f) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(value, " has w = ", t.w, ", not 1 or -1 (the bitangent's sign)"));
-  }
-  return absl::OkStatus();
+  if (!finite) return absl::InvalidArgumentError(absl::StrCat(value, " is not finite"));
+  return absl::InvalidArgumentError(
+      absl::StrCat(value, " has w = ", t.w, ", not 1 or -1 (the bitangent's sign)"));
 }
 
 absl::Status validate_camera(const Camera& camera) {

@@ -170,16 +170,26 @@ bool synced_within(const SceneStore& store, std::chrono::seconds limit) {
   return !store.sync_pending();
 }
 
+// A store in a new directory syncing updates `delay` after the first, holding one scene, s-1.
+std::unique_ptr<SceneStore> store_with_one_scene(const fs::path& dir,
+                                                 std::chrono::milliseconds delay) {
+  auto store = SceneStore::open(dir, delay);
+  EXPECT_TRUE(store.ok()) << store.status();
+  if (!store.ok()) return nullptr;
+  const Scene scene = cornell_box(8, 8, 100, 4, 1);
+  absl::StatusOr<std::string> digest = (*store)->write_blob(scene, "box");
+  EXPECT_TRUE(digest.ok() && (*store)->add(row("s-1", *digest, scene)).ok());
+  return *std::move(store);
+}
+
 TEST(SceneStore, AnUpdateReachesTheDiskWithinItsSyncDelay) {
   const fs::path dir = make_temp_dir("scene-store");
   const Scene scene = cornell_box(8, 8, 100, 4, 1);
-  auto store = SceneStore::open(dir, std::chrono::milliseconds(20));
-  ASSERT_TRUE(store.ok()) << store.status();
-  const std::string digest = *(*store)->write_blob(scene, "box");
-  ASSERT_TRUE((*store)->add(row("s-1", digest, scene)).ok());
-  EXPECT_FALSE((*store)->sync_pending());  // an upload is synced before it returns
-  ASSERT_TRUE((*store)->update("s-1", scene, {1, 9, 3, 4}).ok());
-  EXPECT_TRUE(synced_within(**store, std::chrono::seconds(20)));
+  const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::milliseconds(20));
+  ASSERT_NE(store, nullptr);
+  EXPECT_FALSE(store->sync_pending());  // an upload is synced before it returns
+  ASSERT_TRUE(store->update("s-1", scene, {1, 9, 3, 4}).ok());
+  EXPECT_TRUE(synced_within(*store, std::chrono::seconds(20)));
   // The checkpoint that synced the log also moved the update into the database file.
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 9);
 }
@@ -189,14 +199,12 @@ TEST(SceneStore, UpdatesGoOnWhileTheSyncerCheckpoints) {
   // the store's: none fails, and the last one is what the disk holds once the syncer has run.
   const fs::path dir = make_temp_dir("scene-store");
   const Scene scene = cornell_box(8, 8, 100, 4, 1);
-  auto store = SceneStore::open(dir, std::chrono::milliseconds(1));
-  ASSERT_TRUE(store.ok()) << store.status();
-  const std::string digest = *(*store)->write_blob(scene, "box");
-  ASSERT_TRUE((*store)->add(row("s-1", digest, scene)).ok());
+  const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::milliseconds(1));
+  ASSERT_NE(store, nullptr);
   for (uint32_t epoch = 10; epoch < 400; ++epoch) {
-    ASSERT_TRUE((*store)->update("s-1", scene, {1, epoch, 3, 4}).ok()) << epoch;
+    ASSERT_TRUE(store->update("s-1", scene, {1, epoch, 3, 4}).ok()) << epoch;
   }
-  EXPECT_TRUE(synced_within(**store, std::chrono::seconds(20)));
+  EXPECT_TRUE(synced_within(*store, std::chrono::seconds(20)));
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 399);
 }
 
@@ -204,15 +212,13 @@ TEST(SceneStore, AnUnsyncedUpdateIsReadBackAndSyncedOnClose) {
   const fs::path dir = make_temp_dir("scene-store");
   const Scene scene = cornell_box(8, 8, 100, 4, 1);
   {
-    auto store = SceneStore::open(dir, std::chrono::hours(1));
-    ASSERT_TRUE(store.ok()) << store.status();
-    const std::string digest = *(*store)->write_blob(scene, "box");
-    ASSERT_TRUE((*store)->add(row("s-1", digest, scene)).ok());
-    ASSERT_TRUE((*store)->update("s-1", scene, {1, 9, 3, 4}).ok());
-    EXPECT_TRUE((*store)->sync_pending());
+    const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::hours(1));
+    ASSERT_NE(store, nullptr);
+    ASSERT_TRUE(store->update("s-1", scene, {1, 9, 3, 4}).ok());
+    EXPECT_TRUE(store->sync_pending());
     EXPECT_NE(lights_epoch_on_disk(dir, "s-1"), 9);  // in the log only
     // The store's own reader sees the log.
-    EXPECT_EQ((*store)->list()->at(0).epochs.lights, 9u);
+    EXPECT_EQ(store->list()->at(0).epochs.lights, 9u);
   }  // closing does not wait an hour
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 9);
 }
