@@ -91,6 +91,10 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
                          s.triangles(), s.vertices(), s.meshes(), s.materials());
   out << absl::StrFormat("lights       %d lights, %d emissive triangles\n", s.lights(),
                          s.area_lights());
+  for (const v1::TextureInfo& t : s.textures()) {
+    out << absl::StrFormat("texture      %s: %dx%d, %s, %s\n", t.name(), t.width(), t.height(),
+                           t.is_float() ? "float" : "8-bit", mib_text(t.decoded_bytes()));
+  }
   out << absl::StrFormat("camera       %dx%d, fov %g, at %s looking at %s\n", c.width(), c.height(),
                          c.vertical_fov_deg(), vec3_text(c.position()), vec3_text(c.look_at()));
   out << absl::StrFormat(

@@ -53,6 +53,16 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   info->set_meshes(static_cast<uint32_t>(scene.meshes.size()));
   info->set_materials(static_cast<uint32_t>(scene.materials.size()));
   info->set_area_lights(static_cast<uint32_t>(emissive_triangles));
+  info->clear_textures();
+  for (const TextureImage& texture : scene.textures) {
+    v1::TextureInfo* t = info->add_textures();
+    t->set_name(texture.name);
+    if (texture.decoded == nullptr) continue;
+    t->set_width(texture.decoded->width);
+    t->set_height(texture.decoded->height);
+    t->set_is_float(texture.decoded->is_float());
+    t->set_decoded_bytes(texture.decoded->bytes());
+  }
 }
 
 void describe_lights(const Scene& scene, v1::SceneInfo* info) {

@@ -13,6 +13,7 @@
 #include "absl/strings/str_format.h"
 #include "proto/wire/api_version.h"
 #include "proto/wire/scene_wire.h"
+#include "renderer/scene/texture_decode.h"
 #include "server/auth.h"
 #include "server/engine_wire.h"
 #include "server/heap.h"
@@ -485,6 +486,19 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
     if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
     absl::StatusOr<Scene> scene = assembler.finish();
     if (!scene.ok()) return scene.status();
+    // Texture files are decoded here, so that one that cannot be read is refused by name before
+    // anything is stored; their texels count against the tenant's share like the mesh data.
+    if (absl::Status decoded = decode_textures(*scene); !decoded.ok()) return decoded;
+    if (const size_t texels = decoded_texture_bytes(*scene); texels > 0) {
+      if (absl::Status fits = check_tenant_share(
+              tenant, assembler.bytes_declared() + texels,
+              absl::StrCat("scene '", assembler.name(), "' declares ",
+                           mib(assembler.bytes_declared()),
+                           " of mesh data and its textures decode to ", mib(texels)));
+          !fits.ok()) {
+        return fits;
+      }
+    }
     if (!placed) {
       if (absl::Status fits = place_scene(0); !fits.ok()) return fits;
     }
@@ -606,6 +620,7 @@ size_t RenderService::restore_scenes() {
 absl::Status RenderService::restore_scene(const StoredScene& stored) {
   absl::StatusOr<Scene> geometry = options_.store->read_blob(stored.blob);
   if (!geometry.ok()) return geometry.status();
+  if (absl::Status decoded = decode_textures(*geometry); !decoded.ok()) return decoded;
   const Scene scene = restored_scene(*std::move(geometry), stored);
   // Placed afresh, as an upload now would be: the devices may differ from the last run's.
   absl::StatusOr<std::vector<uint32_t>> placed =

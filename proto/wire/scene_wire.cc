@@ -9,6 +9,7 @@
 #include <initializer_list>
 #include <iterator>
 #include <optional>
+#include <tuple>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -64,6 +65,82 @@ absl::Status append_elements(std::vector<T>& out, size_t total, const std::strin
     }
   }
   return absl::OkStatus();
+}
+
+// The checks every chunk of a byte blob (a grid's buffer, a texture's file) passes: its size, its
+// checksum, its place after the `received` bytes so far and within the `declared` total.
+// `field` names the chunk kind ("grid", "texture") and `where` the blob.
+absl::Status check_blob_chunk(std::string_view field, const std::string& where, uint64_t offset,
+                              const std::string& data, uint32_t crc32, uint64_t received,
+                              uint64_t declared) {
+  if (data.size() > kMaxChunkBytes) {
+    return invalid(join_field(field, "data"),
+                   absl::StrCat(where, ": ", data.size(), " bytes exceed the ", kMaxChunkBytes,
+                                "-byte chunk limit"));
+  }
+  if (data.empty()) return invalid(join_field(field, "data"), absl::StrCat(where, ": is empty"));
+  if (chunk_crc32(data) != crc32) {
+    return invalid(join_field(field, "crc32"),
+                   absl::StrFormat("%s: checksum %08x does not match the data (%08x)", where, crc32,
+                                   chunk_crc32(data)));
+  }
+  if (offset != received) {
+    return invalid(join_field(field, "offset"), absl::StrCat(where, ": offset ", offset, " but ",
+                                                             received, " bytes arrived so far"));
+  }
+  if (received + data.size() > declared) {
+    return invalid(join_field(field, "data"),
+                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ", declared,
+                                " the header declares"));
+  }
+  return absl::OkStatus();
+}
+
+constexpr v1::TextureRef::Wrap kWireWraps[] = {
+    v1::TextureRef::REPEAT, v1::TextureRef::CLAMP_TO_EDGE, v1::TextureRef::MIRRORED_REPEAT};
+static_assert(std::size(kWireWraps) == v1::TextureRef::Wrap_ARRAYSIZE);
+
+v1::TextureRef encode_texture_ref(const TextureRef& ref) {
+  v1::TextureRef out;
+  out.set_texture(ref.texture + 1);
+  out.set_wrap_u(kWireWraps[static_cast<int>(ref.wrap_u)]);
+  out.set_wrap_v(kWireWraps[static_cast<int>(ref.wrap_v)]);
+  out.set_offset_u(ref.transform.offset.x);
+  out.set_offset_v(ref.transform.offset.y);
+  out.set_rotation(ref.transform.rotation);
+  out.set_scale_u(ref.transform.scale.x);
+  out.set_scale_v(ref.transform.scale.y);
+  return out;
+}
+
+absl::StatusOr<TextureRef> decode_texture_ref(const v1::TextureRef& in, const std::string& field,
+                                              size_t textures) {
+  TextureRef ref;
+  if (in.texture() == 0) return ref;
+  if (in.texture() > textures) {
+    return invalid(join_field(field, "texture"),
+                   absl::StrCat(in.texture(), " names no texture (the scene has ", textures,
+                                " textures; 1 is the first, 0 none)"));
+  }
+  ref.texture = in.texture() - 1;
+  const std::tuple<int, const char*, TextureWrap*> wraps[] = {{in.wrap_u(), "wrap_u", &ref.wrap_u},
+                                                              {in.wrap_v(), "wrap_v", &ref.wrap_v}};
+  for (const auto& [wire, member, out] : wraps) {
+    if (wire < 0 || wire >= v1::TextureRef::Wrap_ARRAYSIZE) {
+      return invalid(join_field(field, member), absl::StrCat(wire, " is not a wrap mode"));
+    }
+    *out = static_cast<TextureWrap>(wire);
+  }
+  ref.transform.offset = {in.offset_u(), in.offset_v()};
+  ref.transform.rotation = in.rotation();
+  ref.transform.scale = {in.has_scale_u() ? in.scale_u() : 1.0f,
+                         in.has_scale_v() ? in.scale_v() : 1.0f};
+  const float numbers[] = {ref.transform.offset.x, ref.transform.offset.y, ref.transform.rotation,
+                           ref.transform.scale.x, ref.transform.scale.y};
+  for (float x : numbers) {
+    if (!std::isfinite(x)) return invalid(field, "has a transform number that is not finite");
+  }
+  return ref;
 }
 
 // Bytes one (mesh, array) must deliver according to the header.
@@ -181,6 +258,8 @@ v1::Material encode_material(const Material& m) {
   out.set_ior(m.ior);
   *out.mutable_radiance() = encode_vec3(m.radiance);
   out.set_off(m.off);
+  if (m.color_map.used()) *out.mutable_color_map() = encode_texture_ref(m.color_map);
+  if (m.emission_map.used()) *out.mutable_emission_map() = encode_texture_ref(m.emission_map);
   return out;
 }
 
@@ -317,6 +396,11 @@ v1::Structure encode_structure(StructureKind kind) {
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name) {
   v1::SceneHeader out;
   out.set_name(name);
+  for (const TextureImage& t : scene.textures) {
+    v1::TextureHeader* h = out.add_textures();
+    h->set_name(t.name);
+    h->set_bytes(t.encoded != nullptr ? t.encoded->size() : 0);
+  }
   for (const Material& m : scene.materials) *out.add_materials() = encode_material(m);
   for (const Light& l : scene.lights) *out.add_lights() = encode_light(l);
   for (const Medium& m : scene.media) *out.add_media() = encode_medium(m);
@@ -362,11 +446,32 @@ std::string_view grid_of(const Medium& m) {
   return std::string_view(reinterpret_cast<const char*>(m.grid->data()), m.grid->size());
 }
 
+std::string_view file_of(const TextureImage& t) {
+  return t.encoded != nullptr ? std::string_view(*t.encoded) : std::string_view();
+}
+
+// Emits `bytes` (a grid's buffer, a texture's file) in chunks of at most `max_chunk_bytes`, each
+// in the part of `chunk` that `part(chunk)` names and returns; false when `emit` stops early.
+template <typename Part>
+bool emit_blob(std::string_view bytes, size_t max_chunk_bytes, v1::SceneChunk& chunk, Part part,
+               const std::function<bool(v1::SceneChunk& chunk)>& emit) {
+  for (size_t offset = 0; offset < bytes.size(); offset += max_chunk_bytes) {
+    const std::string_view piece = bytes.substr(offset, max_chunk_bytes);
+    auto* blob = part(chunk);
+    blob->set_offset(offset);
+    blob->set_data(piece.data(), piece.size());
+    blob->set_crc32(chunk_crc32(piece));
+    if (!emit(chunk)) return false;
+  }
+  return true;
+}
+
 size_t upload_bytes(const Scene& scene) {
   size_t total = 0;
   for (const Mesh& mesh : scene.meshes)
     for (std::string_view a : mesh_arrays(mesh)) total += a.size();
   for (const Medium& m : scene.media) total += grid_of(m).size();
+  for (const TextureImage& t : scene.textures) total += file_of(t).size();
   return total;
 }
 
@@ -393,15 +498,21 @@ bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
     }
   }
   for (size_t m = 0; m < scene.media.size(); ++m) {
-    const std::string_view bytes = grid_of(scene.media[m]);
-    for (size_t offset = 0; offset < bytes.size(); offset += max_chunk_bytes) {
-      std::string_view piece = bytes.substr(offset, max_chunk_bytes);
-      v1::GridChunk* gc = chunk.mutable_grid();
-      gc->set_medium(static_cast<uint32_t>(m));
-      gc->set_offset(offset);
-      gc->set_data(piece.data(), piece.size());
-      gc->set_crc32(chunk_crc32(piece));
-      if (!emit(chunk)) return false;
+    const auto grid = [m](v1::SceneChunk& c) {
+      v1::GridChunk* part = c.mutable_grid();
+      part->set_medium(static_cast<uint32_t>(m));
+      return part;
+    };
+    if (!emit_blob(grid_of(scene.media[m]), max_chunk_bytes, chunk, grid, emit)) return false;
+  }
+  for (size_t t = 0; t < scene.textures.size(); ++t) {
+    const auto texture = [t](v1::SceneChunk& c) {
+      v1::TextureChunk* part = c.mutable_texture();
+      part->set_texture(static_cast<uint32_t>(t));
+      return part;
+    };
+    if (!emit_blob(file_of(scene.textures[t]), max_chunk_bytes, chunk, texture, emit)) {
+      return false;
     }
   }
   return true;
@@ -585,8 +696,12 @@ absl::Status SceneAssembler::add(const v1::SceneChunk& chunk) {
     case v1::SceneChunk::kGrid:
       status = add_grid_chunk(chunk.grid());
       break;
+    case v1::SceneChunk::kTexture:
+      status = add_texture_chunk(chunk.texture());
+      break;
     default:
-      status = absl::InvalidArgumentError("carries neither a header nor a mesh or grid chunk");
+      status =
+          absl::InvalidArgumentError("carries neither a header nor a mesh, grid or texture chunk");
   }
   if (status.ok()) return status;
   return absl::Status(status.code(), absl::StrCat("chunk ", index, ": ", status.message()));
@@ -605,6 +720,26 @@ absl::StatusOr<uint32_t> SceneAssembler::decode_medium_ref(uint32_t value,
 absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
   if (has_header_) return invalid("header", "a second header (the header comes once, first)");
   name_ = header.name();
+  if (size_t(header.textures_size()) > kMaxTextures) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("textures: ", header.textures_size(), " exceed the limit of ", kMaxTextures));
+  }
+  for (int i = 0; i < header.textures_size(); ++i) {
+    const v1::TextureHeader& in = header.textures(i);
+    const std::string field = absl::StrCat("textures[", i, "] '", in.name(), "'");
+    if (in.bytes() == 0) return invalid(join_field(field, "bytes"), "is 0");
+    if (in.bytes() > kMaxTextureFileBytes) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          field, ".bytes: ", in.bytes(), " exceed the limit of ", kMaxTextureFileBytes));
+    }
+    TextureImage t;
+    t.name = in.name().empty() ? absl::StrCat("texture", i) : in.name();
+    scene_.textures.push_back(std::move(t));
+    texture_declared_.push_back(in.bytes());
+    texture_received_.push_back(0);
+    texture_files_.emplace_back();
+    bytes_declared_ += in.bytes();
+  }
   for (int i = 0; i < header.materials_size(); ++i) {
     const v1::Material& in = header.materials(i);
     const std::string field = absl::StrCat("materials[", i, "]");
@@ -635,6 +770,18 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.radiance = *radiance;
     m.off = in.off();
     m.ior = in.ior();
+    if (in.has_color_map()) {
+      absl::StatusOr<TextureRef> ref = decode_texture_ref(
+          in.color_map(), join_field(field, "color_map"), scene_.textures.size());
+      if (!ref.ok()) return ref.status();
+      m.color_map = *ref;
+    }
+    if (in.has_emission_map()) {
+      absl::StatusOr<TextureRef> ref = decode_texture_ref(
+          in.emission_map(), join_field(field, "emission_map"), scene_.textures.size());
+      if (!ref.ok()) return ref.status();
+      m.emission_map = *ref;
+    }
     scene_.materials.push_back(std::move(m));
   }
   for (int i = 0; i < header.media_size(); ++i) {
@@ -777,27 +924,40 @@ absl::Status SceneAssembler::add_grid_chunk(const v1::GridChunk& chunk) {
   const uint32_t m = chunk.medium();
   const std::string where = absl::StrCat("medium '", scene_.media[m].name, "' grid");
   const std::string& data = chunk.data();
-  if (data.size() > kMaxChunkBytes) {
-    return invalid("grid.data", absl::StrCat(where, ": ", data.size(), " bytes exceed the ",
-                                             kMaxChunkBytes, "-byte chunk limit"));
-  }
-  if (data.empty()) return invalid("grid.data", absl::StrCat(where, ": is empty"));
-  if (chunk_crc32(data) != chunk.crc32()) {
-    return invalid("grid.crc32", absl::StrFormat("%s: checksum %08x does not match the data (%08x)",
-                                                 where, chunk.crc32(), chunk_crc32(data)));
-  }
   uint64_t& received = grid_received_[m];
-  if (chunk.offset() != received) {
-    return invalid("grid.offset", absl::StrCat(where, ": offset ", chunk.offset(), " but ",
-                                               received, " bytes arrived so far"));
-  }
-  if (received + data.size() > grid_declared_[m]) {
-    return invalid("grid.data",
-                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ",
-                                grid_declared_[m], " the header declares"));
+  if (absl::Status ok = check_blob_chunk("grid", where, chunk.offset(), data, chunk.crc32(),
+                                         received, grid_declared_[m]);
+      !ok.ok()) {
+    return ok;
   }
   if (grids_[m] == nullptr) grids_[m] = std::make_shared<AlignedBytes>(grid_declared_[m]);
   std::memcpy(grids_[m]->data() + received, data.data(), data.size());
+  received += data.size();
+  bytes_received_ += data.size();
+  return absl::OkStatus();
+}
+
+absl::Status SceneAssembler::add_texture_chunk(const v1::TextureChunk& chunk) {
+  if (!has_header_) return invalid("texture", "arrives before the scene header");
+  if (chunk.texture() >= scene_.textures.size()) {
+    return invalid("texture.texture",
+                   absl::StrCat(chunk.texture(), " is out of range (the header declares ",
+                                scene_.textures.size(), " textures)"));
+  }
+  const uint32_t t = chunk.texture();
+  const std::string where = absl::StrCat("texture '", scene_.textures[t].name, "'");
+  const std::string& data = chunk.data();
+  uint64_t& received = texture_received_[t];
+  if (absl::Status ok = check_blob_chunk("texture", where, chunk.offset(), data, chunk.crc32(),
+                                         received, texture_declared_[t]);
+      !ok.ok()) {
+    return ok;
+  }
+  if (texture_files_[t] == nullptr) {
+    texture_files_[t] = std::make_shared<std::string>();
+    texture_files_[t]->reserve(texture_declared_[t]);
+  }
+  texture_files_[t]->append(data);
   received += data.size();
   bytes_received_ += data.size();
   return absl::OkStatus();
@@ -918,6 +1078,14 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
                                   grid_declared_[m]));
     }
     scene_.media[m].grid = std::move(grids_[m]);
+  }
+  for (size_t t = 0; t < scene_.textures.size(); ++t) {
+    if (texture_received_[t] != texture_declared_[t]) {
+      return invalid(absl::StrCat("textures[", t, "] '", scene_.textures[t].name, "'"),
+                     absl::StrCat("has ", texture_received_[t], " bytes but the header declares ",
+                                  texture_declared_[t]));
+    }
+    scene_.textures[t].encoded = std::move(texture_files_[t]);
   }
   for (size_t m = 0; m < scene_.meshes.size(); ++m) {
     if (!counts_[m].per_triangle_materials)

@@ -46,8 +46,8 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
 // Bytes the mesh and grid chunks of `scene` carry in total.
 size_t upload_bytes(const Scene& scene);
 // Calls `emit` with every chunk after the header: the mesh chunks mesh by mesh and array by
-// array, then each grid medium's grid chunks, each at most `max_chunk_bytes` of data. Stops
-// early, returning false, when `emit` returns false.
+// array, then each grid medium's grid chunks, then each texture's file, each at most
+// `max_chunk_bytes` of data. Stops early, returning false, when `emit` returns false.
 bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
                     const std::function<bool(v1::SceneChunk& chunk)>& emit);
 
@@ -91,7 +91,7 @@ class SceneAssembler {
   const std::string& name() const { return name_; }
   size_t chunks_received() const { return chunks_; }
   size_t bytes_received() const { return bytes_received_; }
-  // Mesh and grid bytes the header announced (what the scene will hold on the host before
+  // Mesh, grid and texture bytes the header announced (what the scene will hold on the host before
   // upload).
   size_t bytes_declared() const { return bytes_declared_; }
 
@@ -104,6 +104,7 @@ class SceneAssembler {
   absl::StatusOr<uint64_t> decode_grid_header(const v1::Medium& in, const std::string& field,
                                               Medium* m) const;
   absl::Status add_grid_chunk(const v1::GridChunk& chunk);
+  absl::Status add_texture_chunk(const v1::TextureChunk& chunk);
 
   struct MeshProgress {
     std::array<size_t, v1::MeshChunk::Array_ARRAYSIZE> received{};  // bytes, by MeshChunk::Array
@@ -117,6 +118,10 @@ class SceneAssembler {
   std::vector<uint64_t> grid_declared_;
   std::vector<uint64_t> grid_received_;
   std::vector<std::shared_ptr<AlignedBytes>> grids_;
+  // Per texture: file bytes declared and received, and the string they arrive in.
+  std::vector<uint64_t> texture_declared_;
+  std::vector<uint64_t> texture_received_;
+  std::vector<std::shared_ptr<std::string>> texture_files_;
   size_t chunks_ = 0;
   size_t bytes_received_ = 0;
   size_t bytes_declared_ = 0;

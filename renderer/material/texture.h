@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "renderer/base/texture_mapping.h"
 #include "renderer/base/vec.h"
 
 namespace caustica {
@@ -29,23 +30,6 @@ CAUSTICA_HDI float srgb_to_linear(float v) {
 CAUSTICA_HDI float linear_to_srgb(float v) {
   return v <= 0.0031308f ? v * 12.92f : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f;
 }
-
-// What a coordinate outside [0, 1) reads (glTF's sampler wrap modes).
-enum class TextureWrap : uint32_t { kRepeat, kClampToEdge, kMirroredRepeat };
-
-// KHR_texture_transform: uv' = T(offset) R(rotation) S(scale) uv, with the extension's rotation
-// matrix (columns (cos, sin) and (-sin, cos)).
-struct TextureTransform {
-  Vec2f offset{0.0f, 0.0f};
-  float rotation = 0.0f;
-  Vec2f scale{1.0f, 1.0f};
-
-  CAUSTICA_HDI Vec2f apply(Vec2f uv) const {
-    const float c = cosf(rotation), s = sinf(rotation);
-    const float x = uv.x * scale.x, y = uv.y * scale.y;
-    return {c * x - s * y + offset.x, s * x + c * y + offset.y};
-  }
-};
 
 // One mip level's place in the texel array.
 struct MipLevel {

@@ -19,6 +19,7 @@
 #include "renderer/scene/affine.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
+#include "renderer/scene/texture_files.h"
 #include "renderer/scene/transform.h"
 
 namespace caustica {
@@ -100,14 +101,16 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
 class AssimpReader {
  public:
   AssimpReader(const aiScene& scene, const std::filesystem::path& path)
-      : scene_(scene), file_name_(path.filename().string()) {}
+      : scene_(scene), file_name_(path.filename().string()), textures_(path) {}
 
   absl::StatusOr<MeshFile> read() {
     if (scene_.mRootNode == nullptr) return absl::InvalidArgumentError("the file has no nodes");
     for (unsigned i = 0; i < scene_.mNumMaterials; ++i) {
-      file_.materials.push_back(
-          convert_material(*scene_.mMaterials[i], i, file_name_, &file_.warnings));
+      Material m = convert_material(*scene_.mMaterials[i], i, file_name_, &file_.warnings);
+      m.color_map = colour_map(*scene_.mMaterials[i], m.name);
+      file_.materials.push_back(std::move(m));
     }
+    file_.textures = textures_.take();
     SCENE_RETURN_IF_ERROR(visit_tree());
     if (file_.meshes.empty()) {
       if (skipped_meshes_ > 0) {
@@ -206,7 +209,7 @@ class AssimpReader {
       mesh.uvs.resize(source.mNumVertices);
       for (unsigned v = 0; v < source.mNumVertices; ++v) {
         const aiVector3D& uv = source.mTextureCoords[0][v];
-        mesh.uvs[v] = {uv.x, uv.y};
+        mesh.uvs[v] = {uv.x, 1.0f - uv.y};  // v down the image, as glTF's
       }
     }
     mesh.indices.reserve(3 * size_t{source.mNumFaces});
@@ -233,8 +236,55 @@ class AssimpReader {
     return absl::OkStatus();
   }
 
+  // The base colour (or diffuse) texture Assimp reports for a material: a file beside the model, or
+  // one the model embeds in a file format's bytes. Embedded raw texels are left out with a warning.
+  TextureRef colour_map(const aiMaterial& material, const std::string& name) {
+    TextureRef ref;
+    aiString file;
+    aiTextureMapMode modes[2] = {aiTextureMapMode_Wrap, aiTextureMapMode_Wrap};
+    unsigned uv_index = 0;
+    bool found = false;
+    for (const aiTextureType type : {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE}) {
+      if (material.GetTextureCount(type) > 0 &&
+          material.GetTexture(type, 0, &file, nullptr, &uv_index, nullptr, nullptr, modes) ==
+              AI_SUCCESS) {
+        found = true;
+        break;
+      }
+    }
+    if (!found || file.length == 0) return ref;
+    if (uv_index != 0) {
+      file_.warnings.push_back(absl::StrCat(file_name_, ": material '", name,
+                                            "': its texture reads UV set ", uv_index,
+                                            ", but only the first is read; left out"));
+      return ref;
+    }
+    if (const aiTexture* embedded = scene_.GetEmbeddedTexture(file.C_Str()); embedded != nullptr) {
+      if (embedded->mHeight != 0) {
+        file_.warnings.push_back(absl::StrCat(file_name_, ": material '", name,
+                                              "': its embedded texture is raw texels, which are "
+                                              "not read; left out"));
+        return ref;
+      }
+      ref.texture = textures_.from_bytes(
+          absl::StrCat("embedded ", file.C_Str()), absl::StrCat(file_name_, " ", file.C_Str()),
+          std::string(reinterpret_cast<const char*>(embedded->pcData), embedded->mWidth));
+    } else {
+      ref.texture = textures_.from_file(file.C_Str(), file_.warnings);
+    }
+    const auto wrap = [](aiTextureMapMode mode) {
+      return mode == aiTextureMapMode_Clamp    ? TextureWrap::kClampToEdge
+             : mode == aiTextureMapMode_Mirror ? TextureWrap::kMirroredRepeat
+                                               : TextureWrap::kRepeat;
+    };
+    ref.wrap_u = wrap(modes[0]);
+    ref.wrap_v = wrap(modes[1]);
+    return ref;
+  }
+
   const aiScene& scene_;
   std::string file_name_;
+  TextureTable textures_;
   size_t skipped_meshes_ = 0;
   size_t total_triangles_ = 0;
   MeshFile file_;

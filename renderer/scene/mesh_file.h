@@ -19,6 +19,7 @@ inline constexpr uint32_t kNoMaterial = 0xffffffffu;
 struct MeshFile {
   std::vector<Mesh> meshes;         // material_ids index `materials` or are kNoMaterial
   std::vector<Material> materials;  // empty for formats without materials (PLY)
+  std::vector<TextureImage> textures;  // what the materials' maps index
   std::vector<Light> lights;        // glTF KHR_lights_punctual, already in file space
   // Perspective cameras of the file (glTF), already in file space; a JSON scene ignores them, a
   // bare mesh file renders through the first.

@@ -1,7 +1,8 @@
 #include "renderer/scene/mesh_gltf.h"
 
 // The Debian package ships tinygltf as a compiled library, so no TINYGLTF_IMPLEMENTATION here.
-// No stb_image: we read no textures, so the image callbacks are ours.
+// No stb_image: images travel to the server as their files' bytes (texture_decode.h decodes them
+// there), so the image callback only keeps the bytes.
 #define TINYGLTF_NO_STB_IMAGE
 #define TINYGLTF_NO_STB_IMAGE_WRITE
 #include <tiny_gltf.h>
@@ -26,6 +27,7 @@
 #include "renderer/scene/file_io.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
+#include "renderer/scene/texture_files.h"
 #include "renderer/scene/transform.h"
 #include "renderer/scene/validate.h"
 
@@ -39,9 +41,38 @@ static_assert(std::endian::native == std::endian::little);
 
 constexpr double kRadiansToDegrees = 180.0 / 3.14159265358979323846;
 
-bool ignore_image(tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                  const unsigned char*, int, void*) {
+// The bytes of every image of the file (embedded, in a buffer view or beside it), by index.
+using ImageBytes = std::vector<std::string>;
+
+bool keep_image_bytes(tinygltf::Image*, const int index, std::string*, std::string*, int, int,
+                      const unsigned char* bytes, int size, void* user_data) {
+  auto& images = *static_cast<ImageBytes*>(user_data);
+  if (index < 0 || bytes == nullptr || size <= 0) return true;
+  if (images.size() <= size_t(index)) images.resize(size_t(index) + 1);
+  images[size_t(index)].assign(reinterpret_cast<const char*>(bytes), size_t(size));
   return true;
+}
+
+TextureWrap wrap_mode(int gltf) {
+  switch (gltf) {
+    case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE:
+      return TextureWrap::kClampToEdge;
+    case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT:
+      return TextureWrap::kMirroredRepeat;
+    default:
+      return TextureWrap::kRepeat;
+  }
+}
+
+// Two numbers of an extension's array member, or `fallback`.
+Vec2f extension_pair(const tinygltf::Value& extension, const std::string& key, Vec2f fallback) {
+  if (!extension.Has(key)) return fallback;
+  const tinygltf::Value& v = extension.Get(key);
+  if (!v.IsArray() || v.ArrayLen() < 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber()) {
+    return fallback;
+  }
+  return {static_cast<float>(v.Get(0).GetNumberAsDouble()),
+          static_cast<float>(v.Get(1).GetNumberAsDouble())};
 }
 
 // A number inside a material extension, e.g. KHR_materials_ior.ior, or `fallback`.
@@ -268,13 +299,24 @@ class AccessorView {
 
 class GltfReader {
  public:
-  GltfReader(const tinygltf::Model& model, const std::filesystem::path& path)
-      : model_(model), file_name_(path.filename().string()) {}
+  GltfReader(const tinygltf::Model& model, const std::filesystem::path& path, ImageBytes images)
+      : model_(model),
+        file_name_(path.filename().string()),
+        images_(std::move(images)),
+        textures_(path) {}
 
   absl::StatusOr<MeshFile> read() {
     for (size_t i = 0; i < model_.materials.size(); ++i) {
-      file_.materials.push_back(convert_material(model_.materials[i], i));
+      const tinygltf::Material& gltf = model_.materials[i];
+      Material m = convert_material(gltf, i);
+      m.color_map = texture_ref(gltf.pbrMetallicRoughness.baseColorTexture.index,
+                                gltf.pbrMetallicRoughness.baseColorTexture.texCoord,
+                                gltf.pbrMetallicRoughness.baseColorTexture.extensions, m.name);
+      m.emission_map = texture_ref(gltf.emissiveTexture.index, gltf.emissiveTexture.texCoord,
+                                   gltf.emissiveTexture.extensions, m.name);
+      file_.materials.push_back(std::move(m));
     }
+    file_.textures = textures_.take();
     node_seen_.assign(model_.nodes.size(), false);
     for (const int root : root_nodes()) SCENE_RETURN_IF_ERROR(visit_tree(root));
     if (file_.meshes.empty() && skipped_primitives_ > 0) {
@@ -286,6 +328,59 @@ class GltfReader {
   }
 
  private:
+  // A material's texture `index` (its textureInfo's) as the scene's: the image once per file, the
+  // sampler's wrap modes and KHR_texture_transform. Maps on a second set of coordinates, or whose
+  // image did not load, are left out with a warning.
+  TextureRef texture_ref(int index, int texcoord, const tinygltf::ExtensionMap& extensions,
+                         const std::string& material) {
+    TextureRef ref;
+    if (index < 0) return ref;
+    const std::string where = absl::StrCat(file_name_, ": material '", material, "'");
+    if (size_t(index) >= model_.textures.size()) {
+      file_.warnings.push_back(absl::StrCat(where, " refers to missing texture ", index));
+      return ref;
+    }
+    const tinygltf::Texture& texture = model_.textures[size_t(index)];
+    const int image = texture.source;
+    if (image < 0 || size_t(image) >= model_.images.size() || size_t(image) >= images_.size() ||
+        images_[size_t(image)].empty()) {
+      file_.warnings.push_back(absl::StrCat(where, ": texture ", index,
+                                            " has no image that could be read; the material "
+                                            "keeps its factor alone"));
+      return ref;
+    }
+    const auto transform = extensions.find("KHR_texture_transform");
+    if (transform != extensions.end() && transform->second.Has("texCoord") &&
+        transform->second.Get("texCoord").IsNumber()) {
+      texcoord = transform->second.Get("texCoord").GetNumberAsInt();
+    }
+    if (texcoord != 0) {
+      file_.warnings.push_back(absl::StrCat(where, ": texture ", index, " reads TEXCOORD_",
+                                            texcoord, ", but only TEXCOORD_0 is read; left out"));
+      return ref;
+    }
+    const tinygltf::Image& source = model_.images[size_t(image)];
+    const std::string name =
+        !source.uri.empty() && !absl::StartsWith(source.uri, "data:")
+            ? source.uri
+            : (!source.name.empty() ? source.name : absl::StrCat("image ", image));
+    ref.texture = textures_.from_bytes(absl::StrCat("image ", image), name, images_[size_t(image)]);
+    if (texture.sampler >= 0 && size_t(texture.sampler) < model_.samplers.size()) {
+      const tinygltf::Sampler& sampler = model_.samplers[size_t(texture.sampler)];
+      ref.wrap_u = wrap_mode(sampler.wrapS);
+      ref.wrap_v = wrap_mode(sampler.wrapT);
+    }
+    if (transform != extensions.end() && transform->second.IsObject()) {
+      const tinygltf::Value& t = transform->second;
+      ref.transform.offset = extension_pair(t, "offset", Vec2f{0.0f, 0.0f});
+      ref.transform.scale = extension_pair(t, "scale", Vec2f{1.0f, 1.0f});
+      if (t.Has("rotation") && t.Get("rotation").IsNumber()) {
+        ref.transform.rotation = static_cast<float>(t.Get("rotation").GetNumberAsDouble());
+      }
+    }
+    return ref;
+  }
+
   // The default scene's roots; without scenes, every node that is nobody's child.
   std::vector<int> root_nodes() const {
     if (!model_.scenes.empty()) {
@@ -576,6 +671,8 @@ class GltfReader {
 
   const tinygltf::Model& model_;
   std::string file_name_;
+  ImageBytes images_;
+  TextureTable textures_;
   std::vector<bool> node_seen_;
   size_t skipped_primitives_ = 0;
   MeshFile file_;
@@ -642,7 +739,8 @@ absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
   if (absl::Status file = check_regular_file(path); !file.ok()) return file;
   SCENE_RETURN_IF_ERROR(reject_gltf1(path, binary_gltf1_evidence(path)));
   tinygltf::TinyGLTF loader;
-  loader.SetImageLoader(&ignore_image, nullptr);
+  ImageBytes images;
+  loader.SetImageLoader(&keep_image_bytes, &images);
   tinygltf::Model model;
   std::string error, warning;
   bool loaded = false;
@@ -660,7 +758,7 @@ absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
     return absl::InvalidArgumentError(
         absl::StrCat(path.string(), ": ", absl::StripTrailingAsciiWhitespace(error)));
   }
-  absl::StatusOr<MeshFile> file = GltfReader(model, path).read();
+  absl::StatusOr<MeshFile> file = GltfReader(model, path, std::move(images)).read();
   if (!file.ok()) return annotate(file.status(), path.string());
   return file;
 }

@@ -16,6 +16,7 @@
 #include "renderer/scene/file_io.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
+#include "renderer/scene/texture_files.h"
 
 namespace caustica {
 namespace {
@@ -44,6 +45,22 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index) {
     m.color = to_vec3(mtl.diffuse);
   }
   return m;
+}
+
+// An MTL map (`map_Kd file` with its options) as a texture of the scene. MTL's coordinates put v up
+// the image, the scene's down it (glTF's), so -o and -s are turned: v' = s v + o upward is
+// s v + (1 - s - o) downward.
+TextureRef convert_map(const std::string& file, const tinyobj::texture_option_t& options,
+                       TextureTable& textures, std::vector<std::string>& warnings) {
+  TextureRef ref;
+  if (file.empty()) return ref;
+  ref.texture = textures.from_file(file, warnings);
+  if (!ref.used()) return ref;
+  if (options.clamp) ref.wrap_u = ref.wrap_v = TextureWrap::kClampToEdge;
+  ref.transform.scale = {options.scale[0], options.scale[1]};
+  ref.transform.offset = {options.origin_offset[0],
+                          1.0f - options.scale[1] - options.origin_offset[1]};
+  return ref;
 }
 
 // Line of the face_number-th (0-based) "f" statement: tinyobj keeps faces in file order but not
@@ -209,7 +226,7 @@ class ObjMeshBuilder {
         mesh->normals.push_back(to_vec3(&attrib_.normals[3 * size_t(corner.normal)]));
       if (all_uvs_) {
         const tinyobj::real_t* uv = &attrib_.texcoords[2 * size_t(corner.uv)];
-        mesh->uvs.push_back({uv[0], uv[1]});
+        mesh->uvs.push_back({uv[0], 1.0f - uv[1]});  // v down the image, as glTF's
       }
     }
     return it->second;
@@ -245,9 +262,14 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
 
   MeshFile file;
   const std::vector<tinyobj::material_t>& materials = reader.GetMaterials();
+  TextureTable textures(path);
   for (size_t i = 0; i < materials.size(); ++i) {
-    file.materials.push_back(convert_material(materials[i], i));
+    Material m = convert_material(materials[i], i);
+    m.color_map = convert_map(materials[i].diffuse_texname, materials[i].diffuse_texopt, textures,
+                              file.warnings);
+    file.materials.push_back(std::move(m));
   }
+  file.textures = textures.take();
   ObjMeshBuilder builder(path, reader.GetAttrib());
   SCENE_RETURN_IF_ERROR(builder.check(reader.GetShapes()));
   file.meshes.push_back(builder.build(reader.GetShapes(), materials.size()));

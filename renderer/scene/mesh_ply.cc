@@ -571,7 +571,8 @@ class BodyParser {
       if (layout_.has_normals)
         mesh_->normals.push_back(to_vec3(slots[kNx], slots[kNy], slots[kNz]));
       if (layout_.has_uvs) {
-        mesh_->uvs.push_back({static_cast<float>(slots[kU]), static_cast<float>(slots[kV])});
+        // PLY writers (Blender, MeshLab) put v up the image, the scene down it (glTF's).
+        mesh_->uvs.push_back({static_cast<float>(slots[kU]), 1.0f - static_cast<float>(slots[kV])});
       }
     }
     return absl::OkStatus();

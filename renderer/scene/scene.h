@@ -10,6 +10,7 @@
 
 #include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
+#include "renderer/base/texture_mapping.h"
 #include "renderer/base/vec.h"
 #include "renderer/scene/affine.h"
 #include "renderer/scene/setting_kinds.h"
@@ -18,6 +19,37 @@ namespace caustica {
 
 enum class MaterialType : uint32_t { kDiffuse = 0, kMirror = 1, kDielectric = 2, kEmissive = 3 };
 
+// No texture: a TextureRef's `texture` when the material's factor stands alone.
+inline constexpr uint32_t kNoTexture = 0xffffffffu;
+
+// An image decoded: 8-bit RGBA as the file stored it (colour maps are sRGB-encoded, the rest
+// linear), or 32-bit float RGBA in linear light for Radiance HDR and OpenEXR. Rows top to bottom.
+struct DecodedImage {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba8;
+  std::vector<float> rgba32f;
+  bool is_float() const { return !rgba32f.empty(); }
+  size_t bytes() const { return rgba8.size() + rgba32f.size() * sizeof(float); }
+};
+
+// A texture image as a model file referenced it: its file's bytes (PNG, JPEG, TGA, Radiance HDR or
+// OpenEXR), which travel to the server as they are and are decoded there (texture_decode.h).
+// Shared, as grids are, because scenes are copied and images are large.
+struct TextureImage {
+  std::string name;  // file name or the model's image name, for messages
+  std::shared_ptr<const std::string> encoded;
+  std::shared_ptr<const DecodedImage> decoded;  // set by decode_textures
+};
+
+// One texture a material reads: an index into Scene::textures (kNoTexture for none), how
+// coordinates outside [0, 1) wrap, and KHR_texture_transform.
+struct TextureRef {
+  uint32_t texture = kNoTexture;
+  TextureWrap wrap_u = TextureWrap::kRepeat, wrap_v = TextureWrap::kRepeat;
+  TextureTransform transform;
+  bool used() const { return texture != kNoTexture; }
+};
+
 struct Material {
   std::string name;
   MaterialType type = MaterialType::kDiffuse;
@@ -25,6 +57,10 @@ struct Material {
   float ior = 1.5f;               // dielectric index of refraction (outside medium is vacuum)
   Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
   bool off = false;               // emissive: emits nothing for now, `radiance` kept for later
+  // Maps of the model file, multiplying `color` (sRGB-encoded) and `radiance` (sRGB-encoded, as
+  // glTF's emissive texture) where the mesh has texture coordinates.
+  TextureRef color_map;
+  TextureRef emission_map;
 };
 
 // What an emissive material emits now.
@@ -150,6 +186,7 @@ struct RenderSettings {
 
 struct Scene {
   std::vector<Material> materials;
+  std::vector<TextureImage> textures;  // what the materials' maps index
   std::vector<Medium> media;
   // The medium everywhere outside the meshes that enclose one (an index into media), or
   // kNoMedium.

@@ -521,8 +521,15 @@ class SceneReader {
     const std::string file_name = file_path.filename().string();
     const uint32_t first_material = static_cast<uint32_t>(scene_.materials.size());
     if (!material_override) {
+      // The file's textures join the scene's, and its materials' maps follow them.
+      const auto first_texture = static_cast<uint32_t>(scene_.textures.size());
+      for (TextureImage& texture : mesh_file.textures)
+        scene_.textures.push_back(std::move(texture));
       for (Material& material : mesh_file.materials) {
         material.name = absl::StrCat(file_name, ":", material.name);
+        for (TextureRef* map : {&material.color_map, &material.emission_map}) {
+          if (map->used()) map->texture += first_texture;
+        }
         scene_.materials.push_back(std::move(material));
       }
     }

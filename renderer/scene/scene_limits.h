@@ -35,5 +35,15 @@ inline constexpr size_t kMaxSceneTriangles = size_t{1} << 28;
 inline constexpr size_t kMaxFileBytes = size_t{8} << 30;
 // The largest density grid one medium may hold, as its NanoVDB buffer.
 inline constexpr size_t kMaxGridBytes = size_t{4} << 30;
+// Texture images: how many one scene may reference, the largest file, the widest side and what one
+// may decode to (an image is refused before its pixels are allocated).
+inline constexpr size_t kMaxTextures = 4096;
+inline constexpr size_t kMaxTextureFileBytes = size_t{256} << 20;
+#ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
+inline constexpr uint32_t kMaxTextureSide = 2048;
+#else
+inline constexpr uint32_t kMaxTextureSide = 16384;
+#endif
+inline constexpr size_t kMaxTextureDecodedBytes = size_t{1} << 30;
 
 }  // namespace caustica

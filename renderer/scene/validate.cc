@@ -146,8 +146,16 @@ absl::Status validate_settings(const RenderSettings& s) {
 
 namespace {
 
-absl::Status validate_material(const Material& m) {
+absl::Status validate_material(const Material& m, size_t textures) {
   const std::string field = absl::StrCat("materials.", m.name);
+  for (const auto& [map, name] :
+       {std::pair{&m.color_map, "color_map"}, std::pair{&m.emission_map, "emission_map"}}) {
+    if (map->used() && map->texture >= textures) {
+      return invalid_field(
+          absl::StrCat(field, ".", name),
+          absl::StrCat("is texture ", map->texture, ", but the scene has ", textures, " textures"));
+    }
+  }
   switch (m.type) {
     case MaterialType::kDiffuse:
       return check_color(absl::StrCat(field, ".albedo"), m.color, 1);
@@ -391,8 +399,18 @@ absl::Status validate_triangle_total(size_t triangles) {
 absl::Status validate_scene(const Scene& scene) {
   SCENE_RETURN_IF_ERROR(validate_camera(scene.camera));
   SCENE_RETURN_IF_ERROR(validate_settings(scene.settings));
+  if (scene.textures.size() > kMaxTextures) {
+    return invalid_field(
+        "textures", absl::StrCat(scene.textures.size(), " exceed the limit of ", kMaxTextures));
+  }
+  for (size_t i = 0; i < scene.textures.size(); ++i) {
+    const TextureImage& t = scene.textures[i];
+    if (t.encoded == nullptr && t.decoded == nullptr) {
+      return invalid_field(absl::StrCat("textures[", i, "] '", t.name, "'"), "has no image");
+    }
+  }
   for (const Material& material : scene.materials) {
-    SCENE_RETURN_IF_ERROR(validate_material(material));
+    SCENE_RETURN_IF_ERROR(validate_material(material, scene.textures.size()));
   }
   for (const Medium& medium : scene.media) SCENE_RETURN_IF_ERROR(validate_medium(medium));
   if (scene.medium != kNoMedium && scene.medium >= scene.media.size()) {

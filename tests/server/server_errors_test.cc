@@ -5,8 +5,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
+#include <memory>
 
 #include "proto/wire/scene_wire.h"
 #include "renderer/parallel/backend.h"
@@ -143,6 +147,40 @@ TEST_F(ServerTest, MalformedUploadsAreRefusedNamingTheProblem) {
         << status.error_message();
     EXPECT_TRUE(info.scene_id().empty());
   }
+  EXPECT_EQ(resident_scenes(*stub_), 0u) << "a refused upload keeps nothing";
+  expect_server_healthy(*server_);
+}
+
+// A textured model's files reach the server and are decoded there; a texture that does not decode
+// is refused by name, with nothing kept and the server serving on.
+TEST_F(ServerTest, TexturesAreDecodedOnUploadAndABrokenOneIsRefusedByName) {
+  Scene scene = cornell_box(16, 16, 2000, 16, 1);
+  std::ifstream in(std::filesystem::path(CAUSTICA_TEST_DATA) /
+                       "scene/thirdparty/gltf2/BoxTextured/CesiumLogoFlat.png",
+                   std::ios::binary);
+  const std::string png{std::istreambuf_iterator<char>(in), {}};
+  ASSERT_GT(png.size(), 1000u);
+  scene.textures.push_back({"CesiumLogoFlat.png", std::make_shared<const std::string>(png), {}});
+  scene.materials.at(0).color_map.texture = 0;
+  const std::string id = upload_scene(*stub_, scene, "textured");
+  const v1::SceneInfo info = get_scene(*stub_, id);
+  ASSERT_EQ(info.textures_size(), 1);
+  EXPECT_EQ(info.textures(0).name(), "CesiumLogoFlat.png");
+  EXPECT_EQ(info.textures(0).width(), 211u);
+  EXPECT_EQ(info.textures(0).height(), 211u);
+  EXPECT_FALSE(info.textures(0).is_float());
+  EXPECT_EQ(info.textures(0).decoded_bytes(), 211u * 211u * 4u);
+  delete_scene(*stub_, id);
+
+  scene.textures[0].encoded = std::make_shared<const std::string>(png.substr(0, png.size() / 2));
+  v1::SceneInfo refused;
+  const grpc::Status status = upload(*stub_, scene_chunks(scene, "broken"), &refused);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(
+      status.error_message().find("textures[0] 'CesiumLogoFlat.png': not a readable PNG image"),
+      std::string::npos)
+      << status.error_message();
+  EXPECT_TRUE(refused.scene_id().empty());
   EXPECT_EQ(resident_scenes(*stub_), 0u) << "a refused upload keeps nothing";
   expect_server_healthy(*server_);
 }

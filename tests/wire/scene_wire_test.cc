@@ -53,6 +53,16 @@ absl::StatusOr<Scene> assemble(const std::vector<v1::SceneChunk>& chunks) {
   return assembler.finish();
 }
 
+// Expects `chunks` after `edit` refused with `code`, its message holding `message`.
+template <typename Edit>
+void expect_refused(std::vector<v1::SceneChunk> chunks, Edit&& edit, const std::string& message,
+                    absl::StatusCode code = absl::StatusCode::kInvalidArgument) {
+  edit(chunks);
+  const absl::Status status = assemble(chunks).status();
+  EXPECT_EQ(status.code(), code) << message << ": " << status;
+  EXPECT_THAT(std::string(status.message()), HasSubstr(message));
+}
+
 TEST(SceneWire, RoundTripKeepsEveryArrayExactly) {
   Scene scene = bundled("cornell-caustics");
   // Normals, texture coordinates, tangents and a mixed-material mesh exercise the optional
@@ -623,11 +633,7 @@ TEST(SceneWire, BadGridChunksAreRefusedNamingTheirField) {
   size_t first_grid = 0;
   while (!good[first_grid].has_grid()) ++first_grid;
   auto fails_with = [&](auto&& edit, const std::string& message) {
-    std::vector<v1::SceneChunk> chunks = good;
-    edit(chunks);
-    const absl::Status status = assemble(chunks).status();
-    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << message;
-    EXPECT_THAT(std::string(status.message()), HasSubstr(message));
+    expect_refused(good, edit, message);
   };
   fails_with([&](auto& c) { c[first_grid].mutable_grid()->set_medium(3); },
              "grid.medium: 3 is not a GRID medium's index");
@@ -650,6 +656,104 @@ TEST(SceneWire, BadGridChunksAreRefusedNamingTheirField) {
   std::vector<v1::SceneChunk> huge = good;
   huge[0].mutable_header()->mutable_media(0)->set_grid_bytes(kMaxGridBytes + 1);
   EXPECT_EQ(assemble(huge).status().code(), absl::StatusCode::kResourceExhausted);
+}
+
+// A cornell box whose white material reads a texture over a second file and whose light reads an
+// emission map, with bytes that need not be an image: the wire carries files, not pixels.
+Scene with_textures() {
+  Scene scene = bundled("cornell-box");
+  std::string first(5000, '\0');
+  for (size_t i = 0; i < first.size(); ++i) first[i] = static_cast<char>(i * 7 + 3);
+  scene.textures.push_back({"wood.png", std::make_shared<const std::string>(first), nullptr});
+  scene.textures.push_back({"glow.jpg", std::make_shared<const std::string>("tiny"), nullptr});
+  Material& white = scene.materials.at(0);
+  white.color_map.texture = 0;
+  white.color_map.wrap_u = TextureWrap::kMirroredRepeat;
+  white.color_map.wrap_v = TextureWrap::kClampToEdge;
+  white.color_map.transform = {{0.25f, -0.5f}, 0.3f, {2.0f, 3.0f}};
+  scene.materials.at(1).emission_map.texture = 1;
+  return scene;
+}
+
+TEST(SceneWire, TexturesArriveByteForByteWithTheirMaps) {
+  const Scene scene = with_textures();
+  const std::vector<v1::SceneChunk> chunks = encode(scene, 1024);
+  size_t texture_chunks = 0;
+  for (const v1::SceneChunk& c : chunks) texture_chunks += c.has_texture();
+  EXPECT_EQ(texture_chunks, 5u + 1u);  // 5000 bytes in 1024-byte chunks, then 4 bytes
+  EXPECT_EQ(upload_bytes(scene) - upload_bytes(bundled("cornell-box")), 5004u);
+  absl::StatusOr<Scene> back = assemble(chunks);
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->textures.size(), 2u);
+  for (size_t t = 0; t < 2; ++t) {
+    EXPECT_EQ(back->textures[t].name, scene.textures[t].name);
+    ASSERT_NE(back->textures[t].encoded, nullptr);
+    EXPECT_EQ(*back->textures[t].encoded, *scene.textures[t].encoded);
+    EXPECT_EQ(back->textures[t].decoded, nullptr);
+  }
+  const TextureRef& map = back->materials.at(0).color_map;
+  EXPECT_EQ(map.texture, 0u);
+  EXPECT_EQ(map.wrap_u, TextureWrap::kMirroredRepeat);
+  EXPECT_EQ(map.wrap_v, TextureWrap::kClampToEdge);
+  EXPECT_EQ(map.transform.offset.x, 0.25f);
+  EXPECT_EQ(map.transform.offset.y, -0.5f);
+  EXPECT_EQ(map.transform.rotation, 0.3f);
+  EXPECT_EQ(map.transform.scale.x, 2.0f);
+  EXPECT_EQ(map.transform.scale.y, 3.0f);
+  EXPECT_FALSE(back->materials.at(0).emission_map.used());
+  EXPECT_EQ(back->materials.at(1).emission_map.texture, 1u);
+  EXPECT_FALSE(back->materials.at(2).color_map.used());
+  EXPECT_TRUE(validate_scene(*back).ok());
+}
+
+TEST(SceneWire, BadTexturesAreRefusedNamingTheirField) {
+  const std::vector<v1::SceneChunk> good = encode(with_textures(), 1024);
+  size_t first = 0;
+  while (!good[first].has_texture()) ++first;
+  auto fails_with = [&](auto&& edit, const std::string& message,
+                        absl::StatusCode code = absl::StatusCode::kInvalidArgument) {
+    expect_refused(good, edit, message, code);
+  };
+  fails_with([&](auto& c) { c[first].mutable_texture()->set_texture(2); },
+             "texture.texture: 2 is out of range (the header declares 2 textures)");
+  fails_with([&](auto& c) { c[first].mutable_texture()->set_crc32(1); },
+             "texture.crc32: texture 'wood.png': checksum");
+  fails_with([&](auto& c) { std::swap(c[first], c[first + 1]); },
+             "texture.offset: texture 'wood.png': offset 1024 but 0 bytes arrived so far");
+  fails_with([&](auto& c) { c.pop_back(); },
+             "textures[1] 'glow.jpg': has 0 bytes but the header declares 4");
+  fails_with([&](auto& c) { c[0].mutable_header()->mutable_textures(1)->set_bytes(3); },
+             "texture 'glow.jpg': 4 bytes exceed the 3 the header declares");
+  fails_with([&](auto& c) { c[0].mutable_header()->mutable_textures(0)->set_bytes(0); },
+             "textures[0] 'wood.png'.bytes: is 0");
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_materials(0)->mutable_color_map()->set_texture(3);
+      },
+      "materials[0].color_map.texture: 3 names no texture (the scene has 2 textures");
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_materials(0)->mutable_color_map()->set_wrap_u(
+            static_cast<v1::TextureRef::Wrap>(7));
+      },
+      "materials[0].color_map.wrap_u: 7 is not a wrap mode");
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_materials(1)->mutable_emission_map()->set_scale_v(
+            std::nanf(""));
+      },
+      "materials[1].emission_map: has a transform number that is not finite");
+  // A file larger than the limit, or too many of them, is refused from the header.
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_textures(0)->set_bytes(kMaxTextureFileBytes + 1);
+      },
+      "textures[0] 'wood.png'.bytes", absl::StatusCode::kResourceExhausted);
+  fails_with(
+      [&](auto& c) {
+        for (size_t i = 0; i < kMaxTextures; ++i) c[0].mutable_header()->add_textures();
+      },
+      "exceed the limit of 4096", absl::StatusCode::kResourceExhausted);
 }
 
 // Found by the scene_chunks fuzz target: uploads whose grid assembles but is damaged, refused by

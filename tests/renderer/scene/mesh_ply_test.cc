@@ -28,7 +28,7 @@ TEST(LoadPly, AsciiMeshHasItsValuesAndFanTriangulatedFaces) {
   EXPECT_THAT(mesh->normals[2], Vec3Near(Vec3f(0, 0, 1), 0));
   ASSERT_EQ(mesh->uvs.size(), 5u);
   EXPECT_EQ(mesh->uvs[4].x, 0.5f);
-  EXPECT_EQ(mesh->uvs[4].y, 1.0f);
+  EXPECT_EQ(mesh->uvs[4].y, 0.0f);  // the file's v = 1, turned to v down the image
   // The quad 0 1 2 3 becomes (0 1 2) (0 2 3); the triangle stays.
   EXPECT_EQ(mesh->indices, (std::vector<uint32_t>{0, 1, 2, 0, 2, 3, 3, 2, 4}));
   EXPECT_EQ(mesh->material_ids, (std::vector<uint32_t>(3, kNoMaterial)));

@@ -224,6 +224,52 @@ TEST(ThirdPartyGltf, UnityCubeTangentsTurnWithItsNode) {
   }
 }
 
+TEST(ThirdPartyGltf, CesiumBoxCarriesItsBaseColourTextureAndSampler) {
+  // glTF-Sample-Models' BoxTextured: one material whose baseColorTexture is texture 0, image
+  // CesiumLogoFlat.png, sampler wrapS MIRRORED_REPEAT (33648) and wrapT CLAMP_TO_EDGE (33071).
+  const absl::StatusOr<MeshFile> file = load("gltf2/BoxTextured/BoxTextured.gltf");
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_TRUE(file->warnings.empty()) << file->warnings.front();
+  ASSERT_EQ(file->textures.size(), 1u);
+  EXPECT_EQ(file->textures[0].name, "CesiumLogoFlat.png");
+  ASSERT_NE(file->textures[0].encoded, nullptr);
+  EXPECT_EQ(*file->textures[0].encoded,
+            file_bytes("thirdparty/gltf2/BoxTextured/CesiumLogoFlat.png"));
+  ASSERT_EQ(file->materials.size(), 1u);
+  const TextureRef& map = file->materials[0].color_map;
+  EXPECT_EQ(map.texture, 0u);
+  EXPECT_EQ(map.wrap_u, TextureWrap::kMirroredRepeat);
+  EXPECT_EQ(map.wrap_v, TextureWrap::kClampToEdge);
+  EXPECT_FALSE(file->materials[0].emission_map.used());
+  ASSERT_EQ(file->meshes.size(), 1u);
+  EXPECT_EQ(file->meshes[0].uvs.size(), file->meshes[0].positions.size());
+}
+
+TEST(ThirdPartyObj, SpiderReadsItsDiffuseMapsThroughWindowsPaths) {
+  // spider.mtl names its maps as ".\\SpiderTex.jpg" and so on: five materials, each with its own
+  // map_Kd, read beside the model with the separator turned.
+  const absl::StatusOr<MeshFile> file = load("obj/spider/spider.obj");
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_TRUE(file->warnings.empty()) << file->warnings.front();
+  ASSERT_EQ(file->textures.size(), 5u);
+  for (const Material& m : file->materials) {
+    ASSERT_TRUE(m.color_map.used()) << m.name;
+    const TextureImage& t = file->textures.at(m.color_map.texture);
+    EXPECT_EQ(*t.encoded, file_bytes("thirdparty/obj/spider/" + t.name)) << m.name;
+  }
+  const auto map_of = [&](const std::string& material) {
+    for (const Material& m : file->materials) {
+      if (m.name == material) return file->textures.at(m.color_map.texture).name;
+    }
+    return std::string("(none)");
+  };
+  EXPECT_EQ(map_of("HLeibTex"), "SpiderTex.jpg");
+  EXPECT_EQ(map_of("BeinTex"), "drkwood2.jpg");
+  EXPECT_EQ(map_of("Skin"), "wal67ar_small.jpg");
+  ASSERT_FALSE(file->meshes.empty());
+  EXPECT_EQ(file->meshes[0].uvs.size(), file->meshes[0].positions.size());
+}
+
 TEST(ThirdPartyAssimp, AsciiStl) {
   const absl::StatusOr<MeshFile> file = load("stl/triangle.stl");
   ASSERT_TRUE(file.ok()) << file.status();
