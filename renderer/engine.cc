@@ -21,6 +21,7 @@
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/emitters.h"
 #include "renderer/scene/scene_limits.h"
+#include "renderer/scene/texture_decode.h"
 #include "renderer/scene/validate.h"
 
 #if defined(CAUSTICA_WITH_CUDA)
@@ -401,7 +402,17 @@ Engine::~Engine() {
   if (state_) state_->on_every_device([](DeviceSlice& d, size_t) { d.clear(); });
 }
 
-absl::StatusOr<RebuildReport> Engine::load(const Scene& scene) {
+absl::StatusOr<RebuildReport> Engine::load(const Scene& given) {
+  // Texture images not decoded yet (a scene loaded from files rather than uploaded) are decoded
+  // on a copy, sharing everything else.
+  std::optional<Scene> decoded;
+  const bool undecoded = std::any_of(given.textures.begin(), given.textures.end(),
+                                     [](const TextureImage& t) { return t.decoded == nullptr; });
+  if (undecoded) {
+    decoded = given;
+    if (absl::Status s = decode_textures(*decoded); !s.ok()) return s;
+  }
+  const Scene& scene = decoded ? *decoded : given;
   if (absl::Status s = validate_scene(scene); !s.ok()) return s;
   if (absl::Status s = media_support(scene, scene.settings); !s.ok()) return s;
   RebuildReport report;

@@ -122,11 +122,14 @@ Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend
         const bool front = dot(d, sh.shading_normal) < 0.0f;
         const Vec3f n = front ? sh.shading_normal : -sh.shading_normal;
         const Vec3f ng = front ? sh.geometric_normal : -sh.geometric_normal;
-        hit_out[i] = {sh.position, n, ng, mat.color, p.throughput, 1u, hit_out[i].distance};
+        // A gather ray lands on one point, like a photon: the map's finest level.
+        hit_out[i] = {
+            sh.position,        n, ng, surface_color(scene, mat, hit[i], d, 0.0f), p.throughput, 1u,
+            hit_out[i].distance};
         return;
       }
       if (mat.type == MaterialType::kMirror) {
-        p.throughput = p.throughput * mat.color;
+        p.throughput = p.throughput * surface_color(scene, mat, hit[i], d, 0.0f);
         next = reflect(d, sh.shading_normal);
       } else {  // dielectric: one branch, drawn by the Fresnel reflectance
         Sampler s = gather_sampler(rng_seed, uint32_t(i), pass);

@@ -319,9 +319,11 @@ struct PhotonPathInputs {
         stores.store(p.path, p.bounce, Photon{sh.position, p.power, -d},
                      p.only_specular ? kCausticPhoton : kGlobalPhoton, footprint);
       }
-      float survive = average(m.color);
+      // A photon lands on one point: the finest level of a map is the colour there.
+      const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
+      float survive = average(color);
       if (p.s.next_float() >= survive) return false;
-      p.power = p.power * m.color / survive;
+      p.power = p.power * color / survive;
       Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
       next_dir = Frame::from_normal(n).to_world(
           sample_cosine_hemisphere(p.s.next_float(), p.s.next_float()));
@@ -332,9 +334,10 @@ struct PhotonPathInputs {
       }
     } else if (m.type == MaterialType::kMirror) {
       if (!specular_bounce_allowed(p)) return false;
-      float survive = average(m.color);
+      const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
+      float survive = average(color);
       if (p.s.next_float() >= survive) return false;
-      p.power = p.power * m.color / survive;
+      p.power = p.power * color / survive;
       next_dir = reflect(d, sh.shading_normal);
       if constexpr (kDifferentials) {
         Vec3f dn1, dn2;

@@ -68,6 +68,10 @@ struct PinholeCamera {
 
   // Film pixel `pixel`'s ray through the point (jx, jy) inside it, in [0, 1)^2. The offset is
   // added to the pixel's place in the whole image, so that every device rounds it alike.
+  // The angle one pixel spans at the image's centre: a camera ray cone's width per unit of
+  // distance (surface_color).
+  CAUSTICA_HDI float pixel_spread() const { return 2.0f * length(up) / float(image_height); }
+
   CAUSTICA_HDI Ray pixel_ray(size_t pixel, float jx, float jy) const {
     return ray_through_image(float(pixel % size_t(width)) + jx,
                              float(bands.image_row(int(pixel / size_t(width)))) + jy);

@@ -46,7 +46,7 @@ std::span<const Rgba8> Film::resolve_srgb8(float exposure_stops) {
   const float scale = passes_ > 0 ? std::exp2(exposure_stops) / float(passes_) : 0.0f;
   parallel_for(*sum_.backend(), "film_resolve_srgb8", n, [=] CAUSTICA_HD(size_t i) {
     Vec3f c = sum[i] * scale;
-    auto q = [](float v) { return uint8_t(linear_to_srgb(v) * 255.0f + 0.5f); };
+    auto q = [](float v) { return uint8_t(display_srgb(v) * 255.0f + 0.5f); };
     out[i] = Rgba8{q(c.x), q(c.y), q(c.z), 255};
   });
   return resolved8_.download(resolved8_host_);

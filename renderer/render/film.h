@@ -6,6 +6,7 @@
 #include <span>
 
 #include "renderer/base/vec.h"
+#include "renderer/material/texture.h"
 #include "renderer/parallel/buffer.h"
 
 namespace caustica {
@@ -44,9 +45,7 @@ class Film {
   uint32_t passes_ = 0;
 };
 
-CAUSTICA_HDI float linear_to_srgb(float v) {
-  v = min_f(max_f(v, 0.0f), 1.0f);
-  return v <= 0.0031308f ? 12.92f * v : 1.055f * powf(v, 1.0f / 2.4f) - 0.055f;
-}
+// A displayed value: `v` clamped to [0, 1] and sRGB-encoded (material/texture.h's transfer).
+CAUSTICA_HDI float display_srgb(float v) { return linear_to_srgb(min_f(max_f(v, 0.0f), 1.0f)); }
 
 }  // namespace caustica

@@ -137,16 +137,18 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       }
       break;  // lights do not reflect
     }
+    // The reference reads the finest level of a map at every hit: its samples average the pixel.
     switch (m.type) {
       case MaterialType::kDiffuse: {
+        const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
         const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
         const Vec3f ng =
             dot(d, sh.geometric_normal) < 0.0f ? sh.geometric_normal : -sh.geometric_normal;
         // Point, spot and directional lights: a shadow ray each (no area samples here).
-        radiance += throughput * direct_light(scene, structure, sh.position, n, ng, m.color, 0,
+        radiance += throughput * direct_light(scene, structure, sh.position, n, ng, color, 0,
                                               scene_radius, s, medium);
         if (scene.area_light_count > 0) {
-          radiance += throughput * m.color *
+          radiance += throughput * color *
                       sample_area_light(
                           scene, structure, sh.position, medium, s,
                           [&](Vec3f wi) { return dot(n, wi) * kInvPi; },
@@ -158,7 +160,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         // would leak through it.
         if (local.z <= 0.0f || dot(wi, ng) <= 0.0f) return radiance;
         bounce_pdf = local.z * kInvPi;
-        throughput *= m.color;  // f cos / pdf = (albedo / pi) cos / (cos / pi)
+        throughput *= color;  // f cos / pdf = (albedo / pi) cos / (cos / pi)
         ray = Ray{};
         ray.origin = offset_origin(sh.position, sh.geometric_normal, wi);
         ray.direction = wi;
@@ -166,7 +168,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       }
       case MaterialType::kMirror: {
         const Vec3f r = reflect(d, sh.shading_normal);
-        throughput *= m.color;
+        throughput *= surface_color(scene, m, hit, d, 0.0f);
         bounce_pdf = 0.0f;
         ray = Ray{};
         ray.origin = offset_origin(sh.position, sh.geometric_normal, r);

@@ -35,7 +35,9 @@ CAUSTICA_HDI Chain start_chain(const PinholeCamera& camera, const VisiblePointSe
 
 // The chain's hit `hit` of its current ray: true when the chain goes on (its next ray set), false
 // when it ended, at a light, in the background or at a diffuse surface, which becomes `point`.
-// `direct(sh, n, m, s)` gives the direct light at a diffuse hit (whitted.h's direct_light_with).
+// `direct(sh, n, colour, s)` gives the direct light at a diffuse hit (whitted.h's
+// direct_light_with). Maps are read at their finest level: each pass's jittered chains average the
+// pixel, as the passes accumulate.
 template <typename Direct>
 CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
                              const VisiblePointSettings& cfg, Chain& c, VisiblePoint& point,
@@ -51,13 +53,14 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
       return false;
     case MaterialType::kDiffuse: {
       const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-      c.light += c.throughput * direct(sh, n, m, c.s);
-      point = {sh.position, n, c.throughput * m.color};
+      const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
+      c.light += c.throughput * direct(sh, n, color, c.s);
+      point = {sh.position, n, c.throughput * color};
       return false;
     }
     case MaterialType::kMirror:
       next = reflect(d, sh.shading_normal);
-      c.throughput *= m.color;
+      c.throughput *= surface_color(scene, m, hit, d, 0.0f);
       break;
     case MaterialType::kDielectric: {
       const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
@@ -97,8 +100,8 @@ void trace_chains_through(const Structure& structure, Backend& backend,
     if (!blocks.pixel_of(thread, pixel)) return;
     Chain c = start_chain(camera, cfg, pixel);
     VisiblePoint point{Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
-    const auto direct = [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
-      return direct_light(scene, structure, sh.position, n, sh.geometric_normal, m.color,
+    const auto direct = [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
+      return direct_light(scene, structure, sh.position, n, sh.geometric_normal, color,
                           cfg.area_light_samples, scene_radius, s);
     };
     while (chain_step(scene, closest_hit(structure, c.ray), cfg, c, point, direct)) {
@@ -151,9 +154,9 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
       Chain copy = chain[index[i]];
       VisiblePoint unused;
       (void)chain_step(scene, hit[i], cfg, copy, unused,
-                       [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
-                         return direct_light_with(scene, sh.position, n, sh.geometric_normal,
-                                                  m.color, cfg.area_light_samples, scene_radius, s,
+                       [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
+                         return direct_light_with(scene, sh.position, n, sh.geometric_normal, color,
+                                                  cfg.area_light_samples, scene_radius, s,
                                                   [&](uint32_t slot, const Ray& r) {
                                                     mine[slot] = r;
                                                     return false;
@@ -166,16 +169,15 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
       const uint32_t pixel = index[i];
       const uint8_t* mine = is_blocked + i * slots;
       Chain c = chain[pixel];
-      on[pixel] =
-          chain_step(scene, hit[i], cfg, c, points[pixel],
-                     [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Sampler& s) {
-                       return direct_light_with(
-                           scene, sh.position, n, sh.geometric_normal, m.color,
-                           cfg.area_light_samples, scene_radius, s,
-                           [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
-                     })
-              ? 1
-              : 0;
+      on[pixel] = chain_step(scene, hit[i], cfg, c, points[pixel],
+                             [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
+                               return direct_light_with(
+                                   scene, sh.position, n, sh.geometric_normal, color,
+                                   cfg.area_light_samples, scene_radius, s,
+                                   [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+                             })
+                      ? 1
+                      : 0;
       chain[pixel] = c;
       if (!on[pixel]) light[pixel] += c.light;
     });

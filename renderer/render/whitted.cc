@@ -26,6 +26,7 @@ struct PendingRay {
   uint32_t depth;
   uint64_t branch;  // PathRay::branch
   uint32_t medium;  // the one the ray travels in (medium/medium.h)
+  float travelled;  // from the camera to the ray's origin: its ray cone's width over the spread
 };
 
 // Room for the pending branches of a specular walk, left unconstructed (a walk uses a handful).
@@ -70,12 +71,13 @@ class BranchRoulette {
 
 // The branches a mirror or dielectric hit (material `m`, `sh`, ray direction `d`) spawns with the
 // path's `throughput`: spawn(direction, throughput, choice), choice 1 for the refraction and 0
-// for a reflection; a dielectric's both Fresnel branches, the refraction first.
+// for a reflection; a dielectric's both Fresnel branches, the refraction first. `color` is the
+// mirror's reflectance there (surface_color).
 template <typename Spawn>
-CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& sh, Vec3f d,
-                                    Vec3f throughput, Spawn spawn) {
+CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, Vec3f color, const SurfaceHit& sh,
+                                    Vec3f d, Vec3f throughput, Spawn spawn) {
   if (m.type == MaterialType::kMirror) {
-    spawn(reflect(d, sh.shading_normal), throughput * m.color, uint64_t(0));
+    spawn(reflect(d, sh.shading_normal), throughput * color, uint64_t(0));
     return;
   }
   DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
@@ -87,8 +89,9 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& s
 }
 
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
-// pending branch) from its first hit. `on_diffuse(hit, facing normal, material, throughput,
-// medium)` is called at every diffuse hit in a fixed order; emitted light seen along the tree is
+// pending branch) from its first hit. `on_diffuse(hit, facing normal, colour, throughput,
+// medium)` is called at every diffuse hit in a fixed order, the colour read through a ray cone
+// `pixel_spread` wide per unit of distance from the camera; emitted light seen along the tree is
 // returned. With kMedia, `on_beam(ray, span, medium, throughput)` is called in the same order for
 // every stretch through a medium, whose beam estimate the caller owes the path, and each branch
 // is attenuated by the media it crosses. Without kMedia the scene has none, and the walk compiles
@@ -96,13 +99,14 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, const SurfaceHit& s
 template <bool kMedia, typename Structure, typename OnDiffuse, typename OnBeam>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
-                                      uint32_t max_depth, const BranchRoulette& roulette,
-                                      OnDiffuse on_diffuse, OnBeam on_beam) {
+                                      uint32_t max_depth, float pixel_spread,
+                                      const BranchRoulette& roulette, OnDiffuse on_diffuse,
+                                      OnBeam on_beam) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
   // The camera stands outside every shape: in the scene-wide medium, where there is one.
-  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0, kMedia ? scene.media.scene_medium : kVacuum};
+  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0, kMedia ? scene.media.scene_medium : kVacuum, 0.0f};
   bool first = true;
   Vec3f emitted(0.0f);
   while (top > 0) {
@@ -132,20 +136,22 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
           kMedia && choice == 1
               ? medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal)
               : pr.medium;
-      stack[top++] = {r, throughput, pr.depth + 1, branch, medium};
+      stack[top++] = {r, throughput, pr.depth + 1, branch, medium, pr.travelled + hit.t};
     };
+    const float cone = pixel_spread * (pr.travelled + hit.t);
     switch (m.type) {
       case MaterialType::kEmissive:
         if (dot(d, sh.geometric_normal) < 0.0f) emitted += pr.throughput * m.radiance;
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        on_diffuse(sh, n, m, pr.throughput, kMedia ? pr.medium : kVacuum);
+        on_diffuse(sh, n, surface_color(scene, m, hit, d, cone), pr.throughput,
+                   kMedia ? pr.medium : kVacuum);
         break;
       }
       case MaterialType::kMirror:
       case MaterialType::kDielectric:
-        specular_branches(m, sh, d, pr.throughput, spawn);
+        specular_branches(m, surface_color(scene, m, hit, d, cone), sh, d, pr.throughput, spawn);
         break;
     }
   }
@@ -162,6 +168,7 @@ struct PassInputs {
   float scene_radius;
   Aabb scene_bounds;
   uint32_t max_depth;
+  float pixel_spread;  // the camera's ray cones: width per unit of distance (surface_color)
 
   PassInputs(const ResidentScene& resident, const PinholeCamera& camera_in,
              const ShadingSettings& settings)
@@ -172,8 +179,8 @@ struct PassInputs {
         pixels(size_t(camera_in.width) * camera_in.height),
         scene_radius(resident.radius()),
         scene_bounds(resident.bounds()),
-        max_depth(settings.max_depth < kMaxSpecularDepth ? settings.max_depth : kMaxSpecularDepth) {
-  }
+        max_depth(settings.max_depth < kMaxSpecularDepth ? settings.max_depth : kMaxSpecularDepth),
+        pixel_spread(camera_in.pixel_spread()) {}
 
   // The jittered camera ray of a pixel: the first two dimensions of its sample stream.
   CAUSTICA_HDI Ray camera_ray(size_t pixel, Sampler& s) const {
@@ -319,16 +326,15 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           uint32_t made = 0, beams_made = 0;
           Vec3f emitted = walk_specular_tree<kMedia>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
-              BranchRoulette(in.cfg, in.camera.stream(pixel)),
-              [&](const SurfaceHit& sh, Vec3f n, const DeviceMaterial& m, Vec3f throughput,
-                  uint32_t medium) {
-                direct += throughput * direct_light(in.scene, structure, sh.position, n,
-                                                    sh.geometric_normal, m.color,
-                                                    in.cfg.area_light_samples, in.scene_radius, s,
-                                                    medium);
+              in.pixel_spread, BranchRoulette(in.cfg, in.camera.stream(pixel)),
+              [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Vec3f throughput, uint32_t medium) {
+                direct +=
+                    throughput * direct_light(in.scene, structure, sh.position, n,
+                                              sh.geometric_normal, color, in.cfg.area_light_samples,
+                                              in.scene_radius, s, medium);
                 const uint32_t slot = atomic_fetch_add(next_request, 1u);
                 if (slot < room)
-                  request[slot] = {sh.position, n, throughput * m.color, uint32_t(pixel), made};
+                  request[slot] = {sh.position, n, throughput * color, uint32_t(pixel), made};
                 ++made;
               },
               [&](const Ray& ray, const MediumSpan& span, uint32_t medium, Vec3f throughput) {
@@ -373,6 +379,7 @@ struct PathRay {
   // The tree's choices down to this ray (child_branch): 0 for a mirror's or a dielectric's
   // reflection, which the walks follow first, 1 for a refraction.
   uint64_t branch;
+  float travelled;  // PendingRay::travelled
 };
 
 struct PathLeaf {
@@ -405,8 +412,9 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
       const uint32_t slot = atomic_fetch_add(next_count, 1u);
-      next[slot] = {r, throughput, pr.pixel, pr.depth + 1, branch};
+      next[slot] = {r, throughput, pr.pixel, pr.depth + 1, branch, pr.travelled + hit.t};
     };
+    const float cone = in.pixel_spread * (pr.travelled + hit.t);
     switch (m.type) {
       case MaterialType::kEmissive:
         if (dot(d, sh.geometric_normal) < 0.0f) {
@@ -417,14 +425,21 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        leaves[i] = {pr.branch,           pr.pixel, 1u, pr.throughput, Vec3f(0.0f), sh.position, n,
-                     sh.geometric_normal, m.color};
+        leaves[i] = {pr.branch,
+                     pr.pixel,
+                     1u,
+                     pr.throughput,
+                     Vec3f(0.0f),
+                     sh.position,
+                     n,
+                     sh.geometric_normal,
+                     surface_color(in.scene, m, hit, d, cone)};
         is_leaf[i] = 1;
         break;
       }
       case MaterialType::kMirror:
       case MaterialType::kDielectric:
-        specular_branches(m, sh, d, pr.throughput, spawn);
+        specular_branches(m, surface_color(in.scene, m, hit, d, cone), sh, d, pr.throughput, spawn);
         break;
     }
   });
@@ -443,7 +458,7 @@ Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structu
     const PassInputs inputs = in;
     parallel_for(backend, "specular_wave_camera", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
       Sampler s(inputs.cfg.seed, inputs.camera.stream(pixel), inputs.cfg.pass);
-      first[pixel] = {inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u};
+      first[pixel] = {inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u, 0.0f};
     });
   }
   std::vector<Buffer<PathLeaf>> wave_leaves;

@@ -66,11 +66,37 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
   });
 }
 
-std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materials) {
+std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materials,
+                                                std::span<const uint32_t> color_maps) {
   std::vector<DeviceMaterial> out;
   out.reserve(materials.size());
-  for (const Material& m : materials) out.push_back({m.type, m.color, m.ior, emitted_radiance(m)});
+  for (size_t i = 0; i < materials.size(); ++i) {
+    const Material& m = materials[i];
+    out.push_back({m.type, m.color, m.ior, emitted_radiance(m),
+                   i < color_maps.size() ? color_maps[i] : kNoTexture});
+  }
   return out;
+}
+
+// A decoded image as linear texels: 8-bit colour maps are sRGB-encoded (glTF's base colour,
+// MTL's map_Kd), float images already linear.
+std::vector<Texel> linear_texels(const DecodedImage& image) {
+  const size_t count = size_t(image.width) * image.height;
+  std::vector<Texel> texels(count);
+  if (image.is_float()) {
+    for (size_t i = 0; i < count; ++i) {
+      const float* p = &image.rgba32f[4 * i];
+      texels[i] = {p[0], p[1], p[2], p[3]};
+    }
+    return texels;
+  }
+  float srgb[256];
+  for (int v = 0; v < 256; ++v) srgb[v] = srgb_to_linear(float(v) / 255.0f);
+  for (size_t i = 0; i < count; ++i) {
+    const uint8_t* p = &image.rgba8[4 * i];
+    texels[i] = {srgb[p[0]], srgb[p[1]], srgb[p[2]], float(p[3]) / 255.0f};
+  }
+  return texels;
 }
 
 // The emission and power tables of `lighting`, whose lights are uploaded.
@@ -130,6 +156,13 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   bool any_normals = false;
   for (const Mesh& m : scene.meshes) any_normals |= !m.normals.empty();
   if (any_normals) corner_normals.reserve(3 * n);
+  // Texture coordinates go to the device only for a scene with a colour map to read.
+  std::vector<Vec2f> corner_uvs;
+  std::vector<DeviceTextureMap> color_maps = r.upload_color_maps(scene);
+  bool any_uvs = false;
+  for (const Mesh& m : scene.meshes) any_uvs |= !m.uvs.empty();
+  any_uvs = any_uvs && !color_maps.empty();
+  if (any_uvs) corner_uvs.reserve(3 * n);
 
   for (const Mesh& m : scene.meshes) {
     for (size_t t = 0; t < m.triangle_count(); ++t) {
@@ -163,6 +196,10 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         for (int c = 0; c < 3; ++c)
           corner_normals.push_back(m.normals.empty() ? Vec3f(0.0f) : m.normals[idx[c]]);
       }
+      if (any_uvs) {
+        for (int c = 0; c < 3; ++c)
+          corner_uvs.push_back(m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]]);
+      }
     }
   }
   std::vector<DeviceMedium> media;
@@ -191,6 +228,10 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.triangle_area_light_.upload(triangle_area_light);
   r.corner_normals_.bind(backend);
   r.corner_normals_.upload(corner_normals);
+  r.corner_uvs_.bind(backend);
+  r.corner_uvs_.upload(corner_uvs);
+  r.color_maps_.bind(backend);
+  r.color_maps_.upload(color_maps);
   r.media_.bind(backend);
   r.media_.upload(media);
   r.triangle_medium_.bind(backend);
@@ -198,6 +239,37 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.structure_ = r.new_structure(scene.settings.structure, scene.settings.build);
   r.lighting_ = r.new_lighting(scene.lights, scene.materials);  // after the structure: its bounds
   return r;
+}
+
+std::vector<DeviceTextureMap> ResidentScene::upload_color_maps(const Scene& scene) {
+  // Each image once, however many maps read it.
+  std::vector<uint32_t> chain_of_texture(scene.textures.size(), kNoTexture);
+  std::vector<DeviceTextureMap> maps;
+  material_color_maps_.assign(scene.materials.size(), kNoTexture);
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const TextureRef& ref = scene.materials[i].color_map;
+    if (!ref.used() || ref.texture >= scene.textures.size()) continue;
+    const TextureImage& image = scene.textures[ref.texture];
+    if (image.decoded == nullptr || image.decoded->width == 0) continue;
+    uint32_t& chain = chain_of_texture[ref.texture];
+    if (chain == kNoTexture) {
+      const MipChain mips = build_mip_chain(image.decoded->width, image.decoded->height,
+                                            linear_texels(*image.decoded));
+      chain = uint32_t(texels_.size());
+      texels_.emplace_back(*backend_, 0).upload(mips.texels);
+      mip_levels_.emplace_back(*backend_, 0).upload(mips.levels);
+    }
+    DeviceTextureMap map;
+    map.view.texels = texels_[chain].data();
+    map.view.levels = mip_levels_[chain].data();
+    map.view.level_count = uint32_t(mip_levels_[chain].size());
+    map.view.wrap_u = ref.wrap_u;
+    map.view.wrap_v = ref.wrap_v;
+    map.transform = ref.transform;
+    material_color_maps_[i] = uint32_t(maps.size());
+    maps.push_back(map);
+  }
+  return maps;
 }
 
 TriangleStructure ResidentScene::new_structure(StructureKind kind,
@@ -224,7 +296,7 @@ ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> light
   lighting.light_cdf.bind(*backend_);
   lighting.area_light_index.bind(*backend_);
   lighting.area_light_cdf.bind(*backend_);
-  lighting.materials.upload(to_device_materials(materials));
+  lighting.materials.upload(to_device_materials(materials, material_color_maps_));
   lighting.lights.upload(all);
   build_light_tables(*backend_, radius(), lighting);
   return lighting;
@@ -241,6 +313,8 @@ ResidentSceneView ResidentScene::view() const {
   ResidentSceneView v;
   v.triangles = triangles_.data();
   v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
+  v.corner_uvs = corner_uvs_.empty() ? nullptr : corner_uvs_.data();
+  v.color_maps = color_maps_.empty() ? nullptr : color_maps_.data();
   v.material_ids = material_ids_.data();
   v.triangle_area_light = triangle_area_light_.data();
   v.materials = lighting_.materials.data();
@@ -266,8 +340,10 @@ ResidentSceneView ResidentScene::view() const {
 size_t ResidentScene::bytes() const {
   size_t grid_bytes = 0;
   for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();
-  return triangles_.bytes() + corner_normals_.bytes() + material_ids_.bytes() +
-         triangle_area_light_.bytes() + lighting_.bytes() + media_.bytes() +
+  for (const Buffer<Texel>& t : texels_) grid_bytes += t.bytes();
+  for (const Buffer<MipLevel>& l : mip_levels_) grid_bytes += l.bytes();
+  return triangles_.bytes() + corner_normals_.bytes() + corner_uvs_.bytes() + color_maps_.bytes() +
+         material_ids_.bytes() + triangle_area_light_.bytes() + lighting_.bytes() + media_.bytes() +
          triangle_medium_.bytes() + structure_.stats().bytes + grid_bytes;
 }
 

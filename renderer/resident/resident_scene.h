@@ -8,6 +8,7 @@
 #include "absl/status/statusor.h"
 #include "renderer/accel/structure.h"
 #include "renderer/base/sampling.h"
+#include "renderer/material/texture.h"
 #include "renderer/medium/medium.h"
 #include "renderer/scene/scene.h"
 
@@ -18,6 +19,14 @@ struct DeviceMaterial {
   Vec3f color;
   float ior;
   Vec3f radiance;
+  uint32_t color_map;  // index into ResidentSceneView::color_maps, or kNoTexture
+};
+
+// A material's colour map as kernels read it: the image's mip chain with the map's wrap modes,
+// and its KHR_texture_transform.
+struct DeviceTextureMap {
+  TextureView view;
+  TextureTransform transform;
 };
 
 enum class DeviceLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kArea = 3 };
@@ -53,6 +62,9 @@ DeviceMedium to_device_medium(const Medium& m, const uint8_t* grid);
 struct ResidentSceneView {
   const TriangleVertices* triangles;  // original order
   const Vec3f* corner_normals;        // 3 per triangle, or nullptr when no mesh has normals
+  // 3 per triangle (v down the image), or nullptr when no material has a map to read with them.
+  const Vec2f* corner_uvs;
+  const DeviceTextureMap* color_maps;
   const uint32_t* material_ids;       // per triangle
   const DeviceMaterial* materials;
   const DeviceLight* lights;    // every light, area triangles included
@@ -109,6 +121,35 @@ CAUSTICA_HDI SurfaceHit surface_at(const ResidentSceneView& scene, const Hit& hi
   return s;
 }
 
+// The colour a material shows at `hit`: its colour times its colour map there, the map's level
+// chosen by a ray cone `cone_width` wide (in scene units) at the hit, arriving along `direction`
+// (Akenine-Moller et al. 2019: the footprint grows by 1 / |cos| on the surface and maps to texture
+// coordinates by the triangle's ratio of texture to scene area). A width of 0 reads the finest
+// level, as photons do. Without a map, or on a triangle without texture coordinates, the colour.
+CAUSTICA_HDI Vec3f surface_color(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                 const Hit& hit, Vec3f direction, float cone_width) {
+  if (m.color_map == kNoTexture || scene.corner_uvs == nullptr) return m.color;
+  const Vec2f* uv = scene.corner_uvs + 3 * size_t(hit.triangle);
+  const float w = 1.0f - hit.u - hit.v;
+  const Vec2f at{uv[0].x * w + uv[1].x * hit.u + uv[2].x * hit.v,
+                 uv[0].y * w + uv[1].y * hit.u + uv[2].y * hit.v};
+  const DeviceTextureMap& map = scene.color_maps[m.color_map];
+  float width = 0.0f;
+  if (cone_width > 0.0f) {
+    const TriangleVertices& t = scene.triangles[hit.triangle];
+    const Vec3f n = cross(t.p1 - t.p0, t.p2 - t.p0);
+    const float scene_area = length(n);
+    const float uv_area = fabsf((uv[1].x - uv[0].x) * (uv[2].y - uv[0].y) -
+                                (uv[2].x - uv[0].x) * (uv[1].y - uv[0].y));
+    const float cos_theta = scene_area > 0.0f ? fabsf(dot(direction, n)) / scene_area : 0.0f;
+    if (scene_area > 0.0f && cos_theta > 1e-3f) {
+      width = cone_width / cos_theta * sqrtf(uv_area / scene_area);
+    }
+  }
+  const Texel c = map.view.trilinear(map.transform.apply(at), width);
+  return m.color * Vec3f(c.r, c.g, c.b);
+}
+
 // Power of a light averaged over channels, in the units photon flux is expressed in.
 CAUSTICA_HDI float light_power(const DeviceLight& l, float scene_radius) {
   float c = average(l.color);
@@ -149,7 +190,8 @@ class ResidentScene {
     size_t bytes() const;
   };
 
-  // Uploads geometry and materials and builds the triangle structure the scene's settings name.
+  // Uploads geometry, materials and their colour maps and builds the triangle structure the
+  // scene's settings name. The scene's textures must be decoded (decode_textures).
   static ResidentScene upload(Backend& backend, const Scene& scene);
 
   // A change is built beside what is in use and then swapped in, so that one that runs out of
@@ -173,13 +215,24 @@ class ResidentScene {
   bool has_grid_media() const { return !grids_.empty(); }
 
  private:
+  // Uploads the mip chain of every image a colour map reads and sets material_color_maps_;
+  // returns the maps, in that index's order.
+  std::vector<DeviceTextureMap> upload_color_maps(const Scene& scene);
+
   Backend* backend_ = nullptr;
   // From emissive triangles, fixed with the geometry but for their colour, the emission of their
   // material (area_light_materials_), which new_lighting sets.
   std::vector<DeviceLight> area_lights_host_;
   std::vector<uint32_t> area_light_materials_;
+  // Each material's index into color_maps_, or kNoTexture.
+  std::vector<uint32_t> material_color_maps_;
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
+  Buffer<Vec2f> corner_uvs_;
+  // One mip chain per image a colour map reads, and the maps, which point into them.
+  std::vector<Buffer<Texel>> texels_;
+  std::vector<Buffer<MipLevel>> mip_levels_;
+  Buffer<DeviceTextureMap> color_maps_;
   Buffer<uint32_t> material_ids_;
   Buffer<uint32_t> triangle_area_light_;
   Lighting lighting_;
