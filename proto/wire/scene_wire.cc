@@ -67,32 +67,39 @@ absl::Status append_elements(std::vector<T>& out, size_t total, const std::strin
   return absl::OkStatus();
 }
 
-// The checks every chunk of a byte blob (a grid's buffer, a texture's file) passes: its size, its
-// checksum, its place after the `received` bytes so far and within the `declared` total.
-// `field` names the chunk kind ("grid", "texture") and `where` the blob.
-absl::Status check_blob_chunk(std::string_view field, const std::string& where, uint64_t offset,
-                              const std::string& data, uint32_t crc32, uint64_t received,
-                              uint64_t declared) {
+// One chunk of a byte blob (a grid's buffer, a texture's file; GridChunk and TextureChunk alike):
+// checked for its size, its checksum, its place after the `received` bytes so far and within the
+// `declared` total, then handed to `store(data, received)` and counted in `received` and
+// `bytes_received`. `field` names the chunk kind ("grid", "texture") and `where` the blob.
+template <typename Chunk, typename Store>
+absl::Status receive_blob_chunk(std::string_view field, const std::string& where,
+                                const Chunk& chunk, uint64_t& received, uint64_t declared,
+                                size_t& bytes_received, Store store) {
+  const std::string& data = chunk.data();
   if (data.size() > kMaxChunkBytes) {
-    return invalid(join_field(field, "data"),
-                   absl::StrCat(where, ": ", data.size(), " bytes exceed the ", kMaxChunkBytes,
-                                "-byte chunk limit"));
+    return invalid(join_field(field, "data"), absl::StrCat(where, ": ", data.size(),
+                                                           " bytes exceed the ", kMaxChunkBytes,
+                                                           "-byte chunk limit"));
   }
   if (data.empty()) return invalid(join_field(field, "data"), absl::StrCat(where, ": is empty"));
-  if (chunk_crc32(data) != crc32) {
+  if (chunk_crc32(data) != chunk.crc32()) {
     return invalid(join_field(field, "crc32"),
-                   absl::StrFormat("%s: checksum %08x does not match the data (%08x)", where, crc32,
-                                   chunk_crc32(data)));
+                   absl::StrFormat("%s: checksum %08x does not match the data (%08x)", where,
+                                   chunk.crc32(), chunk_crc32(data)));
   }
-  if (offset != received) {
-    return invalid(join_field(field, "offset"), absl::StrCat(where, ": offset ", offset, " but ",
-                                                             received, " bytes arrived so far"));
+  if (chunk.offset() != received) {
+    return invalid(join_field(field, "offset"), absl::StrCat(where, ": offset ", chunk.offset(),
+                                                             " but ", received,
+                                                             " bytes arrived so far"));
   }
   if (received + data.size() > declared) {
     return invalid(join_field(field, "data"),
-                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ", declared,
-                                " the header declares"));
+                   absl::StrCat(where, ": ", received + data.size(), " bytes exceed the ",
+                                declared, " the header declares"));
   }
+  store(data, received);
+  received += data.size();
+  bytes_received += data.size();
   return absl::OkStatus();
 }
 
@@ -923,18 +930,13 @@ absl::Status SceneAssembler::add_grid_chunk(const v1::GridChunk& chunk) {
   }
   const uint32_t m = chunk.medium();
   const std::string where = absl::StrCat("medium '", scene_.media[m].name, "' grid");
-  const std::string& data = chunk.data();
-  uint64_t& received = grid_received_[m];
-  if (absl::Status ok = check_blob_chunk("grid", where, chunk.offset(), data, chunk.crc32(),
-                                         received, grid_declared_[m]);
-      !ok.ok()) {
-    return ok;
-  }
-  if (grids_[m] == nullptr) grids_[m] = std::make_shared<AlignedBytes>(grid_declared_[m]);
-  std::memcpy(grids_[m]->data() + received, data.data(), data.size());
-  received += data.size();
-  bytes_received_ += data.size();
-  return absl::OkStatus();
+  return receive_blob_chunk("grid", where, chunk, grid_received_[m], grid_declared_[m],
+                            bytes_received_, [&](const std::string& data, uint64_t at) {
+                              if (grids_[m] == nullptr) {
+                                grids_[m] = std::make_shared<AlignedBytes>(grid_declared_[m]);
+                              }
+                              std::memcpy(grids_[m]->data() + at, data.data(), data.size());
+                            });
 }
 
 absl::Status SceneAssembler::add_texture_chunk(const v1::TextureChunk& chunk) {
@@ -946,21 +948,14 @@ absl::Status SceneAssembler::add_texture_chunk(const v1::TextureChunk& chunk) {
   }
   const uint32_t t = chunk.texture();
   const std::string where = absl::StrCat("texture '", scene_.textures[t].name, "'");
-  const std::string& data = chunk.data();
-  uint64_t& received = texture_received_[t];
-  if (absl::Status ok = check_blob_chunk("texture", where, chunk.offset(), data, chunk.crc32(),
-                                         received, texture_declared_[t]);
-      !ok.ok()) {
-    return ok;
-  }
-  if (texture_files_[t] == nullptr) {
-    texture_files_[t] = std::make_shared<std::string>();
-    texture_files_[t]->reserve(texture_declared_[t]);
-  }
-  texture_files_[t]->append(data);
-  received += data.size();
-  bytes_received_ += data.size();
-  return absl::OkStatus();
+  return receive_blob_chunk("texture", where, chunk, texture_received_[t], texture_declared_[t],
+                            bytes_received_, [&](const std::string& data, uint64_t) {
+                              if (texture_files_[t] == nullptr) {
+                                texture_files_[t] = std::make_shared<std::string>();
+                                texture_files_[t]->reserve(texture_declared_[t]);
+                              }
+                              texture_files_[t]->append(data);
+                            });
 }
 
 absl::Status SceneAssembler::add_mesh_chunk(const v1::MeshChunk& chunk) {
