@@ -85,7 +85,9 @@
         showEmitters(message.emitters, true);
         return selectLight(defaultSelection());
       case 'idle':
-        viewer.idle = true;
+        // The stream's last frames may still be decoding: idle shows once they are drawn.
+        idleReceived = true;
+        settleIdle();
         return;
       case 'error':
         settle(message.id);
@@ -128,6 +130,7 @@
 
   function showScene(message) {
     viewer.scene = message;
+    idleReceived = false;
     viewer.idle = false;
     // Changes still waiting were meant for the scene before.
     queued = [];
@@ -333,6 +336,7 @@
     if (!dragging) showLights(message.lights);
     else viewer.lights = message.lights;
     showEmitters(message.emitters, false);
+    idleReceived = false;
     viewer.idle = false;
     const pending = pendingLatency.get(message.id);
     if (pending && message.what === 'lights') {
@@ -365,11 +369,18 @@
   // Only the newest frame waits for decoding, so a slow decode skips frames instead of lagging.
   let waitingFrame = null;
   let decoding = false;
+  let idleReceived = false;
+  function settleIdle() {
+    viewer.idle = idleReceived && !decoding && !waitingFrame;
+  }
   function handleFrame(buffer, arrivedAt) {
     const view = new DataView(buffer);
     const headerLength = view.getUint32(0, true);
     const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, headerLength)));
     waitingFrame = { header, bytes: new Uint8Array(buffer, 4 + headerLength), arrivedAt };
+    // A frame after the idle message belongs to a new stream.
+    idleReceived = false;
+    viewer.idle = false;
     if (!decoding) drawFrames();
   }
   // Decodes and draws one frame; returns when decoding ended. createImageBitmap decodes off the
@@ -428,6 +439,7 @@
       if (viewer.framesDrawn === 1 && benchMode !== null) runBench();
     }
     decoding = false;
+    settleIdle();
   }
 
   function showOverlay(header) {
