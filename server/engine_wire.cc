@@ -46,7 +46,7 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   for (const Mesh& mesh : scene.meshes) {
     vertices += mesh.positions.size();
     for (uint32_t material : mesh.material_ids) {
-      if (scene.materials[material].type == MaterialType::kEmissive) ++emissive_triangles;
+      if (is_emitter(scene.materials[material])) ++emissive_triangles;
     }
   }
   info->set_vertices(vertices);
@@ -70,8 +70,7 @@ void describe_lights(const Scene& scene, v1::SceneInfo* info) {
   for (const Light& light : scene.lights) *info->add_light_list() = wire::encode_light(light);
   info->clear_emitters();
   for (const Material& material : scene.materials) {
-    if (material.type == MaterialType::kEmissive)
-      *info->add_emitters() = wire::encode_emitter(material);
+    if (is_emitter(material)) *info->add_emitters() = wire::encode_emitter(material);
   }
 }
 

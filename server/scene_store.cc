@@ -165,7 +165,7 @@ class Statement {
 std::vector<EmitterChange> emission_of(const std::vector<Material>& materials) {
   std::vector<EmitterChange> out;
   for (const Material& m : materials) {
-    if (m.type == MaterialType::kEmissive) out.push_back({m.name, m.radiance, m.off});
+    if (is_emitter(m)) out.push_back({m.name, m.radiance, m.off});
   }
   return out;
 }
@@ -565,7 +565,7 @@ Scene restored_scene(Scene geometry, const StoredScene& stored) {
   geometry.lights = stored.lights;
   for (const EmitterChange& emitter : stored.emitters) {
     for (Material& material : geometry.materials) {
-      if (material.name != emitter.material || material.type != MaterialType::kEmissive) continue;
+      if (material.name != emitter.material || !is_emitter(material)) continue;
       material.radiance = emitter.radiance.value_or(material.radiance);
       material.off = emitter.off.value_or(material.off);
     }

@@ -34,8 +34,8 @@ struct EmittedPhoton {
   Vec3f power;  // before division by the light's choice probability and the photon count
 };
 
-CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f scene_center,
-                                     float scene_radius) {
+CAUSTICA_HDI EmittedPhoton emit_from(const ResidentSceneView& scene, const DeviceLight& l,
+                                     Sampler& s, Vec3f scene_center, float scene_radius) {
   EmittedPhoton e;
   float u0 = s.next_float(), u1 = s.next_float();
   switch (l.type) {
@@ -67,7 +67,7 @@ CAUSTICA_HDI EmittedPhoton emit_from(const DeviceLight& l, Sampler& s, Vec3f sce
       Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
       e.ray.direction = Frame::from_normal(l.direction).to_world(local);
       e.ray.origin = offset_origin(p, l.direction, e.ray.direction);
-      e.power = l.color * (kPi * l.area);
+      e.power = area_light_radiance(scene, l, b) * (kPi * l.area);
       break;
     }
   }
@@ -242,7 +242,7 @@ struct PhotonPathInputs {
         ResidentSceneView::sample_cdf(scene.light_cdf, scene.light_count, p.s.next_float());
     const DeviceLight& light = scene.lights[li];
     float choice_pdf = light_power(light, radius) / scene.total_power;
-    EmittedPhoton e = emit_from(light, p.s, center, radius);
+    EmittedPhoton e = emit_from(scene, light, p.s, center, radius);
     p.ray = e.ray;
     p.power = e.power * (inv_count / choice_pdf);
     p.only_specular = true;
@@ -257,6 +257,8 @@ struct PhotonPathInputs {
   // path on; false when the path ends there.
   template <bool kDifferentials>
   CAUSTICA_HDI bool bounce(PhotonPathState<kDifferentials>& p, const Hit& hit) const {
+    // Nothing to carry: a photon from where an emission map is black, or filtered out by colours.
+    if (is_black(p.power)) return false;
     if (p.medium != kVacuum) {
       // A collision in the medium before the surface: a volume photon there with the flux the
       // medium scatters (the extinguished flux times the albedo, Fabianowski 2011 eq. 7.1), then

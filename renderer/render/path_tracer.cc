@@ -48,7 +48,7 @@ CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Struc
   const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
   if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
   if (any_hit(structure, shadow_ray(shadow_origin(y.wi), y.position, 1e-3f))) return Vec3f(0.0f);
-  return y.light->color * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
+  return y.radiance * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
          (f * power_heuristic(light_pdf, f) / light_pdf);
 }
 
@@ -126,17 +126,18 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
     const SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     const Vec3f d = ray.direction;
-    if (m.type == MaterialType::kEmissive) {
+    // Any surface may emit from its front face.
+    if (!is_black(m.radiance)) {
       const float cos_light = -dot(d, sh.geometric_normal);
       if (cos_light > 0.0f) {
         float weight = 1.0f;
         const uint32_t a = scene.triangle_area_light[hit.triangle];
         if (bounce_pdf > 0.0f && a != kNoAreaLight)
           weight = power_heuristic(bounce_pdf, area_light_pdf(scene, a, hit.t * hit.t, cos_light));
-        radiance += throughput * m.radiance * weight;
+        radiance += throughput * surface_emission(scene, m, hit, d, 0.0f) * weight;
       }
-      break;  // lights do not reflect
     }
+    if (m.type == MaterialType::kEmissive) break;  // lights do not reflect
     // The reference reads the finest level of a map at every hit: its samples average the pixel.
     switch (m.type) {
       case MaterialType::kDiffuse: {

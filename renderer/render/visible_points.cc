@@ -47,9 +47,11 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
   const DeviceMaterial& m = scene.materials[sh.material];
   const Vec3f d = c.ray.direction;
   Vec3f next;
+  // Any surface may emit from its front face; an emissive one does nothing else.
+  if (!is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f)
+    c.light += c.throughput * surface_emission(scene, m, hit, d, 0.0f);
   switch (m.type) {
     case MaterialType::kEmissive:
-      if (dot(d, sh.geometric_normal) < 0.0f) c.light += c.throughput * m.radiance;
       return false;
     case MaterialType::kDiffuse: {
       const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;

@@ -139,9 +139,11 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
       stack[top++] = {r, throughput, pr.depth + 1, branch, medium, pr.travelled + hit.t};
     };
     const float cone = pixel_spread * (pr.travelled + hit.t);
+    // Any surface may emit from its front face; an emissive one does nothing else.
+    if (!is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f)
+      emitted += pr.throughput * surface_emission(scene, m, hit, d, cone);
     switch (m.type) {
       case MaterialType::kEmissive:
-        if (dot(d, sh.geometric_normal) < 0.0f) emitted += pr.throughput * m.radiance;
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
@@ -387,7 +389,7 @@ struct PathLeaf {
   uint32_t pixel;
   uint32_t diffuse;  // 1: a diffuse hit; 0: emitted light seen
   Vec3f throughput;
-  Vec3f value;  // emitted radiance, or a diffuse hit's direct light once shaded
+  Vec3f value;  // emitted radiance, or a diffuse hit's emission and then its direct light added
   Vec3f position, normal, geometric_normal, albedo;
 };
 
@@ -415,13 +417,17 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
       next[slot] = {r, throughput, pr.pixel, pr.depth + 1, branch, pr.travelled + hit.t};
     };
     const float cone = in.pixel_spread * (pr.travelled + hit.t);
+    // Any surface may emit from its front face: a leaf of its own, or a diffuse leaf's start.
+    const Vec3f emission = !is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f
+                               ? surface_emission(in.scene, m, hit, d, cone)
+                               : Vec3f(0.0f);
+    if (!is_black(emission) && m.type != MaterialType::kDiffuse) {
+      leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, emission,
+                   Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
+      is_leaf[i] = 1;
+    }
     switch (m.type) {
       case MaterialType::kEmissive:
-        if (dot(d, sh.geometric_normal) < 0.0f) {
-          leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, m.radiance,
-                       Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
-          is_leaf[i] = 1;
-        }
         break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
@@ -429,7 +435,7 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
                      pr.pixel,
                      1u,
                      pr.throughput,
-                     Vec3f(0.0f),
+                     emission,
                      sh.position,
                      n,
                      sh.geometric_normal,
@@ -603,9 +609,9 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
     const uint8_t* mine = is_blocked + r * slots;
     Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
                                     uint32_t(r) - pixel_offset[l.pixel], dimensions);
-    l.value = direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
-                                inputs.cfg.area_light_samples, inputs.scene_radius, s,
-                                [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+    l.value += direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
+                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
+                                 [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
     request[r] = {l.position, l.normal, l.throughput * l.albedo, l.pixel,
                   uint32_t(r) - pixel_offset[l.pixel]};
   });

@@ -111,6 +111,7 @@ struct AreaLightPoint {
   float dist2;       // squared distance from p
   float cos_light;   // at the light, towards p (its front faces p when positive)
   float choice_pdf;  // of choosing this light
+  Vec3f radiance;    // what the light emits at the point
 };
 
 // The probability of choosing area light `a` (an index into scene.area_lights) by power.
@@ -127,6 +128,7 @@ CAUSTICA_HDI AreaLightPoint draw_area_light_point(const ResidentSceneView& scene
   y.choice_pdf = area_light_choice_pdf(scene, y.index);
   Vec2f b = sample_uniform_triangle(s.next_float(), s.next_float());
   y.position = y.light->position + y.light->edge1 * b.x + y.light->edge2 * b.y;
+  y.radiance = area_light_radiance(scene, *y.light, b);
   Vec3f d = y.position - p;
   y.dist2 = length_squared(d);
   float dist = sqrtf(y.dist2);
@@ -195,7 +197,8 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
       float cos_x = dot(normal, y.wi);
       if (cos_x <= 0.0f || y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
       if (!visible(scene.light_count + k, y.position, y.wi)) continue;
-      area_sum += f * l.color * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
+      area_sum += f * y.radiance *
+                  transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
                   (cos_x * y.cos_light * l.area / (y.dist2 * y.choice_pdf));
     }
     sum += area_sum / float(area_samples);

@@ -1,5 +1,6 @@
 #include "renderer/resident/resident_scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <type_traits>
 #include <utility>
@@ -67,15 +68,42 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
 }
 
 std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materials,
-                                                std::span<const uint32_t> color_maps) {
+                                                std::span<const uint32_t> color_maps,
+                                                std::span<const uint32_t> emission_maps) {
   std::vector<DeviceMaterial> out;
   out.reserve(materials.size());
   for (size_t i = 0; i < materials.size(); ++i) {
     const Material& m = materials[i];
     out.push_back({m.type, m.color, m.ior, emitted_radiance(m),
-                   i < color_maps.size() ? color_maps[i] : kNoTexture});
+                   i < color_maps.size() ? color_maps[i] : kNoTexture,
+                   i < emission_maps.size() ? emission_maps[i] : kNoTexture});
   }
   return out;
+}
+
+// A map's mean over a triangle with texture coordinates `uv`, for weighing its area light's power:
+// lookups at seven points spread over the triangle, at the level of a seventh of its footprint.
+// Never quite zero where the factor emits: a point the lookups missed may still glow, and a light
+// of zero power would never be drawn (docs/materials.md, "Emission").
+Vec3f triangle_map_mean(const TextureView& view, const TextureTransform& transform,
+                        const Vec2f* uv) {
+  constexpr float kPoints[7][2] = {{1.0f / 3, 1.0f / 3}, {2.0f / 3, 1.0f / 6}, {1.0f / 6, 2.0f / 3},
+                                   {1.0f / 6, 1.0f / 6}, {0.5f, 0.4f},         {0.1f, 0.5f},
+                                   {0.4f, 0.1f}};
+  const float uv_area = std::fabs((uv[1].x - uv[0].x) * (uv[2].y - uv[0].y) -
+                                  (uv[2].x - uv[0].x) * (uv[1].y - uv[0].y));
+  const float width = std::sqrt(uv_area / 7.0f);
+  Vec3f sum(0.0f);
+  for (const auto& b : kPoints) {
+    const float w = 1.0f - b[0] - b[1];
+    const Vec2f at{uv[0].x * w + uv[1].x * b[0] + uv[2].x * b[1],
+                   uv[0].y * w + uv[1].y * b[0] + uv[2].y * b[1]};
+    const Texel t = view.trilinear(transform.apply(at), width);
+    sum += Vec3f(t.r, t.g, t.b);
+  }
+  constexpr float kFloor = 1.0f / 1024;
+  const Vec3f mean = sum / 7.0f;
+  return {std::max(mean.x, kFloor), std::max(mean.y, kFloor), std::max(mean.z, kFloor)};
 }
 
 // A decoded image as linear texels: 8-bit colour maps are sRGB-encoded (glTF's base colour,
@@ -158,10 +186,10 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   if (any_normals) corner_normals.reserve(3 * n);
   // Texture coordinates go to the device only for a scene with a colour map to read.
   std::vector<Vec2f> corner_uvs;
-  std::vector<DeviceTextureMap> color_maps = r.upload_color_maps(scene);
+  const TextureMaps maps = r.upload_texture_maps(scene);
   bool any_uvs = false;
   for (const Mesh& m : scene.meshes) any_uvs |= !m.uvs.empty();
-  any_uvs = any_uvs && !color_maps.empty();
+  any_uvs = any_uvs && !maps.device.empty();
   if (any_uvs) corner_uvs.reserve(3 * n);
 
   for (const Mesh& m : scene.meshes) {
@@ -170,7 +198,7 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
       TriangleVertices tri{m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
       const uint32_t mat = m.material_ids[t];
       uint32_t area_light = kNoAreaLight;
-      if (scene.materials[mat].type == MaterialType::kEmissive) {
+      if (is_emitter(scene.materials[mat])) {
         DeviceLight a{};
         a.type = DeviceLightType::kArea;
         a.position = tri.p0;
@@ -180,6 +208,14 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         a.area = 0.5f * length(ng);
         a.direction = normalize(ng);
         a.color = emitted_radiance(scene.materials[mat]);
+        a.triangle = uint32_t(triangles.size());
+        a.emission_map = any_uvs ? r.material_emission_maps_[mat] : kNoTexture;
+        if (a.emission_map != kNoTexture) {
+          Vec2f uv[3];
+          for (int c = 0; c < 3; ++c) uv[c] = m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]];
+          a.map_mean = triangle_map_mean(maps.host[a.emission_map],
+                                         maps.device[a.emission_map].transform, uv);
+        }
         // Area lights follow the other lights in `lights` in this order, and so keep it among
         // themselves (rebuild_light_tables).
         if (a.area > 0) {
@@ -230,8 +266,8 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.corner_normals_.upload(corner_normals);
   r.corner_uvs_.bind(backend);
   r.corner_uvs_.upload(corner_uvs);
-  r.color_maps_.bind(backend);
-  r.color_maps_.upload(color_maps);
+  r.texture_maps_.bind(backend);
+  r.texture_maps_.upload(maps.device);
   r.media_.bind(backend);
   r.media_.upload(media);
   r.triangle_medium_.bind(backend);
@@ -241,21 +277,20 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   return r;
 }
 
-std::vector<DeviceTextureMap> ResidentScene::upload_color_maps(const Scene& scene) {
+ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene) {
   // Each image once, however many maps read it.
   std::vector<uint32_t> chain_of_texture(scene.textures.size(), kNoTexture);
-  std::vector<DeviceTextureMap> maps;
-  material_color_maps_.assign(scene.materials.size(), kNoTexture);
-  for (size_t i = 0; i < scene.materials.size(); ++i) {
-    const TextureRef& ref = scene.materials[i].color_map;
-    if (!ref.used() || ref.texture >= scene.textures.size()) continue;
+  std::vector<uint32_t> chain_of_map;
+  TextureMaps maps;
+  auto add_map = [&](const TextureRef& ref) -> uint32_t {
+    if (!ref.used() || ref.texture >= scene.textures.size()) return kNoTexture;
     const TextureImage& image = scene.textures[ref.texture];
-    if (image.decoded == nullptr || image.decoded->width == 0) continue;
+    if (image.decoded == nullptr || image.decoded->width == 0) return kNoTexture;
     uint32_t& chain = chain_of_texture[ref.texture];
     if (chain == kNoTexture) {
-      const MipChain mips = build_mip_chain(image.decoded->width, image.decoded->height,
-                                            linear_texels(*image.decoded));
-      chain = uint32_t(texels_.size());
+      chain = uint32_t(maps.chains.size());
+      const MipChain& mips = maps.chains.emplace_back(build_mip_chain(
+          image.decoded->width, image.decoded->height, linear_texels(*image.decoded)));
       texels_.emplace_back(*backend_, 0).upload(mips.texels);
       mip_levels_.emplace_back(*backend_, 0).upload(mips.levels);
     }
@@ -266,8 +301,23 @@ std::vector<DeviceTextureMap> ResidentScene::upload_color_maps(const Scene& scen
     map.view.wrap_u = ref.wrap_u;
     map.view.wrap_v = ref.wrap_v;
     map.transform = ref.transform;
-    material_color_maps_[i] = uint32_t(maps.size());
-    maps.push_back(map);
+    chain_of_map.push_back(chain);
+    maps.device.push_back(map);
+    return uint32_t(maps.device.size() - 1);
+  };
+  material_color_maps_.assign(scene.materials.size(), kNoTexture);
+  material_emission_maps_.assign(scene.materials.size(), kNoTexture);
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    material_color_maps_[i] = add_map(scene.materials[i].color_map);
+    material_emission_maps_[i] = add_map(scene.materials[i].emission_map);
+  }
+  // The same maps over the host's copies, now that the chains no longer move.
+  for (size_t i = 0; i < maps.device.size(); ++i) {
+    const MipChain& mips = maps.chains[chain_of_map[i]];
+    TextureView view = maps.device[i].view;
+    view.texels = mips.texels.data();
+    view.levels = mips.levels.data();
+    maps.host.push_back(view);
   }
   return maps;
 }
@@ -296,7 +346,8 @@ ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> light
   lighting.light_cdf.bind(*backend_);
   lighting.area_light_index.bind(*backend_);
   lighting.area_light_cdf.bind(*backend_);
-  lighting.materials.upload(to_device_materials(materials, material_color_maps_));
+  lighting.materials.upload(
+      to_device_materials(materials, material_color_maps_, material_emission_maps_));
   lighting.lights.upload(all);
   build_light_tables(*backend_, radius(), lighting);
   return lighting;
@@ -314,7 +365,7 @@ ResidentSceneView ResidentScene::view() const {
   v.triangles = triangles_.data();
   v.corner_normals = corner_normals_.empty() ? nullptr : corner_normals_.data();
   v.corner_uvs = corner_uvs_.empty() ? nullptr : corner_uvs_.data();
-  v.color_maps = color_maps_.empty() ? nullptr : color_maps_.data();
+  v.texture_maps = texture_maps_.empty() ? nullptr : texture_maps_.data();
   v.material_ids = material_ids_.data();
   v.triangle_area_light = triangle_area_light_.data();
   v.materials = lighting_.materials.data();
@@ -342,9 +393,10 @@ size_t ResidentScene::bytes() const {
   for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();
   for (const Buffer<Texel>& t : texels_) grid_bytes += t.bytes();
   for (const Buffer<MipLevel>& l : mip_levels_) grid_bytes += l.bytes();
-  return triangles_.bytes() + corner_normals_.bytes() + corner_uvs_.bytes() + color_maps_.bytes() +
-         material_ids_.bytes() + triangle_area_light_.bytes() + lighting_.bytes() + media_.bytes() +
-         triangle_medium_.bytes() + structure_.stats().bytes + grid_bytes;
+  return triangles_.bytes() + corner_normals_.bytes() + corner_uvs_.bytes() +
+         texture_maps_.bytes() + material_ids_.bytes() + triangle_area_light_.bytes() +
+         lighting_.bytes() + media_.bytes() + triangle_medium_.bytes() + structure_.stats().bytes +
+         grid_bytes;
 }
 
 }  // namespace caustica

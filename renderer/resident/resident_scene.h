@@ -3,6 +3,7 @@
 // alone when only they change (the engine's epochs decide which).
 #pragma once
 
+#include <deque>
 #include <span>
 
 #include "absl/status/statusor.h"
@@ -18,12 +19,13 @@ struct DeviceMaterial {
   MaterialType type;
   Vec3f color;
   float ior;
-  Vec3f radiance;
-  uint32_t color_map;  // index into ResidentSceneView::color_maps, or kNoTexture
+  Vec3f radiance;         // what the front face emits now (any type may emit)
+  uint32_t color_map;     // index into ResidentSceneView::texture_maps, or kNoTexture
+  uint32_t emission_map;  // likewise
 };
 
-// A material's colour map as kernels read it: the image's mip chain with the map's wrap modes,
-// and its KHR_texture_transform.
+// A material's colour or emission map as kernels read it: the image's mip chain with the map's
+// wrap modes, and its KHR_texture_transform.
 struct DeviceTextureMap {
   TextureView view;
   TextureTransform transform;
@@ -41,6 +43,12 @@ struct DeviceLight {
   float cos_outer;     // spot
   Vec3f edge1, edge2;  // area: triangle edges from `position`
   float area;
+  // Area: the triangle (original order) and its material's emission map (an index into
+  // ResidentSceneView::texture_maps, or kNoTexture), which multiplies `color` where the triangle's
+  // texture coordinates say; and the map's mean over the triangle, which weighs the light's power.
+  uint32_t triangle = 0;
+  uint32_t emission_map = kNoTexture;
+  Vec3f map_mean{1.0f};
 };
 
 // A sampled light position seen from nowhere in particular: what emission and shadow rays need.
@@ -64,7 +72,7 @@ struct ResidentSceneView {
   const Vec3f* corner_normals;        // 3 per triangle, or nullptr when no mesh has normals
   // 3 per triangle (v down the image), or nullptr when no material has a map to read with them.
   const Vec2f* corner_uvs;
-  const DeviceTextureMap* color_maps;
+  const DeviceTextureMap* texture_maps;  // what materials' and area lights' map indices name
   const uint32_t* material_ids;       // per triangle
   const DeviceMaterial* materials;
   const DeviceLight* lights;    // every light, area triangles included
@@ -121,21 +129,23 @@ CAUSTICA_HDI SurfaceHit surface_at(const ResidentSceneView& scene, const Hit& hi
   return s;
 }
 
-// The colour a material shows at `hit`: its colour times its colour map there, the map's level
-// chosen by a ray cone `cone_width` wide (in scene units) at the hit, arriving along `direction`
-// (Akenine-Moller et al. 2019: the footprint grows by 1 / |cos| on the surface and maps to texture
-// coordinates by the triangle's ratio of texture to scene area). A width of 0 reads the finest
-// level, as photons do. Without a map, or on a triangle without texture coordinates, the colour.
-CAUSTICA_HDI Vec3f surface_color(const ResidentSceneView& scene, const DeviceMaterial& m,
-                                 const Hit& hit, Vec3f direction, float cone_width) {
-  if (m.color_map == kNoTexture || scene.corner_uvs == nullptr) return m.color;
-  const Vec2f* uv = scene.corner_uvs + 3 * size_t(hit.triangle);
-  const float w = 1.0f - hit.u - hit.v;
-  const Vec2f at{uv[0].x * w + uv[1].x * hit.u + uv[2].x * hit.v,
-                 uv[0].y * w + uv[1].y * hit.u + uv[2].y * hit.v};
-  const DeviceTextureMap& map = scene.color_maps[m.color_map];
+// Texture coordinates at barycentrics (u, v) of `triangle`; the scene must have them.
+CAUSTICA_HDI Vec2f uv_at(const ResidentSceneView& scene, uint32_t triangle, float u, float v) {
+  const Vec2f* uv = scene.corner_uvs + 3 * size_t(triangle);
+  const float w = 1.0f - u - v;
+  return {uv[0].x * w + uv[1].x * u + uv[2].x * v, uv[0].y * w + uv[1].y * u + uv[2].y * v};
+}
+
+// Map `map` at `hit`, its level chosen by a ray cone `cone_width` wide (in scene units) at the
+// hit, arriving along `direction` (Akenine-Moller et al. 2019: the footprint grows by 1 / |cos| on
+// the surface and maps to texture coordinates by the triangle's ratio of texture to scene area).
+// A width of 0 reads the finest level, as photons do.
+CAUSTICA_HDI Vec3f map_at_hit(const ResidentSceneView& scene, uint32_t map_index, const Hit& hit,
+                              Vec3f direction, float cone_width) {
+  const DeviceTextureMap& map = scene.texture_maps[map_index];
   float width = 0.0f;
   if (cone_width > 0.0f) {
+    const Vec2f* uv = scene.corner_uvs + 3 * size_t(hit.triangle);
     const TriangleVertices& t = scene.triangles[hit.triangle];
     const Vec3f n = cross(t.p1 - t.p0, t.p2 - t.p0);
     const float scene_area = length(n);
@@ -146,13 +156,40 @@ CAUSTICA_HDI Vec3f surface_color(const ResidentSceneView& scene, const DeviceMat
       width = cone_width / cos_theta * sqrtf(uv_area / scene_area);
     }
   }
-  const Texel c = map.view.trilinear(map.transform.apply(at), width);
-  return m.color * Vec3f(c.r, c.g, c.b);
+  const Texel c =
+      map.view.trilinear(map.transform.apply(uv_at(scene, hit.triangle, hit.u, hit.v)), width);
+  return Vec3f(c.r, c.g, c.b);
+}
+
+// The colour a material shows at `hit`: its colour times its colour map there (map_at_hit).
+// Without a map, or on a triangle without texture coordinates, the colour.
+CAUSTICA_HDI Vec3f surface_color(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                 const Hit& hit, Vec3f direction, float cone_width) {
+  if (m.color_map == kNoTexture || scene.corner_uvs == nullptr) return m.color;
+  return m.color * map_at_hit(scene, m.color_map, hit, direction, cone_width);
+}
+
+// The radiance a material's front face emits at `hit`, seen along `direction`: its emission
+// times its emission map there, read as surface_color reads colour maps.
+CAUSTICA_HDI Vec3f surface_emission(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                    const Hit& hit, Vec3f direction, float cone_width) {
+  if (m.emission_map == kNoTexture || scene.corner_uvs == nullptr) return m.radiance;
+  return m.radiance * map_at_hit(scene, m.emission_map, hit, direction, cone_width);
+}
+
+// The radiance area light `l` emits at barycentrics b of its triangle (the finest level of its
+// emission map).
+CAUSTICA_HDI Vec3f area_light_radiance(const ResidentSceneView& scene, const DeviceLight& l,
+                                       Vec2f b) {
+  if (l.emission_map == kNoTexture || scene.corner_uvs == nullptr) return l.color;
+  const DeviceTextureMap& map = scene.texture_maps[l.emission_map];
+  const Texel c = map.view.trilinear(map.transform.apply(uv_at(scene, l.triangle, b.x, b.y)), 0.0f);
+  return l.color * Vec3f(c.r, c.g, c.b);
 }
 
 // Power of a light averaged over channels, in the units photon flux is expressed in.
 CAUSTICA_HDI float light_power(const DeviceLight& l, float scene_radius) {
-  float c = average(l.color);
+  float c = l.emission_map == kNoTexture ? average(l.color) : average(l.color * l.map_mean);
   switch (l.type) {
     case DeviceLightType::kPoint:
       return 4.0f * kPi * c;
@@ -215,24 +252,32 @@ class ResidentScene {
   bool has_grid_media() const { return !grids_.empty(); }
 
  private:
-  // Uploads the mip chain of every image a colour map reads and sets material_color_maps_;
-  // returns the maps, in that index's order.
-  std::vector<DeviceTextureMap> upload_color_maps(const Scene& scene);
+  // The maps materials read: as kernels read them, and the same over host copies of their
+  // chains, which upload keeps while it weighs area lights by their emission maps.
+  struct TextureMaps {
+    std::vector<DeviceTextureMap> device;
+    std::vector<TextureView> host;
+    std::deque<MipChain> chains;
+  };
+  // Uploads the mip chain of every image a colour or emission map reads and sets
+  // material_color_maps_ and material_emission_maps_, indices into the maps it returns.
+  TextureMaps upload_texture_maps(const Scene& scene);
 
   Backend* backend_ = nullptr;
-  // From emissive triangles, fixed with the geometry but for their colour, the emission of their
+  // From emitting triangles, fixed with the geometry but for their colour, the emission of their
   // material (area_light_materials_), which new_lighting sets.
   std::vector<DeviceLight> area_lights_host_;
   std::vector<uint32_t> area_light_materials_;
-  // Each material's index into color_maps_, or kNoTexture.
+  // Each material's index into texture_maps_, or kNoTexture.
   std::vector<uint32_t> material_color_maps_;
+  std::vector<uint32_t> material_emission_maps_;
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<Vec2f> corner_uvs_;
-  // One mip chain per image a colour map reads, and the maps, which point into them.
+  // One mip chain per image a map reads, and the maps, which point into them.
   std::vector<Buffer<Texel>> texels_;
   std::vector<Buffer<MipLevel>> mip_levels_;
-  Buffer<DeviceTextureMap> color_maps_;
+  Buffer<DeviceTextureMap> texture_maps_;
   Buffer<uint32_t> material_ids_;
   Buffer<uint32_t> triangle_area_light_;
   Lighting lighting_;

@@ -37,10 +37,10 @@ absl::StatusOr<std::vector<Material>> apply_emitter_changes(
       return absl::InvalidArgumentError(
           absl::StrCat(field, ".material: the scene has no material '", change.material, "'"));
     }
-    if (found->type != MaterialType::kEmissive) {
+    if (!is_emitter(*found)) {
       return absl::InvalidArgumentError(
           absl::StrCat(field, ".material: '", change.material, "' is ", type_name(found->type),
-                       ", not emissive: only emissive materials are area lights"));
+                       " and emits nothing: only emitting materials are area lights"));
     }
     if (change.radiance) {
       const Vec3f r = *change.radiance;
@@ -50,6 +50,12 @@ absl::StatusOr<std::vector<Material>> apply_emitter_changes(
               absl::StrFormat("%s.radiance: (%g, %g, %g) is not finite and >= 0 in every channel",
                               field, r.x, r.y, r.z));
         }
+      }
+      // Another kind emits while its radiance is nonzero; `off` darkens it and keeps it a light.
+      if (is_black(r) && found->type != MaterialType::kEmissive) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field, ".radiance: (0, 0, 0) would make ", type_name(found->type),
+                         " material '", change.material, "' no light; turn it off instead"));
       }
       found->radiance = r;
     }

@@ -44,7 +44,7 @@ Vec3f clamp01(Vec3f c) {
 }
 
 // The same rules as OBJ's MTL and glTF, in the terms Assimp normalises every format's materials
-// to: emission wins, then transparency (a dielectric), then the diffuse (or PBR base) colour.
+// to: transparency (a dielectric), then the diffuse (or PBR base) colour, emission on top.
 // Mirrors are not guessed: Assimp's shininess and reflectivity mean different things per format.
 Material convert_material(const aiMaterial& source, size_t index, const std::string& file_name,
                           std::vector<std::string>* warnings) {
@@ -73,12 +73,17 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
   float transmission = 0;
   source.Get(AI_MATKEY_TRANSMISSION_FACTOR, transmission);
 
-  if (is_finite(emission) && (emission.x > 0 || emission.y > 0 || emission.z > 0)) {
-    m.type = MaterialType::kEmissive;
-    m.color = Vec3f(0);
+  // Emission comes on top of what the surface reflects; a surface that reflects nothing is a
+  // light.
+  if (is_finite(emission)) {
     m.radiance =
         Vec3f(std::max(emission.x, 0.0f), std::max(emission.y, 0.0f), std::max(emission.z, 0.0f));
-  } else if (opacity < 1 || transmission > 0) {
+  }
+  const bool transparent = opacity < 1 || transmission > 0;
+  if (!is_black(m.radiance) && !transparent && is_finite(albedo) && is_black(albedo)) {
+    m.type = MaterialType::kEmissive;
+    m.color = Vec3f(0);
+  } else if (transparent) {
     m.type = MaterialType::kDielectric;
     float ior = 1.5f;
     // Many exporters write 1 (or nothing) when they mean "not set".

@@ -100,11 +100,13 @@ Material convert_material(const tinygltf::Material& gltf, size_t index) {
                                           "emissiveStrength", 1.0));
   const double transmission =
       extension_number(gltf.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0);
-  // Our materials are pure types, so the strongest trait of the PBR material decides.
-  if (!is_black(emission)) {
+  // Our materials are pure types, so the strongest trait of the PBR material decides; emission
+  // comes on top of any (glTF adds it to what the surface reflects), and a surface that reflects
+  // nothing but emits is a light.
+  m.radiance = emission;
+  if (!is_black(emission) && is_black(base_color) && transmission <= 0) {
     m.type = MaterialType::kEmissive;
     m.color = Vec3f(0);
-    m.radiance = emission;
   } else if (transmission > 0) {
     m.type = MaterialType::kDielectric;
     m.ior = static_cast<float>(extension_number(gltf.extensions, "KHR_materials_ior", "ior", 1.5));

@@ -29,10 +29,12 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index) {
   const Vec3f emission = to_vec3(mtl.emission);
   // MTL illumination models 4, 6, 7 and 9 are the glass ones.
   const bool glass = mtl.illum == 4 || mtl.illum == 6 || mtl.illum == 7 || mtl.illum == 9;
-  if (!is_black(emission)) {
+  // Ke comes on top of what the surface reflects; a surface that reflects nothing is a light.
+  m.radiance = emission;
+  if (!is_black(emission) && !glass && is_black(to_vec3(mtl.diffuse)) &&
+      is_black(to_vec3(mtl.specular))) {
     m.type = MaterialType::kEmissive;
     m.color = Vec3f(0);
-    m.radiance = emission;
   } else if (glass || mtl.dissolve < 1) {
     m.type = MaterialType::kDielectric;
     // tinyobj reports 1 when Ni is absent, and glass of index 1 would be invisible.

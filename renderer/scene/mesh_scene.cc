@@ -106,7 +106,7 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
   bool emits = false;
   for (const Mesh& mesh : file.meshes) {
     for (const uint32_t id : mesh.material_ids) {
-      emits |= id < scene.materials.size() && scene.materials[id].type == MaterialType::kEmissive;
+      emits |= id < scene.materials.size() && !is_black(emitted_radiance(scene.materials[id]));
     }
   }
 

@@ -55,20 +55,28 @@ struct Material {
   MaterialType type = MaterialType::kDiffuse;
   Vec3f color{0.8f, 0.8f, 0.8f};  // diffuse albedo or mirror reflectance (each channel in [0, 1])
   float ior = 1.5f;               // dielectric index of refraction (outside medium is vacuum)
-  Vec3f radiance{0, 0, 0};        // emissive: outgoing radiance of the front face; surface is black
-  bool off = false;               // emissive: emits nothing for now, `radiance` kept for later
+  // Outgoing radiance of the front face. An emissive material's surface is black; another kind
+  // given an emission (glTF's emissive factor, MTL's Ke) emits and reflects.
+  Vec3f radiance{0, 0, 0};
+  bool off = false;  // emits nothing for now, `radiance` kept for later
   // Maps of the model file, multiplying `color` (sRGB-encoded) and `radiance` (sRGB-encoded, as
   // glTF's emissive texture) where the mesh has texture coordinates.
   TextureRef color_map;
   TextureRef emission_map;
 };
 
-// What an emissive material emits now.
-inline Vec3f emitted_radiance(const Material& m) {
-  return m.type == MaterialType::kEmissive && !m.off ? m.radiance : Vec3f{0, 0, 0};
+// Whether a material's triangles are area lights: an emissive material's always, so that one off
+// or dark now can be turned on; another kind's when it was given an emission.
+inline bool is_emitter(const Material& m) {
+  return m.type == MaterialType::kEmissive || !is_black(m.radiance);
 }
 
-// A change to an emissive material's emission (UpdateLights' emitters); unset fields keep theirs.
+// What a material emits now.
+inline Vec3f emitted_radiance(const Material& m) {
+  return is_emitter(m) && !m.off ? m.radiance : Vec3f{0, 0, 0};
+}
+
+// A change to an emitting material's emission (UpdateLights' emitters); unset fields keep theirs.
 struct EmitterChange {
   std::string material;  // the material's name
   std::optional<Vec3f> radiance;

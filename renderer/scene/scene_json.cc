@@ -290,6 +290,9 @@ class SceneReader {
                            absl::StrCat("unknown material type '", type,
                                         "' (expected diffuse, mirror, dielectric or emissive)"));
     }
+    // Any other kind may also emit from its front face, as a model file's emissive surfaces do.
+    if (material.type != MaterialType::kEmissive)
+      SCENE_RETURN_IF_ERROR(object.read("radiance", kOptional, &material.radiance));
     SCENE_RETURN_IF_ERROR(object.finish());
     material_ids_[name] = static_cast<uint32_t>(scene_.materials.size());
     scene_.materials.push_back(std::move(material));

@@ -156,6 +156,8 @@ absl::Status validate_material(const Material& m, size_t textures) {
           absl::StrCat("is texture ", map->texture, ", but the scene has ", textures, " textures"));
     }
   }
+  // Any kind may emit; an emissive material only emits.
+  SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".radiance"), m.radiance));
   switch (m.type) {
     case MaterialType::kDiffuse:
       return check_color(absl::StrCat(field, ".albedo"), m.color, 1);
@@ -168,7 +170,7 @@ absl::Status validate_material(const Material& m, size_t textures) {
       }
       return absl::OkStatus();
     case MaterialType::kEmissive:
-      return check_color(absl::StrCat(field, ".radiance"), m.radiance);
+      return absl::OkStatus();
   }
   return invalid_field(field, "has an unknown type");
 }
@@ -271,9 +273,8 @@ absl::Status validate_light(const Light& light, size_t index) {
   return absl::OkStatus();
 }
 
-bool is_emitter(const Material& m) {
-  return m.type == MaterialType::kEmissive && !is_black(m.radiance);
-}
+// Whether a material lights the scene as loaded.
+bool emits_now(const Material& m) { return !is_black(emitted_radiance(m)); }
 
 // Zero area up to rounding: the cross product is tiny next to the edges that make it.
 bool has_zero_area(Vec3f a, Vec3f b, Vec3f c) {
@@ -356,9 +357,14 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
           field, absl::StrCat("triangle ", t, " refers to material ", id, ", but the scene has ",
                               materials.size(), " materials"));
     }
-    if (is_emitter(materials[id])) {
+    if (emits_now(materials[id])) {
       const uint32_t* tri = &mesh.indices[3 * t];
-      if (has_zero_area(mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]])) {
+      const bool zero_area =
+          has_zero_area(mesh.positions[tri[0]], mesh.positions[tri[1]], mesh.positions[tri[2]]);
+      // A light's triangle must light; a model's emitting surface may have slivers, which emit
+      // nothing.
+      if (zero_area && materials[id].type != MaterialType::kEmissive) continue;
+      if (zero_area) {
         return invalid_field(
             field, absl::StrCat("triangle ", t, " has zero area but emits light (material '",
                                 materials[id].name, "')"));

@@ -96,7 +96,7 @@ TEST_F(EmitterServer, BadChangesNameTheFieldAndLeaveTheServerServing) {
   };
   std::vector<Case> cases = {
       {emit(id, "lamp", 1.0f, std::nullopt), "emitters[0].material: the scene has no material"},
-      {emit(id, "white", 1.0f, std::nullopt), "'white' is diffuse, not emissive"},
+      {emit(id, "white", 1.0f, std::nullopt), "'white' is diffuse and emits nothing"},
       {emit(id, "light", -1.0f, std::nullopt), "emitters[0].radiance"},
       {emit(id, "light", std::nullopt, std::nullopt), "changes nothing of 'light'"},
       {emit(id, "", 1.0f, std::nullopt), "emitters[0].material: is empty"},
@@ -169,7 +169,8 @@ TEST_F(EmitterServer, TheCliSwitchesAnAreaLight) {
   run = run_command(std::string("'") + CAUSTICA_CLIENT_BIN + "' --server " + server_->address() +
                     " light emit " + id + " white --radiance 1");
   EXPECT_NE(run.exit_code, 0);
-  EXPECT_NE(run.output.find("'white' is diffuse, not emissive"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("'white' is diffuse and emits nothing"), std::string::npos)
+      << run.output;
 }
 
 }  // namespace

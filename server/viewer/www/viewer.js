@@ -27,7 +27,7 @@
     scenes: [],
     scene: null,        // the open scene's message
     lights: [],         // the scene's lights, then the offered viewer light if any
-    emitters: [],       // the scene's emissive materials
+    emitters: [],       // the scene's emitting materials
     selected: null,     // index of the light the intensity slider scales
     framesDrawn: 0,
     lastFrame: null,    // header of the last frame drawn
@@ -232,7 +232,7 @@
     change({ type: 'set_intensity', light: light.index, intensity });
   });
 
-  // --- area lights: one row per emissive material, its switch and a radiance slider in stops ---
+  // --- area lights: one row per emitting material, its switch and a radiance slider in stops ---
   const emitterBase = [];  // radiance (brightest channel) each slider is centred on
   function showEmitters(emitters, rebuild) {
     viewer.emitters = emitters;

@@ -1,6 +1,7 @@
 // Textured models on both backends: the Cesium box (a PNG colour map under a mirrored-repeat and
 // clamped sampler) and the spider (five JPEG maps of an OBJ model) render alike on the CPU and the
-// GPU with the same seed, and unlike their untextured selves.
+// GPU with the same seed, and unlike their untextured selves; so does the DamagedHelmet, whose
+// emission map shapes what it emits, with its point lights and lit by its own glow alone.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -67,6 +68,29 @@ TEST(GpuTextures, TexturedModelsRenderAlikeOnBothBackends) {
                 change);
     EXPECT_LT(rmse, 0.02);
     EXPECT_GT(change, 0.1);
+  }
+}
+
+TEST(GpuTextures, AnEmissionMapShapesTheHelmetAlikeOnBothBackends) {
+  if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
+  absl::StatusOr<Scene> scene =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "damaged-helmet" / "scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  scene->camera.width = scene->camera.height = 128;
+  scene->settings.photons_per_pass = 200000;
+  scene->settings.seed = 5;
+  for (const bool lit : {true, false}) {
+    SCOPED_TRACE(lit ? "point lights and glow" : "glow alone");
+    Scene s = *scene;
+    if (!lit) s.lights.clear();
+    const std::vector<float> cpu = render_on(DeviceKind::kCpu, s, 4);
+    const std::vector<float> gpu = render_on(DeviceKind::kCuda, s, 4);
+    ASSERT_FALSE(cpu.empty());
+    ASSERT_EQ(cpu.size(), gpu.size());
+    const double rmse = relative_rmse(cpu, gpu);
+    std::printf("DamagedHelmet (%s): relative RMSE GPU vs CPU %.5f\n", lit ? "lit" : "glow alone",
+                rmse);
+    EXPECT_LT(rmse, 0.02);
   }
 }
 

@@ -54,6 +54,38 @@ struct PlaneUnderPointLight {
                                         light.z, intensity, intensity, intensity));
   }
 
+  // The scene with texture coordinates from the square's corners, u along x and v down y
+  // (glTF's).
+  Scene scene_with_uvs(const std::string& settings) const {
+    Scene s = scene(settings);
+    Mesh& mesh = s.meshes.at(0);
+    mesh.uvs.clear();
+    for (const Vec3f& p : mesh.positions)
+      mesh.uvs.push_back({0.5f * (p.x + 1.0f), 0.5f * (1.0f - p.y)});
+    return s;
+  }
+
+  // Calls visit(pixel, x, y, u) for every third pixel of `scene`'s camera whose centre's ray meets
+  // the square away from its edges, u the texture coordinate there; returns how many.
+  template <typename Visit>
+  static int visit_square_pixels(const Scene& scene, Visit visit) {
+    const PinholeCamera camera = PinholeCamera::from(scene.camera);
+    int visited = 0;
+    for (int y = 0; y < scene.camera.height; y += 3) {
+      for (int x = 0; x < scene.camera.width; x += 3) {
+        const size_t pixel = size_t(y) * scene.camera.width + x;
+        const Ray ray = camera.pixel_ray(pixel, 0.5f, 0.5f);
+        const float t = -ray.origin.z / ray.direction.z;
+        const float px = ray.origin.x + t * ray.direction.x;
+        const float py = ray.origin.y + t * ray.direction.y;
+        if (std::fabs(px) > 0.95f || std::fabs(py) > 0.95f) continue;
+        visit(pixel, x, y, 0.5f * (px + 1.0f));
+        ++visited;
+      }
+    }
+    return visited;
+  }
+
   // The scene with `settings` rendered for `passes`, and worst_error over its image; `report`, when
   // given, gets the render's report.
   double rendered_worst_error(const std::string& settings, uint32_t passes, int step, int& checked,

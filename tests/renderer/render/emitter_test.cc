@@ -108,12 +108,48 @@ TEST(Emitters, RefusalsNameTheEmitterAndChangeNothing) {
   auto diffuse = engine->set_lights(
       {}, {{"light", Vec3f(1, 1, 1), std::nullopt}, {"white", Vec3f(1, 1, 1), std::nullopt}});
   EXPECT_THAT(std::string(diffuse.status().message()),
-              testing::HasSubstr("emitters[1].material: 'white' is diffuse, not emissive"));
+              testing::HasSubstr("emitters[1].material: 'white' is diffuse and emits nothing"));
   auto negative = engine->set_lights({}, {{"light", Vec3f(1, -1, 1), std::nullopt}});
   EXPECT_THAT(std::string(negative.status().message()), testing::HasSubstr("emitters[0].radiance"));
   EXPECT_EQ(engine->epochs().lights, epoch);
   EXPECT_EQ(material_named(*engine, "light").radiance, Vec3f(17, 12, 4));
   EXPECT_FALSE(material_named(*engine, "light").off);
+}
+
+// A diffuse wall given an emission is a light that still reflects: the box lit by its lamp and the
+// glowing back wall is the box lit by the lamp plus, over every pixel, the image of the glowing
+// wall alone; its emission changes and switches off as the lamp's, and a black radiance, which
+// would leave it no light, is refused.
+TEST(Emitters, ADiffuseSurfaceMayEmitAndStillReflect) {
+  Scene lamp_only = small_cornell_box();
+  lamp_only.settings.integrator = Integrator::kPath;
+  Scene both = lamp_only;
+  const std::string wall = "white";
+  for (Material& m : both.materials)
+    if (m.name == wall) m.radiance = Vec3f(0.5f, 0.4f, 0.3f);
+  auto engine = engine_with(both);
+  const std::vector<float> lit = render_image(*engine, 4);
+  double total = 0, lamp_total = 0;
+  const std::vector<float> lamp = render_image(*engine_with(lamp_only), 4);
+  for (size_t i = 0; i < lit.size(); ++i) {
+    if (i % 4 == 3) continue;
+    total += lit[i];
+    lamp_total += lamp[i];
+  }
+  // The white walls' glow reaches most pixels, directly or reflected.
+  EXPECT_GT(total, 1.1 * lamp_total);
+  // Off, the wall is a light of no power: the lamp's image, up to the rounding of the longer
+  // table the lights are chosen from.
+  ASSERT_TRUE(engine->set_lights({}, {{wall, std::nullopt, true}}).ok());
+  const std::vector<float> off = render_image(*engine, 4);
+  ASSERT_EQ(off.size(), lamp.size());
+  for (size_t i = 0; i < off.size(); ++i)
+    EXPECT_NEAR(off[i], lamp[i], 1e-4 * std::abs(lamp[i]) + 1e-6) << "value " << i;
+  auto black = engine->set_lights({}, {{wall, Vec3f(0, 0, 0), std::nullopt}});
+  EXPECT_EQ(black.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(black.status().message()),
+              testing::HasSubstr("emitters[0].radiance: (0, 0, 0) would make diffuse material "
+                                 "'white' no light; turn it off instead"));
 }
 
 }  // namespace

@@ -18,14 +18,10 @@
 namespace caustica {
 namespace {
 
-// The square with texture coordinates from its corners, u along x and v down y (glTF's), and,
-// with `mapped`, a colour map of two texels (sRGB red, then green) clamped at the edges.
+// The square with texture coordinates and, with `mapped`, a colour map of two texels (sRGB red,
+// then green) clamped at the edges.
 Scene square(const std::string& settings, bool mapped) {
-  Scene scene = PlaneUnderPointLight{}.scene(settings);
-  Mesh& mesh = scene.meshes.at(0);
-  mesh.uvs.clear();
-  for (const Vec3f& p : mesh.positions)
-    mesh.uvs.push_back({0.5f * (p.x + 1.0f), 0.5f * (1.0f - p.y)});
+  Scene scene = PlaneUnderPointLight{}.scene_with_uvs(settings);
   if (mapped) {
     auto image = std::make_shared<DecodedImage>();
     image->width = 2;
@@ -51,29 +47,21 @@ void expect_map_where_its_coordinates_say(const std::string& settings) {
   const Scene plain = square(settings, false), mapped = square(settings, true);
   const std::vector<float> a = render(plain), b = render(mapped);
   ASSERT_EQ(a.size(), b.size());
-  const PinholeCamera camera = PinholeCamera::from(plain.camera);
-  int checked = 0, red = 0, green = 0;
-  for (int y = 0; y < plain.camera.height; y += 3) {
-    for (int x = 0; x < plain.camera.width; x += 3) {
-      const size_t pixel = size_t(y) * plain.camera.width + x;
-      const Ray ray = camera.pixel_ray(pixel, 0.5f, 0.5f);
-      const float t = -ray.origin.z / ray.direction.z;
-      const float px = ray.origin.x + t * ray.direction.x, py = ray.origin.y + t * ray.direction.y;
-      if (std::fabs(px) > 0.95f || std::fabs(py) > 0.95f) continue;  // off or at the square's edge
-      const float u = 0.5f * (px + 1.0f);
-      // Texel centres at u = 1/4 (red) and 3/4 (green); the ray's jitter moves u by half a pixel.
-      const float share = std::clamp((u - 0.25f) / 0.5f, 0.0f, 1.0f);
-      const float* p = &a[4 * pixel];
-      const float* q = &b[4 * pixel];
-      ASSERT_GT(p[0], 0.0f);
-      EXPECT_NEAR(q[0] / p[0], 1.0f - share, 0.02f) << x << "," << y;
-      EXPECT_NEAR(q[1] / p[1], share, 0.02f) << x << "," << y;
-      EXPECT_EQ(q[2], 0.0f) << x << "," << y;
-      ++checked;
-      red += share == 0.0f;
-      green += share == 1.0f;
-    }
-  }
+  int red = 0, green = 0;
+  const int checked =
+      PlaneUnderPointLight::visit_square_pixels(plain, [&](size_t pixel, int x, int y, float u) {
+        // Texel centres at u = 1/4 (red) and 3/4 (green); the ray's jitter moves u by half a
+        // pixel.
+        const float share = std::clamp((u - 0.25f) / 0.5f, 0.0f, 1.0f);
+        const float* p = &a[4 * pixel];
+        const float* q = &b[4 * pixel];
+        ASSERT_GT(p[0], 0.0f);
+        EXPECT_NEAR(q[0] / p[0], 1.0f - share, 0.02f) << x << "," << y;
+        EXPECT_NEAR(q[1] / p[1], share, 0.02f) << x << "," << y;
+        EXPECT_EQ(q[2], 0.0f) << x << "," << y;
+        red += share == 0.0f;
+        green += share == 1.0f;
+      });
   EXPECT_GT(checked, 400);
   EXPECT_GT(red, 100);
   EXPECT_GT(green, 100);
@@ -94,11 +82,7 @@ TEST(TextureRender, CameraRayConesReadTheLevelOfTheirFootprint) {
   auto checkerboard = [](const std::string& settings) {
     PlaneUnderPointLight plane;
     plane.size = 16;
-    Scene scene = plane.scene(settings);
-    Mesh& mesh = scene.meshes.at(0);
-    mesh.uvs.clear();
-    for (const Vec3f& p : mesh.positions)
-      mesh.uvs.push_back({0.5f * (p.x + 1.0f), 0.5f * (1.0f - p.y)});
+    Scene scene = plane.scene_with_uvs(settings);
     auto image = std::make_shared<DecodedImage>();
     image->width = image->height = 256;
     for (uint32_t y = 0; y < 256; ++y) {

@@ -82,8 +82,12 @@ TEST_P(LoadGltfTest, MapsPbrMaterials) {
   EXPECT_THAT(file_.materials[1].color, Vec3Near(Vec3f(0.9f, 0.8f, 0.7f), 1e-6f));
   EXPECT_EQ(file_.materials[2].type, MaterialType::kDielectric);
   EXPECT_FLOAT_EQ(file_.materials[2].ior, 1.33f);
-  EXPECT_EQ(file_.materials[3].type, MaterialType::kEmissive);
+  // The lamp's emission comes on top of its (default white) base colour.
+  EXPECT_EQ(file_.materials[3].type, MaterialType::kDiffuse);
+  EXPECT_THAT(file_.materials[3].color, Vec3Near(Vec3f(1, 1, 1), 0));
   EXPECT_THAT(file_.materials[3].radiance, Vec3Near(Vec3f(4, 2, 1), 0));
+  EXPECT_TRUE(is_emitter(file_.materials[3]));
+  EXPECT_FALSE(is_emitter(file_.materials[0]));
   EXPECT_EQ(mesh_named(file_, "'Quad'")->material_ids, (std::vector<uint32_t>{0, 0}));
   EXPECT_EQ(mesh_named(file_, "'Tri' primitive 2")->material_ids, (std::vector<uint32_t>{3}));
 }

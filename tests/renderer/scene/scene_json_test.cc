@@ -222,5 +222,36 @@ TEST(ParseScene, ResolvesMeshPathsAgainstBaseDir) {
   EXPECT_EQ(scene->triangle_count(), 3u);
 }
 
+// Any kind of material may also emit; its radiance is checked as an emissive material's.
+TEST(ParseScene, ADiffuseMaterialMayEmit) {
+  auto scene_with = [](const std::string& material) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"glow": )" +
+                           material + R"(},
+      "shapes": [{"type": "quad", "material": "glow",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       scene_data("good"), "inline.json");
+  };
+  const absl::StatusOr<Scene> glowing =
+      scene_with(R"({"type": "diffuse", "albedo": [0.5, 0.5, 0.5], "radiance": [2, 1, 0]})");
+  ASSERT_TRUE(glowing.ok()) << glowing.status();
+  const Material& m = glowing->materials.at(0);
+  EXPECT_EQ(m.type, MaterialType::kDiffuse);
+  EXPECT_THAT(m.radiance, Vec3Near(Vec3f(2, 1, 0), 0));
+  EXPECT_TRUE(is_emitter(m));
+  EXPECT_THAT(emitted_radiance(m), Vec3Near(Vec3f(2, 1, 0), 0));
+  // Without it, the scene has no light at all.
+  const absl::StatusOr<Scene> dark =
+      scene_with(R"({"type": "diffuse", "albedo": [0.5, 0.5, 0.5]})");
+  ASSERT_FALSE(dark.ok());
+  EXPECT_THAT(message_of(dark.status()), HasSubstr("no light"));
+  const absl::StatusOr<Scene> negative =
+      scene_with(R"({"type": "mirror", "reflectance": [1, 1, 1], "radiance": [1, -1, 1]})");
+  ASSERT_FALSE(negative.ok());
+  EXPECT_THAT(message_of(negative.status()), HasSubstr("materials.glow.radiance"));
+}
+
 }  // namespace
 }  // namespace caustica
