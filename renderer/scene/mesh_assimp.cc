@@ -9,6 +9,7 @@
 #include <cmath>
 #include <exception>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -17,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "renderer/scene/affine.h"
+#include "renderer/scene/mesh_scene.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/texture_files.h"
@@ -37,7 +39,14 @@ Affine to_affine(const aiMatrix4x4& m) {
   return a;
 }
 
+constexpr double kRadiansToDegrees = 180.0 / 3.14159265358979323846;
+// A camera's vertical angle below the first is taken for an importer's mistake and replaced by
+// the second (add_camera).
+constexpr double kMinCameraFovDeg = 1;
+constexpr double kAssumedCameraFovDeg = 40;
+
 Vec3f to_vec3(const aiColor3D& c) { return {c.r, c.g, c.b}; }
+Vec3f to_vec3(const aiVector3D& v) { return {v.x, v.y, v.z}; }
 
 Vec3f clamp01(Vec3f c) {
   return {std::clamp(c.x, 0.0f, 1.0f), std::clamp(c.y, 0.0f, 1.0f), std::clamp(c.z, 0.0f, 1.0f)};
@@ -106,7 +115,10 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
 class AssimpReader {
  public:
   AssimpReader(const aiScene& scene, const std::filesystem::path& path)
-      : scene_(scene), file_name_(path.filename().string()), textures_(path) {}
+      : scene_(scene),
+        file_name_(path.filename().string()),
+        is_3ds_(absl::AsciiStrToLower(path.extension().string()) == ".3ds"),
+        textures_(path) {}
 
   absl::StatusOr<MeshFile> read() {
     if (scene_.mRootNode == nullptr) return absl::InvalidArgumentError("the file has no nodes");
@@ -124,15 +136,155 @@ class AssimpReader {
       }
       return absl::InvalidArgumentError("has no triangle meshes");
     }
-    if (scene_.mNumCameras > 0 || scene_.mNumLights > 0) {
-      file_.warnings.push_back(absl::StrCat(file_name_, ": its ", scene_.mNumCameras,
-                                            " camera(s) and ", scene_.mNumLights,
-                                            " light(s) are ignored (only glTF's are read)"));
+    if (is_3ds_ && scene_.mNumCameras + scene_.mNumLights > 0) {
+      // Assimp 5.2.5 leaves a 3DS file's cameras and lights at its nodes' origins, which carry
+      // no translation: Sponza's camera and sun would both stand at (0, 0, 0) on its floor.
+      file_.warnings.push_back(absl::StrCat(
+          file_name_, ": its ", scene_.mNumCameras, " camera(s) and ", scene_.mNumLights,
+          " light(s) are ignored: Assimp reads no position for a 3DS file's cameras and lights"));
+    } else {
+      for (unsigned i = 0; i < scene_.mNumCameras; ++i) {
+        if (scene_.mCameras[i] != nullptr) add_camera(*scene_.mCameras[i], i);
+      }
+      for (unsigned i = 0; i < scene_.mNumLights; ++i) {
+        if (scene_.mLights[i] != nullptr) add_light(*scene_.mLights[i], i);
+      }
     }
     return std::move(file_);
   }
 
  private:
+  // Where a camera or light named `name` stands: the world transform of the node of that name
+  // (Assimp ties them to nodes by name), or none when no node has it.
+  Affine node_world(const aiString& name) const {
+    const auto it = node_worlds_.find(std::string(name.C_Str()));
+    return it == node_worlds_.end() ? Affine() : it->second;
+  }
+
+  // "model.dae: camera 0 'Camera'", for warnings.
+  std::string named(const char* what, unsigned index, const aiString& name) const {
+    return absl::StrCat(file_name_, ": ", what, " ", index, name.length > 0 ? " '" : "",
+                        name.C_Str(), name.length > 0 ? "'" : "");
+  }
+
+  // A camera as glTF's are read: its node's transform applied to its position, view direction and
+  // up; the horizontal angle and aspect turned into a vertical angle and an image width. Assimp's
+  // documentation calls mHorizontalFOV half the angle, but its COLLADA, 3DS and FBX importers store
+  // the whole one, and so it is read.
+  void add_camera(const aiCamera& source, unsigned index) {
+    const std::string where = named("camera", index, source.mName);
+    if (source.mOrthographicWidth > 0) {
+      file_.warnings.push_back(absl::StrCat(where,
+                                            " is orthographic; only perspective cameras "
+                                            "are used"));
+      return;
+    }
+    const Affine to_world = node_world(source.mName);
+    const Vec3f position = to_world.apply_to_point(to_vec3(source.mPosition));
+    const Vec3f forward = to_world.apply_to_vector(to_vec3(source.mLookAt));
+    Vec3f up = to_world.apply_to_vector(to_vec3(source.mUp));
+    // Assimp's 3DS importer gives the up vector along the look-at vector; the scene's up then.
+    if (!(length_squared(cross(forward, up)) >
+          1e-12f * length_squared(forward) * length_squared(up))) {
+      up = std::fabs(normalize(forward).y) < 0.99f ? Vec3f(0, 1, 0) : Vec3f(0, 0, 1);
+    }
+    const double aspect = source.mAspect > 0 ? source.mAspect : 1.0;
+    double vertical =
+        2 * std::atan(std::tan(0.5 * source.mHorizontalFOV) / aspect) * kRadiansToDegrees;
+    // Assimp 5.2.5 gives a COLLADA camera with only a yfov its default angle turned to radians
+    // twice (0.79 degrees): no camera anyone renders through.
+    if (vertical > 0 && vertical < kMinCameraFovDeg) {
+      file_.warnings.push_back(absl::StrCat(where, ": Assimp reports a field of view of ", vertical,
+                                            " degrees; ", kAssumedCameraFovDeg,
+                                            " degrees instead"));
+      vertical = kAssumedCameraFovDeg;
+    }
+    if (!is_finite(position) || !(length_squared(forward) > 0) ||
+        !(length_squared(cross(forward, up)) > 0) || !(vertical > 0 && vertical < 180)) {
+      file_.warnings.push_back(absl::StrCat(where,
+                                            " has a field of view outside (0, 180) degrees or a "
+                                            "degenerate direction; skipped"));
+      return;
+    }
+    Camera camera;
+    camera.position = position;
+    camera.look_at = position + normalize(forward);
+    camera.up = normalize(up);
+    camera.vertical_fov_deg = static_cast<float>(vertical);
+    if (source.mAspect > 0 && source.mAspect <= kMaxImageSide) {
+      camera.width =
+          static_cast<int>(std::clamp(std::lround(camera.height * double(source.mAspect)), 1L,
+                                      static_cast<long>(kMaxImageSide)));
+    }
+    file_.cameras.push_back(camera);
+  }
+
+  // A point, spot or directional light. Assimp folds the light's strength into its diffuse colour
+  // and keeps the file's attenuation 1 / (c + l d + q d^2), which a physical light has as
+  // 1 / d^2 alone: the intensity is the colour times d^2 times the attenuation at d, the distance
+  // from the light to the model's centre, so that the model is lit there as the file says (and
+  // exactly the colour over q for a purely quadratic falloff).
+  void add_light(const aiLight& source, unsigned index) {
+    const std::string where = named("light", index, source.mName);
+    Light light;
+    light.name =
+        source.mName.length > 0 ? std::string(source.mName.C_Str()) : absl::StrCat("light ", index);
+    switch (source.mType) {
+      case aiLightSource_POINT:
+        light.type = LightType::kPoint;
+        break;
+      case aiLightSource_SPOT:
+        light.type = LightType::kSpot;
+        break;
+      case aiLightSource_DIRECTIONAL:
+        light.type = LightType::kDirectional;
+        break;
+      default:
+        file_.warnings.push_back(absl::StrCat(where,
+                                              " is an ambient or area light, which has no "
+                                              "counterpart; skipped"));
+        return;
+    }
+    const Affine to_world = node_world(source.mName);
+    light.position = to_world.apply_to_point(to_vec3(source.mPosition));
+    const Vec3f direction = to_world.apply_to_vector(to_vec3(source.mDirection));
+    if (light.type != LightType::kPoint) {
+      if (!(length_squared(direction) > 0)) {
+        file_.warnings.push_back(absl::StrCat(where, " has no direction; skipped"));
+        return;
+      }
+      light.direction = normalize(direction);
+    }
+    const Vec3f color = to_vec3(source.mColorDiffuse);
+    if (!is_finite(color) || !is_finite(light.position)) {
+      file_.warnings.push_back(absl::StrCat(where,
+                                            " has a colour or position that is not finite; "
+                                            "skipped"));
+      return;
+    }
+    light.intensity =
+        Vec3f(std::max(color.x, 0.0f), std::max(color.y, 0.0f), std::max(color.z, 0.0f));
+    if (light.type == LightType::kSpot) {
+      // Assimp gives the cones' full angles.
+      light.outer_angle_deg =
+          std::clamp(float(0.5 * source.mAngleOuterCone * kRadiansToDegrees), 0.01f, 90.0f);
+      light.inner_angle_deg = std::clamp(float(0.5 * source.mAngleInnerCone * kRadiansToDegrees),
+                                         0.0f, light.outer_angle_deg);
+    }
+    if (light.type != LightType::kDirectional) {
+      const Bounds bounds = mesh_bounds(file_.meshes);
+      const float radius = bounds.empty() ? 1.0f : 0.5f * length(bounds.size());
+      const float d = std::max(bounds.empty() ? radius : length(bounds.center() - light.position),
+                               1e-3f * radius);
+      float c = source.mAttenuationConstant, l = source.mAttenuationLinear,
+            q = source.mAttenuationQuadratic;
+      if (!(c >= 0 && l >= 0 && q >= 0) || !(c + l + q > 0)) c = 1, l = 0, q = 0;
+      const float falloff = c + l * d + q * d * d;
+      light.intensity = light.intensity * (d * d / falloff);
+    }
+    file_.lights.push_back(light);
+  }
+
   // Iterative, so that a deep hierarchy cannot overflow the stack.
   absl::Status visit_tree() {
     std::vector<std::pair<const aiNode*, Affine>> pending = {{scene_.mRootNode, Affine()}};
@@ -140,6 +292,7 @@ class AssimpReader {
       const auto [node, parent] = pending.back();
       pending.pop_back();
       const Affine world = parent * to_affine(node->mTransformation);
+      node_worlds_.emplace(std::string(node->mName.C_Str()), world);
       for (unsigned i = 0; i < node->mNumMeshes; ++i) {
         SCENE_RETURN_IF_ERROR(add_mesh(*node, node->mMeshes[i], world));
       }
@@ -289,9 +442,11 @@ class AssimpReader {
 
   const aiScene& scene_;
   std::string file_name_;
+  bool is_3ds_;
   TextureTable textures_;
   size_t skipped_meshes_ = 0;
   size_t total_triangles_ = 0;
+  std::unordered_map<std::string, Affine> node_worlds_;  // the first node of each name
   MeshFile file_;
 };
 

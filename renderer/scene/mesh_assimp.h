@@ -2,8 +2,8 @@
 // read through the Open Asset Import Library (Assimp). Polygons are triangulated and identical
 // vertices joined; every mesh reachable from the root node becomes one Mesh per node that uses it,
 // with the node hierarchy's transforms applied. Point and line meshes are skipped with a warning.
-// Materials keep what our model can express (docs/scene-format.md, "Assimp formats"); cameras,
-// lights, textures, skins and animations are ignored.
+// Materials keep what our model can express (docs/scene-format.md, "Assimp formats"), cameras and
+// point, spot and directional lights are read as glTF's are; skins and animations are ignored.
 #pragma once
 
 #include <filesystem>

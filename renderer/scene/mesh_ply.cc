@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
@@ -55,6 +56,7 @@ struct PlyHeader {
   std::vector<PlyElement> elements;
   size_t body_offset = 0;      // first byte after the end_header line
   size_t body_first_line = 0;  // line number of that byte, for ascii errors
+  std::vector<std::string> warnings;  // header lines skipped
 };
 
 std::optional<PlyType> parse_type(absl::string_view name) {
@@ -140,7 +142,11 @@ class HeaderParser {
       } else if (keyword == "property") {
         SCENE_RETURN_IF_ERROR(parse_property(words));
       } else {
-        return error(absl::StrCat("unknown header keyword '", keyword, "'"));
+        // A line of free text where a comment belongs (Blender's "Created by Blender3D ..."):
+        // MeshLab and Assimp skip it too.
+        header_.warnings.push_back(absl::StrCat(
+            name_, ":", line_number_, ": header line '", absl::StripAsciiWhitespace(line),
+            "' starts with no PLY keyword; skipped as a comment"));
       }
     }
     if (!has_format) return error("header has no format line");
@@ -673,8 +679,11 @@ class BodyParser {
 
 }  // namespace
 
-absl::StatusOr<Mesh> parse_ply(absl::string_view bytes, absl::string_view name) {
+absl::StatusOr<Mesh> parse_ply(absl::string_view bytes, absl::string_view name,
+                               std::vector<std::string>* warnings) {
   SCENE_ASSIGN_OR_RETURN(const PlyHeader header, HeaderParser(bytes, name).parse());
+  if (warnings != nullptr)
+    warnings->insert(warnings->end(), header.warnings.begin(), header.warnings.end());
   Mesh mesh;
   mesh.name = std::string(name);
   if (header.format == PlyFormat::kAscii) {
@@ -688,9 +697,10 @@ absl::StatusOr<Mesh> parse_ply(absl::string_view bytes, absl::string_view name) 
   return mesh;
 }
 
-absl::StatusOr<Mesh> load_ply(const std::filesystem::path& path) {
+absl::StatusOr<Mesh> load_ply(const std::filesystem::path& path,
+                              std::vector<std::string>* warnings) {
   SCENE_ASSIGN_OR_RETURN(const std::string bytes, read_file(path));
-  SCENE_ASSIGN_OR_RETURN(Mesh mesh, parse_ply(bytes, path.string()));
+  SCENE_ASSIGN_OR_RETURN(Mesh mesh, parse_ply(bytes, path.string(), warnings));
   mesh.name = path.filename().string();
   return mesh;
 }

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -13,11 +15,14 @@
 
 namespace caustica {
 
-// Every triangle's material id is kNoMaterial: PLY carries no materials.
-absl::StatusOr<Mesh> load_ply(const std::filesystem::path& path);
+// Every triangle's material id is kNoMaterial: PLY carries no materials. Header lines that start
+// with no PLY keyword are skipped as comments, each with a sentence added to `warnings`.
+absl::StatusOr<Mesh> load_ply(const std::filesystem::path& path,
+                              std::vector<std::string>* warnings = nullptr);
 
 // The same from bytes already in memory (uncompressed); `name` names them in errors, which give
 // the line for ascii data and the byte offset for binary data.
-absl::StatusOr<Mesh> parse_ply(absl::string_view bytes, absl::string_view name);
+absl::StatusOr<Mesh> parse_ply(absl::string_view bytes, absl::string_view name,
+                               std::vector<std::string>* warnings = nullptr);
 
 }  // namespace caustica

@@ -37,7 +37,66 @@ bool is_z_up_format(const std::filesystem::path& path) {
 // white diffuse surface facing it to a radiance of about 0.6, a well exposed mid-tone.
 constexpr float kTargetIrradiance = 2;
 
+// Rays from a bare model's centre, spread evenly over the sphere, that decide whether it is an
+// interior (enclosure_of).
+constexpr int kEnclosureRays = 32;
+// An interior is seen through a wider lens than an object is framed with.
+constexpr float kInteriorFovDeg = 60;
+
+// The distance along `direction` from `origin` to triangle (a, b, c), and whether the ray meets
+// its front face (the side (b - a) x (c - a) points to); t < 0 for a miss (Moller-Trumbore).
+struct RayHit {
+  double t = -1;
+  bool front = false;
+};
+RayHit intersect(Vec3f origin, Vec3f direction, Vec3f a, Vec3f b, Vec3f c) {
+  const Vec3f e1 = b - a, e2 = c - a;
+  const Vec3f p = cross(direction, e2);
+  const double det = dot(e1, p);
+  if (std::fabs(det) < 1e-20) return {};
+  const Vec3f s = origin - a;
+  const double u = dot(s, p) / det;
+  if (u < 0 || u > 1) return {};
+  const Vec3f q = cross(s, e1);
+  const double v = dot(direction, q) / det;
+  if (v < 0 || u + v > 1) return {};
+  const double t = dot(e2, q) / det;
+  if (t <= 0) return {};
+  return {t, dot(direction, cross(e1, e2)) < 0};
+}
+
 }  // namespace
+
+Enclosure enclosure_of(const std::vector<Mesh>& meshes, Vec3f center) {
+  Enclosure out;
+  int hits = 0, front = 0;
+  double distance = 0;
+  for (int i = 0; i < kEnclosureRays; ++i) {
+    // A Fibonacci sphere: even coverage without a preferred axis.
+    const double z = 1 - (2 * i + 1) / double(kEnclosureRays);
+    const double r = std::sqrt(std::max(0.0, 1 - z * z));
+    const double phi = i * 2.399963229728653;  // the golden angle
+    const Vec3f d(float(r * std::cos(phi)), float(z), float(r * std::sin(phi)));
+    RayHit nearest;
+    for (const Mesh& mesh : meshes) {
+      for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+        const uint32_t* idx = &mesh.indices[3 * t];
+        const RayHit hit = intersect(center, d, mesh.positions[idx[0]], mesh.positions[idx[1]],
+                                     mesh.positions[idx[2]]);
+        if (hit.t > 0 && (nearest.t < 0 || hit.t < nearest.t)) nearest = hit;
+      }
+    }
+    if (nearest.t < 0) continue;
+    ++hits;
+    front += nearest.front;
+    distance += nearest.t;
+    const float rise = float(nearest.t * d.y);
+    if (d.y > 0.9f && (out.above < 0 || rise < out.above)) out.above = rise;
+  }
+  out.encloses = 2 * hits > kEnclosureRays && 2 * front > hits;
+  out.mean_distance = hits > 0 ? float(distance / hits) : 0;
+  return out;
+}
 
 Bounds mesh_bounds(const std::vector<Mesh>& meshes) {
   Bounds bounds;
@@ -85,6 +144,11 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
     const Affine turn = rotation_x_deg(-90);
     for (Mesh& mesh : file.meshes) transform_mesh(turn, &mesh);
     for (Light& light : file.lights) transform_light(turn, &light);
+    for (Camera& camera : file.cameras) {
+      camera.position = turn.apply_to_point(camera.position);
+      camera.look_at = turn.apply_to_point(camera.look_at);
+      camera.up = turn.apply_to_vector(camera.up);
+    }
   }
   Scene scene;
   scene.materials = std::move(file.materials);
@@ -124,11 +188,14 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
         absl::StrCat(source, ": the model's bounds are too large to frame in single precision"));
   }
   const Vec3f center = bounds.center();
+  // A building or a room without a camera of its own is seen from inside, lit from inside.
+  const Enclosure enclosure =
+      file.cameras.empty() ? enclosure_of(file.meshes, center) : Enclosure{};
 
   scene.meshes = std::move(file.meshes);
   // The floor sits a hair under the model, so that a model standing on its lowest point does not
   // share that plane with the floor.
-  {
+  if (!enclosure.encloses) {
     Material floor_material;
     floor_material.name = "floor";
     floor_material.color = {0.6f, 0.6f, 0.6f};
@@ -150,12 +217,35 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
       warnings->push_back(
           absl::StrCat(source, ": ", file.cameras.size(), " cameras; rendering through the first"));
     }
+  } else if (enclosure.encloses) {
+    // From the centre along the longer horizontal axis.
+    const Vec3f size = bounds.size();
+    scene.camera.position = center;
+    scene.camera.look_at = center + (size.x >= size.z ? Vec3f(1, 0, 0) : Vec3f(0, 0, 1));
+    scene.camera.up = {0, 1, 0};
+    scene.camera.vertical_fov_deg = kInteriorFovDeg;
+    if (warnings != nullptr) {
+      warnings->push_back(absl::StrCat(
+          source, ": the model encloses its centre; seen from there, with a light above it"));
+    }
   } else {
     scene.camera = frame_bounds(bounds, Camera{});
   }
 
   scene.lights = std::move(file.lights);
-  if (scene.lights.empty() && !emits) {
+  if (scene.lights.empty() && !emits && enclosure.encloses) {
+    // Halfway from the camera to what is above it, as bright at the walls' mean distance as the
+    // light of a model is at the model.
+    Light light;
+    light.name = "default light";
+    light.type = LightType::kPoint;
+    const float half_height = 0.5f * bounds.size().y;
+    const float rise = enclosure.above > 0 ? 0.5f * enclosure.above : 0.5f * half_height;
+    light.position = center + Vec3f(0, rise, 0);
+    const float distance = std::max(enclosure.mean_distance, 1e-3f * radius);
+    light.intensity = Vec3f(kTargetIrradiance * distance * distance);
+    scene.lights.push_back(light);
+  } else if (scene.lights.empty() && !emits) {
     // Above the model, a little to the left and in front, so that its shadow falls behind it
     // onto the visible floor; three bounding radii away from the centre.
     Light light;

@@ -1,7 +1,8 @@
 // A whole scene around one bare model file (.obj, .ply, .gltf, .glb or an Assimp format), for
 // rendering a model without writing a scene JSON: the file's meshes, a camera that frames them, a
-// floor under them and a light above them, unless the file brings its own camera and lights
-// (glTF). load_scene dispatches here by extension; docs/scene-format.md, "Bare mesh files".
+// floor under them and a light above them, unless the file brings its own camera and lights; an
+// interior is seen and lit from inside. load_scene dispatches here by extension;
+// docs/scene-format.md, "Bare mesh files".
 #pragma once
 
 #include <filesystem>
@@ -24,6 +25,18 @@ struct Bounds {
   Vec3f size() const { return hi - lo; }
 };
 Bounds mesh_bounds(const std::vector<Mesh>& meshes);
+
+// Whether the meshes enclose `center` as a building or a room does: of 32 rays from it spread
+// evenly over the sphere, more than half meet a triangle, and more than half of those meet its
+// front face (a room's walls face in; a closed solid's inside faces away). Brute force over every
+// triangle. `mean_distance` of the rays that hit; `above`, how far above the centre the lowest
+// hit of a ray within 25 degrees of straight up lies, or < 0 for none.
+struct Enclosure {
+  bool encloses = false;
+  float mean_distance = 0;
+  float above = -1;
+};
+Enclosure enclosure_of(const std::vector<Mesh>& meshes, Vec3f center);
 
 // A camera of `image`'s resolution (its other fields are replaced) that looks at the bounds from
 // the front (+z) and above (+y), far enough that the bounding sphere, and so every corner of the

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/mesh_ply.h"
@@ -66,10 +67,19 @@ TEST(PlyHeaderLines, PaddedMagicLine) {
   EXPECT_EQ(mesh->triangle_count(), 1u);
 }
 
-TEST(PlyHeaderLines, UnknownKeywordIsANamedError) {
-  const absl::Status status = parse_ply(triangle_ply("colour red\n"), "t.ply").status();
-  ASSERT_FALSE(status.ok());
-  EXPECT_THAT(message_of(status), HasSubstr("t.ply:3: unknown header keyword 'colour'"));
+// Blender's exporter once wrote a line of free text into the header (Wuson.ply of Assimp's test
+// models: "Created by Blender3D 249 - www.blender.org, source file: ..."); MeshLab and Assimp skip
+// such lines, and so does the reader, saying so.
+TEST(PlyHeaderLines, AFreeTextLineIsSkippedWithAWarning) {
+  std::vector<std::string> warnings;
+  const absl::StatusOr<Mesh> mesh = parse_ply(
+      triangle_ply("Created by Blender3D 249 - www.blender.org, source file: 'wuson.blend'\n"),
+      "t.ply", &warnings);
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  EXPECT_EQ(mesh->indices, (std::vector<uint32_t>{0, 1, 2}));
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], HasSubstr("t.ply:3: header line 'Created by Blender3D 249"));
+  EXPECT_THAT(warnings[0], HasSubstr("skipped as a comment"));
 }
 
 TEST(PlyHeaderLines, AllSizedTypeAliasesAndListTypes) {

@@ -7,6 +7,8 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -130,9 +132,20 @@ INSTANTIATE_TEST_SUITE_P(Formats, BareMeshTest,
                          ::testing::Values("meshes/quad_tri_ascii.ply", "meshes/plain.obj",
                                            "meshes/strips_fans.gltf",
                                            "thirdparty/stl/Spider_binary.stl",
-                                           "thirdparty/collada/cube_tristrips.dae",
                                            "thirdparty/fbx/box.fbx", "thirdparty/off/Cube.off",
                                            "thirdparty/3mf/box.3mf"));
+
+// A COLLADA file's own camera and lights (read through Assimp) replace the framing and the
+// default light, as a glTF file's do.
+TEST(BareMesh, AFilesCameraAndLightsReplaceTheFramingAndTheDefaultLight) {
+  std::vector<std::string> warnings;
+  const absl::StatusOr<Scene> scene =
+      load_scene(scene_data("thirdparty/collada/cube_tristrips.dae"), &warnings);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_THAT(scene->camera.position, Vec3Near(Vec3f(-427.749f, 333.855f, 655.017f), 1e-2f));
+  EXPECT_EQ(scene->lights.size(), 2u);
+  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("2 cameras; rendering through the first")));
+}
 
 TEST(BareMesh, EmissiveMaterialsReplaceTheDefaultLight) {
   // box.mtl's "lamp" has Ke: the model lights itself, so no point light is added.
@@ -218,6 +231,52 @@ TEST(BareMesh, ModelWithoutExtentIsANamedError) {
   file.meshes.push_back(mesh);
   const absl::Status status = scene_around_mesh_file(file, "dot.ply", false, nullptr).status();
   EXPECT_THAT(message_of(status), HasSubstr("dot.ply: the model has no extent"));
+}
+
+// A 10 x 4 x 6 box as an OBJ file, its faces turned in (a room) or out (a solid block).
+std::filesystem::path write_box(const std::string& name, bool inward) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / "caustica_interior_test";
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path path = dir / name;
+  std::ofstream out(path);
+  for (const char* v : {"0 0 0", "10 0 0", "10 4 0", "0 4 0", "0 0 6", "10 0 6", "10 4 6", "0 4 6"})
+    out << "v " << v << "\n";
+  // Counter-clockwise seen from outside.
+  const std::array<std::array<int, 4>, 6> faces = {
+      {{1, 4, 3, 2}, {5, 6, 7, 8}, {1, 2, 6, 5}, {4, 8, 7, 3}, {1, 5, 8, 4}, {2, 3, 7, 6}}};
+  for (const std::array<int, 4>& f : faces) {
+    if (inward) {
+      out << "f " << f[3] << " " << f[2] << " " << f[1] << " " << f[0] << "\n";
+    } else {
+      out << "f " << f[0] << " " << f[1] << " " << f[2] << " " << f[3] << "\n";
+    }
+  }
+  return path;
+}
+
+// docs/scene-format.md, "Bare mesh files": a room is seen from its centre along its longer
+// horizontal side and lit from above the camera, with no floor outside it; a solid block of the
+// same shape, whose inside faces away, is framed from outside as any model.
+TEST(BareMesh, AnInteriorIsSeenAndLitFromInside) {
+  std::vector<std::string> warnings;
+  const absl::StatusOr<Scene> room = load_mesh_scene(write_box("room.obj", true), &warnings);
+  ASSERT_TRUE(room.ok()) << room.status();
+  EXPECT_THAT(room->camera.position, Vec3Near(Vec3f(5, 2, 3), 1e-5f));
+  EXPECT_THAT(room->camera.look_at - room->camera.position, Vec3Near(Vec3f(1, 0, 0), 1e-6f));
+  EXPECT_EQ(room->camera.vertical_fov_deg, 60.0f);
+  EXPECT_EQ(room->meshes.size(), 1u) << "no floor under a room";
+  ASSERT_EQ(room->lights.size(), 1u);
+  // Halfway to the ceiling, 2 above the centre.
+  EXPECT_THAT(room->lights[0].position, Vec3Near(Vec3f(5, 3, 3), 1e-4f));
+  EXPECT_GT(room->lights[0].intensity.x, 2 * 2 * 2);
+  EXPECT_THAT(warnings, ::testing::Contains(HasSubstr("encloses its centre")));
+
+  const absl::StatusOr<Scene> block = load_mesh_scene(write_box("block.obj", false));
+  ASSERT_TRUE(block.ok()) << block.status();
+  EXPECT_GT(length(block->camera.position - Vec3f(5, 2, 3)), 10.0f);
+  EXPECT_EQ(block->meshes.size(), 2u) << "the block stands on a floor";
+  std::filesystem::remove_all(std::filesystem::temp_directory_path() / "caustica_interior_test");
 }
 
 }  // namespace

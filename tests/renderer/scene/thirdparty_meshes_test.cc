@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -324,8 +325,37 @@ TEST(ThirdPartyAssimp, ColladaTriangleStripsAndMaterial) {
   ASSERT_LT(id, file->materials.size());
   EXPECT_EQ(file->materials[id].type, MaterialType::kDiffuse);
   EXPECT_THAT(file->materials[id].color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
-  // Its camera and lights are not read, and the user is told.
-  EXPECT_THAT(file->warnings, ::testing::Contains(HasSubstr("are ignored")));
+}
+
+// The same file's two cameras and two point lights, placed by their nodes. The file is Z_UP and
+// its nodes sit in a group turned 90 degrees about x, which Assimp's turn of Z_UP to Y_UP undoes:
+// each stands where its own matrix puts it. A COLLADA camera looks down its -z axis with y up.
+// Assimp loses the yfov of 37.85 degrees (it reports 0.79), which is replaced by 40 degrees with
+// a warning. A light of constant attenuation 1 keeps its colour as the irradiance at the model's
+// centre, so its intensity is the squared distance from there (the box is centred on the origin).
+TEST(ThirdPartyAssimp, ColladaCamerasAndLightsArePlacedByTheirNodes) {
+  const absl::StatusOr<MeshFile> file = load("collada/cube_tristrips.dae");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->cameras.size(), 2u);
+  for (const Camera& camera : file->cameras) {
+    EXPECT_THAT(camera.position, Vec3Near(Vec3f(-427.749f, 333.855f, 655.017f), 1e-2f));
+    EXPECT_THAT(camera.look_at - camera.position,
+                Vec3Near(Vec3f(0.504282f, -0.377766f, -0.776526f), 1e-4f));
+    EXPECT_THAT(camera.up, Vec3Near(Vec3f(0.205746f, 0.925901f, -0.316822f), 1e-4f));
+    EXPECT_EQ(camera.vertical_fov_deg, 40.0f);
+    EXPECT_EQ(camera.width, camera.height);
+  }
+  EXPECT_THAT(file->warnings, ::testing::Contains(HasSubstr("Assimp reports a field of view of")));
+  ASSERT_EQ(file->lights.size(), 2u);
+  std::map<std::string, Vec3f> where;
+  for (const Light& light : file->lights) {
+    EXPECT_EQ(light.type, LightType::kPoint) << light.name;
+    where[light.name] = light.position;
+    const float d2 = length_squared(light.position);
+    EXPECT_THAT(light.intensity, Vec3Near(Vec3f(d2), 1e-3f * d2)) << light.name;
+  }
+  EXPECT_THAT(where["Light"], Vec3Near(Vec3f(-500, 1000, 400), 1e-2f));
+  EXPECT_THAT(where["pointLight1"], Vec3Near(Vec3f(3, 4, 10), 1e-4f));
 }
 
 TEST(ThirdPartyAssimp, ColladaConcavePolygonIsTriangulated) {
