@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -13,6 +14,7 @@
 #include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/density_grid.h"
+#include "renderer/scene/file_io.h"
 #include "renderer/scene/json_fields.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
@@ -266,6 +268,60 @@ class SceneReader {
     return it->second;
   }
 
+  // A material's map: an image file beside the scene file, as a string or as
+  // {"file": ..., "wrap": "repeat" | "clamp" | "mirror"} (docs/scene-format.md, "Textures"). Each
+  // file becomes one texture of the scene however many maps name it.
+  absl::StatusOr<TextureRef> read_map(JsonObject& material, absl::string_view key) {
+    SCENE_ASSIGN_OR_RETURN(const Json* value, material.find(key, kOptional));
+    TextureRef ref;
+    if (value == nullptr) return ref;
+    const std::string path = material.field_path(key);
+    std::string file;
+    std::string wrap = "repeat";
+    if (value->is_string()) {
+      SCENE_ASSIGN_OR_RETURN(file, json_to_string(*value, path));
+    } else {
+      SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(*value, path));
+      SCENE_RETURN_IF_ERROR(object.read("file", kRequired, &file));
+      SCENE_RETURN_IF_ERROR(object.read("wrap", kOptional, &wrap));
+      SCENE_RETURN_IF_ERROR(object.finish());
+    }
+    if (wrap == "repeat") {
+      ref.wrap_u = ref.wrap_v = TextureWrap::kRepeat;
+    } else if (wrap == "clamp") {
+      ref.wrap_u = ref.wrap_v = TextureWrap::kClampToEdge;
+    } else if (wrap == "mirror") {
+      ref.wrap_u = ref.wrap_v = TextureWrap::kMirroredRepeat;
+    } else {
+      return invalid_field(
+          absl::StrCat(path, ".wrap"),
+          absl::StrCat("unknown wrap '", wrap, "' (expected repeat, clamp or mirror)"));
+    }
+    const std::filesystem::path resolved = (base_dir_ / file).lexically_normal();
+    if (const auto it = texture_files_.find(resolved.string()); it != texture_files_.end()) {
+      ref.texture = it->second;
+      return ref;
+    }
+    absl::StatusOr<std::string> bytes = read_file(resolved);
+    if (!bytes.ok()) return annotate(bytes.status(), path);
+    if (bytes->size() > kMaxTextureFileBytes) {
+      return absl::ResourceExhaustedError(absl::StrCat(path, ": ", file, " has ", bytes->size(),
+                                                       " bytes, more than the limit of ",
+                                                       kMaxTextureFileBytes));
+    }
+    if (scene_.textures.size() >= kMaxTextures) {
+      return absl::ResourceExhaustedError(
+          absl::StrCat(path, ": more than ", kMaxTextures, " textures in the scene"));
+    }
+    TextureImage texture;
+    texture.name = resolved.filename().string();
+    texture.encoded = std::make_shared<const std::string>(*std::move(bytes));
+    ref.texture = static_cast<uint32_t>(scene_.textures.size());
+    scene_.textures.push_back(std::move(texture));
+    texture_files_.emplace(resolved.string(), ref.texture);
+    return ref;
+  }
+
   absl::Status read_material(const std::string& name, const Json& value, std::string path) {
     SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
     Material material;
@@ -293,6 +349,8 @@ class SceneReader {
     // Any other kind may also emit from its front face, as a model file's emissive surfaces do.
     if (material.type != MaterialType::kEmissive)
       SCENE_RETURN_IF_ERROR(object.read("radiance", kOptional, &material.radiance));
+    SCENE_ASSIGN_OR_RETURN(material.color_map, read_map(object, "color_map"));
+    SCENE_ASSIGN_OR_RETURN(material.emission_map, read_map(object, "emission_map"));
     SCENE_RETURN_IF_ERROR(object.finish());
     material_ids_[name] = static_cast<uint32_t>(scene_.materials.size());
     scene_.materials.push_back(std::move(material));
@@ -561,6 +619,7 @@ class SceneReader {
   }
 
   std::filesystem::path base_dir_;
+  std::map<std::string, uint32_t> texture_files_;  // the scene file's own maps, by resolved path
   Scene scene_;
   std::map<std::string, uint32_t, std::less<>> material_ids_;
   std::map<std::string, uint32_t, std::less<>> medium_ids_;

@@ -253,5 +253,45 @@ TEST(ParseScene, ADiffuseMaterialMayEmit) {
   EXPECT_THAT(message_of(negative.status()), HasSubstr("materials.glow.radiance"));
 }
 
+// A scene file's own materials may name image files as maps; a file named twice is one texture,
+// and a missing one or an unknown wrap is refused naming the field.
+TEST(ParseScene, MaterialsNameImageFilesAsMaps) {
+  auto scene_with = [](const std::string& maps) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"logo": {"type": "diffuse", "albedo": [1, 1, 1], "radiance": [1, 1, 1], )" +
+                           maps + R"(}},
+      "shapes": [{"type": "quad", "material": "logo",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
+  };
+  const absl::StatusOr<Scene> scene = scene_with(
+      R"("color_map": "CesiumLogoFlat.png",
+         "emission_map": {"file": "./CesiumLogoFlat.png", "wrap": "clamp"})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  ASSERT_EQ(scene->textures.size(), 1u);
+  EXPECT_EQ(scene->textures[0].name, "CesiumLogoFlat.png");
+  ASSERT_NE(scene->textures[0].encoded, nullptr);
+  EXPECT_EQ(scene->textures[0].encoded->substr(1, 3), "PNG");
+  const Material& m = scene->materials.at(0);
+  EXPECT_EQ(m.color_map.texture, 0u);
+  EXPECT_EQ(m.color_map.wrap_u, TextureWrap::kRepeat);
+  EXPECT_EQ(m.emission_map.texture, 0u);
+  EXPECT_EQ(m.emission_map.wrap_u, TextureWrap::kClampToEdge);
+  EXPECT_EQ(m.emission_map.wrap_v, TextureWrap::kClampToEdge);
+
+  const absl::StatusOr<Scene> missing = scene_with(R"("color_map": "nope.png")");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(message_of(missing.status()), HasSubstr("materials.logo.color_map"));
+  EXPECT_THAT(message_of(missing.status()), HasSubstr("nope.png"));
+  const absl::StatusOr<Scene> wrap =
+      scene_with(R"("color_map": {"file": "CesiumLogoFlat.png", "wrap": "tile"})");
+  ASSERT_FALSE(wrap.ok());
+  EXPECT_THAT(message_of(wrap.status()),
+              HasSubstr("materials.logo.color_map.wrap: unknown wrap 'tile'"));
+}
+
 }  // namespace
 }  // namespace caustica
