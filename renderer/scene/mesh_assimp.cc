@@ -8,6 +8,7 @@
 #include <assimp/Importer.hpp>
 #include <cmath>
 #include <exception>
+#include <initializer_list>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -124,7 +125,10 @@ class AssimpReader {
     if (scene_.mRootNode == nullptr) return absl::InvalidArgumentError("the file has no nodes");
     for (unsigned i = 0; i < scene_.mNumMaterials; ++i) {
       Material m = convert_material(*scene_.mMaterials[i], i, file_name_, &file_.warnings);
-      m.color_map = colour_map(*scene_.mMaterials[i], m.name);
+      m.color_map = texture_map(*scene_.mMaterials[i], m.name,
+                                {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE});
+      m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
+                                   {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();
@@ -394,15 +398,17 @@ class AssimpReader {
     return absl::OkStatus();
   }
 
-  // The base colour (or diffuse) texture Assimp reports for a material: a file beside the model, or
-  // one the model embeds in a file format's bytes. Embedded raw texels are left out with a warning.
-  TextureRef colour_map(const aiMaterial& material, const std::string& name) {
+  // The first texture of `types` Assimp reports for a material (base colour or diffuse, emission
+  // colour or emissive): a file beside the model, or one the model embeds in a file format's bytes.
+  // Embedded raw texels are left out with a warning.
+  TextureRef texture_map(const aiMaterial& material, const std::string& name,
+                         std::initializer_list<aiTextureType> types) {
     TextureRef ref;
     aiString file;
     aiTextureMapMode modes[2] = {aiTextureMapMode_Wrap, aiTextureMapMode_Wrap};
     unsigned uv_index = 0;
     bool found = false;
-    for (const aiTextureType type : {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE}) {
+    for (const aiTextureType type : types) {
       if (material.GetTextureCount(type) > 0 &&
           material.GetTexture(type, 0, &file, nullptr, &uv_index, nullptr, nullptr, modes) ==
               AI_SUCCESS) {

@@ -269,6 +269,8 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
     Material m = convert_material(materials[i], i);
     m.color_map = convert_map(materials[i].diffuse_texname, materials[i].diffuse_texopt, textures,
                               file.warnings);
+    m.emission_map = convert_map(materials[i].emissive_texname, materials[i].emissive_texopt,
+                                 textures, file.warnings);
     file.materials.push_back(std::move(m));
   }
   file.textures = textures.take();

@@ -116,5 +116,28 @@ TEST(LoadObj, MissingFileIsNotFound) {
   EXPECT_THAT(message_of(file.status()), HasSubstr("nope.obj"));
 }
 
+// MTL's map_Ke is the emission map, multiplying Ke, as map_Kd multiplies Kd; one image named by
+// both is one texture.
+TEST(LoadObj, MapKeIsTheEmissionMap) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "caustica_map_ke";
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(scene_data("thirdparty/gltf2/BoxTextured/CesiumLogoFlat.png"),
+                             dir / "logo.png", std::filesystem::copy_options::overwrite_existing);
+  std::ofstream(dir / "sign.mtl") << "newmtl sign\nKd 0.5 0.5 0.5\nKe 2 2 2\nmap_Kd logo.png\n"
+                                     "map_Ke logo.png\n";
+  std::ofstream(dir / "sign.obj") << "mtllib sign.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                     "vt 0 0\nvt 1 0\nvt 0 1\nusemtl sign\nf 1/1 2/2 3/3\n";
+  const absl::StatusOr<MeshFile> file = load_obj(dir / "sign.obj");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 1u);
+  const Material& sign = file->materials[0];
+  EXPECT_EQ(sign.type, MaterialType::kDiffuse);
+  EXPECT_THAT(sign.radiance, Vec3Near(Vec3f(2, 2, 2), 0));
+  EXPECT_TRUE(sign.emission_map.used());
+  EXPECT_EQ(sign.emission_map.texture, sign.color_map.texture);
+  EXPECT_EQ(file->textures.size(), 1u);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace caustica
