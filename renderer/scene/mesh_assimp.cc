@@ -150,8 +150,9 @@ class AssimpReader {
       for (unsigned i = 0; i < scene_.mNumCameras; ++i) {
         if (scene_.mCameras[i] != nullptr) add_camera(*scene_.mCameras[i], i);
       }
+      const Bounds bounds = mesh_bounds(file_.meshes);
       for (unsigned i = 0; i < scene_.mNumLights; ++i) {
-        if (scene_.mLights[i] != nullptr) add_light(*scene_.mLights[i], i);
+        if (scene_.mLights[i] != nullptr) add_light(*scene_.mLights[i], i, bounds);
       }
     }
     return std::move(file_);
@@ -228,7 +229,7 @@ class AssimpReader {
   // 1 / d^2 alone: the intensity is the colour times d^2 times the attenuation at d, the distance
   // from the light to the model's centre, so that the model is lit there as the file says (and
   // exactly the colour over q for a purely quadratic falloff).
-  void add_light(const aiLight& source, unsigned index) {
+  void add_light(const aiLight& source, unsigned index, const Bounds& bounds) {
     const std::string where = named("light", index, source.mName);
     Light light;
     light.name =
@@ -276,7 +277,6 @@ class AssimpReader {
                                          0.0f, light.outer_angle_deg);
     }
     if (light.type != LightType::kDirectional) {
-      const Bounds bounds = mesh_bounds(file_.meshes);
       const float radius = bounds.empty() ? 1.0f : 0.5f * length(bounds.size());
       const float d = std::max(bounds.empty() ? radius : length(bounds.center() - light.position),
                                1e-3f * radius);

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
-#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -14,12 +13,12 @@
 #include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/density_grid.h"
-#include "renderer/scene/file_io.h"
 #include "renderer/scene/json_fields.h"
 #include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/shapes.h"
 #include "renderer/scene/status_util.h"
+#include "renderer/scene/texture_files.h"
 #include "renderer/scene/transform.h"
 
 namespace caustica {
@@ -153,6 +152,8 @@ class SceneReader {
                                return read_material(name, v, std::move(path));
                              }));
     }
+    // Model files' textures, which shapes bring, follow.
+    scene_.textures = scene_textures_.take();
     SCENE_ASSIGN_OR_RETURN(const Json* media, top.find("media", kOptional));
     if (media != nullptr) {
       SCENE_RETURN_IF_ERROR(read_named_entries(
@@ -297,28 +298,9 @@ class SceneReader {
           absl::StrCat(path, ".wrap"),
           absl::StrCat("unknown wrap '", wrap, "' (expected repeat, clamp or mirror)"));
     }
-    const std::filesystem::path resolved = (base_dir_ / file).lexically_normal();
-    if (const auto it = texture_files_.find(resolved.string()); it != texture_files_.end()) {
-      ref.texture = it->second;
-      return ref;
-    }
-    absl::StatusOr<std::string> bytes = read_file(resolved);
-    if (!bytes.ok()) return annotate(bytes.status(), path);
-    if (bytes->size() > kMaxTextureFileBytes) {
-      return absl::ResourceExhaustedError(absl::StrCat(path, ": ", file, " has ", bytes->size(),
-                                                       " bytes, more than the limit of ",
-                                                       kMaxTextureFileBytes));
-    }
-    if (scene_.textures.size() >= kMaxTextures) {
-      return absl::ResourceExhaustedError(
-          absl::StrCat(path, ": more than ", kMaxTextures, " textures in the scene"));
-    }
-    TextureImage texture;
-    texture.name = resolved.filename().string();
-    texture.encoded = std::make_shared<const std::string>(*std::move(bytes));
-    ref.texture = static_cast<uint32_t>(scene_.textures.size());
-    scene_.textures.push_back(std::move(texture));
-    texture_files_.emplace(resolved.string(), ref.texture);
+    absl::StatusOr<uint32_t> texture = scene_textures_.read(file);
+    if (!texture.ok()) return annotate(texture.status(), path);
+    ref.texture = *texture;
     return ref;
   }
 
@@ -619,7 +601,8 @@ class SceneReader {
   }
 
   std::filesystem::path base_dir_;
-  std::map<std::string, uint32_t> texture_files_;  // the scene file's own maps, by resolved path
+  // The images the scene file's own maps name, which become the first of the scene's textures.
+  TextureTable scene_textures_{base_dir_ / "scene.json"};
   Scene scene_;
   std::map<std::string, uint32_t, std::less<>> material_ids_;
   std::map<std::string, uint32_t, std::less<>> medium_ids_;

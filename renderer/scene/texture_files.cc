@@ -14,25 +14,28 @@ namespace caustica {
 TextureTable::TextureTable(const std::filesystem::path& model)
     : folder_(model.parent_path()), model_name_(model.filename().string()) {}
 
-uint32_t TextureTable::from_file(absl::string_view reference, std::vector<std::string>& warnings) {
+absl::StatusOr<uint32_t> TextureTable::read(absl::string_view reference) {
   std::string name(absl::StripAsciiWhitespace(reference));
   std::replace(name.begin(), name.end(), '\\', '/');
   const std::filesystem::path path = (folder_ / name).lexically_normal();
   const std::string key = path.string();
   if (const auto it = index_.find(key); it != index_.end()) return it->second;
   absl::StatusOr<std::string> bytes = read_file(path);
-  if (bytes.ok() && bytes->size() > kMaxTextureFileBytes) {
-    bytes = absl::ResourceExhaustedError(
-        absl::StrCat("larger than ", kMaxTextureFileBytes >> 20, " MiB"));
-  }
-  if (!bytes.ok()) {
-    warnings.push_back(absl::StrCat(model_name_, ": texture '", reference, "' cannot be read (",
-                                    bytes.status().message(),
-                                    "); its material keeps its colour alone"));
-    index_.emplace(key, kNoTexture);
-    return kNoTexture;
+  if (!bytes.ok()) return bytes.status();
+  if (bytes->size() > kMaxTextureFileBytes) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path.string(), ": larger than ", kMaxTextureFileBytes >> 20, " MiB"));
   }
   return from_bytes(key, path.filename().string(), *std::move(bytes));
+}
+
+uint32_t TextureTable::from_file(absl::string_view reference, std::vector<std::string>& warnings) {
+  absl::StatusOr<uint32_t> index = read(reference);
+  if (index.ok()) return *index;
+  warnings.push_back(absl::StrCat(model_name_, ": texture '", reference, "' cannot be read (",
+                                  index.status().message(),
+                                  "); its material keeps its colour alone"));
+  return kNoTexture;
 }
 
 uint32_t TextureTable::from_bytes(const std::string& key, std::string name, std::string bytes) {

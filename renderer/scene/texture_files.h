@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "renderer/scene/scene.h"
 
@@ -22,6 +23,9 @@ class TextureTable {
   // warning) when it cannot be read. Windows separators in `reference` are read as '/', as the
   // exporters of OBJ and 3DS files write them.
   uint32_t from_file(absl::string_view reference, std::vector<std::string>& warnings);
+  // The same, or why the file cannot be read (NOT_FOUND, or RESOURCE_EXHAUSTED over the size
+  // limit), for references that must be read (a scene file's own maps).
+  absl::StatusOr<uint32_t> read(absl::string_view reference);
   // A texture of bytes the model embeds, under `key` (one texture per key).
   uint32_t from_bytes(const std::string& key, std::string name, std::string bytes);
 
