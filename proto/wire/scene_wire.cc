@@ -260,9 +260,21 @@ v1::Material encode_material(const Material& m) {
     case MaterialType::kEmissive:
       out.set_type(v1::Material::EMISSIVE);
       break;
+    case MaterialType::kMetallicRoughness:
+      out.set_type(v1::Material::METALLIC_ROUGHNESS);
+      break;
+    case MaterialType::kPhong:
+      out.set_type(v1::Material::PHONG);
+      break;
   }
+  static_assert(kLastMaterialType == MaterialType::kPhong,
+                "encode_material and the assembler's decoding know every material type");
   *out.mutable_color() = encode_vec3(m.color);
   out.set_ior(m.ior);
+  out.set_metallic(m.metallic);
+  out.set_roughness(m.roughness);
+  *out.mutable_specular() = encode_vec3(m.specular);
+  out.set_exponent(m.exponent);
   *out.mutable_radiance() = encode_vec3(m.radiance);
   out.set_off(m.off);
   if (m.color_map.used()) *out.mutable_color_map() = encode_texture_ref(m.color_map);
@@ -765,6 +777,12 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
       case v1::Material::EMISSIVE:
         m.type = MaterialType::kEmissive;
         break;
+      case v1::Material::METALLIC_ROUGHNESS:
+        m.type = MaterialType::kMetallicRoughness;
+        break;
+      case v1::Material::PHONG:
+        m.type = MaterialType::kPhong;
+        break;
       default:
         return invalid(join_field(field, "type"),
                        absl::StrCat(in.type(), " is not a material type"));
@@ -773,10 +791,17 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     if (!color.ok()) return color.status();
     absl::StatusOr<Vec3f> radiance = decode_vec3(in.radiance(), join_field(field, "radiance"));
     if (!radiance.ok()) return radiance.status();
+    absl::StatusOr<Vec3f> specular = decode_vec3(in.specular(), join_field(field, "specular"));
+    if (!specular.ok()) return specular.status();
     m.color = *color;
     m.radiance = *radiance;
     m.off = in.off();
     m.ior = in.ior();
+    // Range checks are validate_scene's, as for the colours.
+    m.metallic = in.metallic();
+    m.roughness = in.roughness();
+    m.specular = *specular;
+    m.exponent = in.exponent();
     if (in.has_color_map()) {
       absl::StatusOr<TextureRef> ref = decode_texture_ref(
           in.color_map(), join_field(field, "color_map"), scene_.textures.size());

@@ -48,6 +48,10 @@ struct GatherHit {
   Vec3f throughput;
   uint32_t diffuse;  // 0 where the ray found no diffuse surface
   float distance;    // to the ray's first hit, infinite where it found none
+  // A hit on a sampled model (reflected_at): its material, else kLambertHit, `albedo` its colour
+  // and `normal` its frame's, and the direction back along the ray.
+  uint32_t sampled;
+  Vec3f wo;
 };
 
 CAUSTICA_HDI Sampler gather_sampler(uint32_t seed, uint32_t ray, uint32_t pass) {
@@ -118,14 +122,30 @@ Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend
       const Vec3f d = p.ray.direction;
       Vec3f next;
       if (mat.type == MaterialType::kEmissive) return;  // direct light or a caustic: not ours
+      const bool front = dot(d, sh.shading_normal) < 0.0f;
+      const Vec3f ng = front ? sh.geometric_normal : -sh.geometric_normal;
       if (mat.type == MaterialType::kDiffuse) {
-        const bool front = dot(d, sh.shading_normal) < 0.0f;
         const Vec3f n = front ? sh.shading_normal : -sh.shading_normal;
-        const Vec3f ng = front ? sh.geometric_normal : -sh.geometric_normal;
         // A gather ray lands on one point, like a photon: the map's finest level.
-        hit_out[i] = {
-            sh.position,        n, ng, surface_color(scene, mat, hit[i], d, 0.0f), p.throughput, 1u,
-            hit_out[i].distance};
+        hit_out[i] = {sh.position,
+                      n,
+                      ng,
+                      surface_color(scene, mat, hit[i], d, 0.0f),
+                      p.throughput,
+                      1u,
+                      hit_out[i].distance,
+                      kLambertHit,
+                      -d};
+        return;
+      }
+      // A sampled model ends the gather ray too: its direct light and its base's photons; the
+      // light its glossy lobes reflect there is left out (docs/materials.md, "In the
+      // integrators").
+      if (is_sampled_model(mat)) {
+        const SurfaceBsdf bsdf = SurfaceBsdf::at(mat, surface_color(scene, mat, hit[i], d, 0.0f),
+                                                 sh.shading_normal, d, Transport::kRadiance);
+        hit_out[i] = {sh.position, bsdf.normal(),       ng,          bsdf.color, p.throughput,
+                      1u,          hit_out[i].distance, sh.material, -d};
         return;
       }
       if (mat.type == MaterialType::kMirror) {
@@ -176,11 +196,15 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{h.position, Vec3f(0, 0, 1), 1.0f, 0.0f};
     if (!h.diffuse) return;
     Sampler s = direct_sampler(i);
-    (void)direct_light_with(scene, h.position, h.normal, h.geometric_normal, h.albedo, 1,
-                            scene_radius, s, [&](uint32_t slot, const Ray& r) {
-                              mine[slot] = r;
-                              return false;
-                            });
+    Vec3f weight;
+    (void)reflected_at(
+        scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight, [&](const auto& reflection) {
+          return direct_light_by(scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
+                                 s, [&](uint32_t slot, const Ray& r) {
+                                   mine[slot] = r;
+                                   return false;
+                                 });
+        });
   });
   trace_any(backend, structure, shadow, m * slots, blocked.data());
   Buffer<Vec3f> radiance(backend, m);
@@ -194,10 +218,14 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     }
     Sampler s = direct_sampler(i);
     const uint8_t* mine = is_blocked + i * slots;
+    Vec3f weight;
     out[i] = h.throughput *
-             direct_light_with(scene, h.position, h.normal, h.geometric_normal, h.albedo, 1,
-                               scene_radius, s,
-                               [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+             reflected_at(scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight,
+                          [&](const auto& reflection) {
+                            return direct_light_by(
+                                scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
+                                s, [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+                          });
   });
 
   // The photon maps' estimates at the diffuse hits, in Hilbert order, added per ray.
@@ -213,7 +241,10 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
   parallel_for(backend, "gather_hit_requests", hits, [=] CAUSTICA_HD(size_t j) {
     const uint32_t i = index[j];
     const GatherHit& h = hit[i];
-    request[j] = {h.position, h.normal, h.throughput * h.albedo, i / per_seed, i % per_seed};
+    Vec3f weight;
+    (void)reflected_at(scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight,
+                       [](const auto&) { return Vec3f(0.0f); });
+    request[j] = {h.position, h.normal, h.throughput * weight, i / per_seed, i % per_seed};
   });
   const size_t seeds = m / per_seed;
   Buffer<uint32_t> seed_offsets(backend, seeds);

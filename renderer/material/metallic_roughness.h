@@ -37,7 +37,19 @@ struct MetallicRoughnessBsdf {
     return kBsdfReflection | kBsdfGlossy | (metallic < 1.0f ? kBsdfDiffuse : kBsdfNone);
   }
 
-  CAUSTICA_HDI Vec3f f(Vec3f wo, Vec3f wi) const {
+  // The base, which is separable: base_albedo(wo) base_in(wi) / pi. An integrator that stores
+  // photons with base_in of the way they came and weighs their density by base_albedo estimates
+  // the base's share exactly (docs/materials.md, "In the integrators").
+  CAUSTICA_HDI Vec3f base_albedo(Vec3f wo) const {
+    return base_color *
+           ((1.0f - metallic) * (1.0f - fresnel_schlick(kDielectricF0, abs_cos_theta(wo))));
+  }
+  CAUSTICA_HDI float base_in(Vec3f wi) const {
+    return (1.0f - fresnel_schlick(kDielectricF0, abs_cos_theta(wi))) / kBaseAlbedoNorm;
+  }
+
+  // The specular lobe alone.
+  CAUSTICA_HDI Vec3f specular_f(Vec3f wo, Vec3f wi) const {
     if (!same_hemisphere(wo, wi) || wo.z <= 0.0f) return Vec3f(0.0f);
     const Vec3f h = wo + wi;
     if (!(length_squared(h) > 0.0f)) return Vec3f(0.0f);
@@ -47,10 +59,27 @@ struct MetallicRoughnessBsdf {
     const Vec3f metal = fresnel_schlick(base_color, cos_h);
     const TrowbridgeReitz d = distribution();
     const float specular = d.D(wm) * d.G(wo, wi) / (4.0f * abs_cos_theta(wo) * abs_cos_theta(wi));
-    const float base_share = (1.0f - fresnel_schlick(kDielectricF0, abs_cos_theta(wo))) *
-                             (1.0f - fresnel_schlick(kDielectricF0, abs_cos_theta(wi)));
-    const Vec3f base = base_color * ((1.0f - metallic) * base_share * kInvPi / kBaseAlbedoNorm);
-    return base + (Vec3f((1.0f - metallic) * dielectric) + metal * metallic) * specular;
+    return (Vec3f((1.0f - metallic) * dielectric) + metal * metallic) * specular;
+  }
+
+  CAUSTICA_HDI Vec3f f(Vec3f wo, Vec3f wi) const {
+    if (!same_hemisphere(wo, wi) || wo.z <= 0.0f) return Vec3f(0.0f);
+    return base_albedo(wo) * (base_in(wi) * kInvPi) + specular_f(wo, wi);
+  }
+
+  // A direction from the specular lobe alone (visible normals), with that lobe's value and
+  // density: the camera paths' way past a glossy surface.
+  CAUSTICA_HDI BsdfSample sample_specular(Vec3f wo, float u0, float u1) const {
+    BsdfSample s;
+    if (wo.z <= 0.0f) return s;
+    const TrowbridgeReitz d = distribution();
+    s.wi = reflect(-wo, d.sample_visible_normal(wo, u0, u1));
+    if (s.wi.z <= 0.0f) return BsdfSample{};
+    s.pdf = d.reflection_pdf(wo, s.wi);
+    if (!(s.pdf > 0.0f)) return BsdfSample{};
+    s.f = specular_f(wo, s.wi);
+    s.flags = kBsdfReflection | kBsdfGlossy;
+    return s;
   }
 
   // The probability of sampling the specular lobe from `wo`: its share of an estimate of both

@@ -51,16 +51,43 @@ struct ModifiedPhongBsdf {
            (1.0f - p) * abs_cos_theta(wi) * kInvPi;
   }
 
+  // cos a = u0^(1 / (n + 1)) inverts the lobe's distribution of cos a around the mirror
+  // direction.
+  CAUSTICA_HDI Vec3f lobe_direction(Vec3f wo, float u0, float u1) const {
+    const float c = powf(u0, 1.0f / (exponent + 1.0f));
+    const float r = sqrtf(max_f(0.0f, 1.0f - c * c));
+    const float phi = 2.0f * kPi * u1;
+    return Frame::from_normal(mirror(wo)).to_world(Vec3f(r * cosf(phi), r * sinf(phi), c));
+  }
+
   CAUSTICA_HDI BsdfSample sample(Vec3f wo, float uc, float u0, float u1) const {
-    return sample_glossy_or_base(
-        *this, wo, specular_probability(), uc, u0, u1, [&](float v0, float v1) {
-          // cos a = v0^(1 / (n + 1)) inverts the lobe's distribution of
-          // cos a around the mirror direction.
-          const float c = powf(v0, 1.0f / (exponent + 1.0f));
-          const float r = sqrtf(max_f(0.0f, 1.0f - c * c));
-          const float phi = 2.0f * kPi * v1;
-          return Frame::from_normal(mirror(wo)).to_world(Vec3f(r * cosf(phi), r * sinf(phi), c));
-        });
+    return sample_glossy_or_base(*this, wo, specular_probability(), uc, u0, u1,
+                                 [&](float v0, float v1) { return lobe_direction(wo, v0, v1); });
+  }
+
+  // The glossy lobe alone, and the density with which sample_specular draws it.
+  CAUSTICA_HDI Vec3f specular_f(Vec3f wo, Vec3f wi) const {
+    if (!same_hemisphere(wo, wi) || wo.z <= 0.0f) return Vec3f(0.0f);
+    return ks * ((exponent + 2.0f) * (0.5f * kInvPi) * lobe(wo, wi));
+  }
+  CAUSTICA_HDI float specular_pdf(Vec3f wo, Vec3f wi) const {
+    if (!same_hemisphere(wo, wi) || wo.z <= 0.0f || is_black(ks)) return 0.0f;
+    return (exponent + 1.0f) * (0.5f * kInvPi) * lobe(wo, wi);
+  }
+
+  // A direction from the glossy lobe alone, with that lobe's value and density: the camera paths'
+  // way past a glossy surface. Its weight is ks (n + 2) / (n + 1) cos(wi).
+  CAUSTICA_HDI BsdfSample sample_specular(Vec3f wo, float u0, float u1) const {
+    BsdfSample s;
+    if (wo.z <= 0.0f || is_black(ks)) return s;
+    s.wi = lobe_direction(wo, u0, u1);
+    if (s.wi.z <= 0.0f) return BsdfSample{};
+    const float lobe_value = lobe(wo, s.wi);
+    s.pdf = (exponent + 1.0f) * (0.5f * kInvPi) * lobe_value;
+    if (!(s.pdf > 0.0f)) return BsdfSample{};
+    s.f = ks * ((exponent + 2.0f) * (0.5f * kInvPi) * lobe_value);
+    s.flags = kBsdfReflection | kBsdfGlossy;
+    return s;
   }
 };
 

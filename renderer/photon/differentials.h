@@ -105,6 +105,15 @@ CAUSTICA_HDI PhotonDifferentials reemitted_diffusely(Vec3f w, Vec3f n, float off
   return detail::spherical_differentials(c, sqrtf(0.25f / c.cos_p1), offset);
 }
 
+// A photon leaving a surface along unit `w`, drawn from a scattering model's density `pdf` (per
+// steradian), `n` the normal on w's side: the diffuse re-emission's differentials with the
+// model's density in place of cos / pi, so that the neighbours' spacing in parameter space stays
+// the global one, from the virtual point `offset` behind the surface.
+CAUSTICA_HDI PhotonDifferentials reemitted_by_density(Vec3f w, Vec3f n, float pdf, float offset) {
+  const detail::SphericalCoordinates c = detail::spherical_coordinates(w, n, 1e-6f);
+  return detail::spherical_differentials(c, 1.0f / sqrtf(4.0f * kPi * pdf), offset);
+}
+
 // The virtual offset that keeps a footprint's area in expectation through a diffuse re-emission:
 // t_v = sqrt(2 |dz1 x dz2|) of the differentials arriving (E[A'] = t_v^2 2 pi / n = A).
 CAUSTICA_HDI float reemission_offset(const PhotonDifferentials& arriving) {

@@ -13,6 +13,7 @@
 #include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/differentials.h"
+#include "renderer/resident/surface_bsdf.h"
 #include "renderer/scene/scene_limits.h"
 
 namespace caustica {
@@ -313,7 +314,46 @@ struct PhotonPathInputs {
     Vec3f next_dir;
     if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
     if constexpr (kDifferentials) transfer(p.differentials, d, hit.t, sh.geometric_normal);
-    if (m.type == MaterialType::kDiffuse) {
+    if (is_sampled_model(m)) {
+      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
+                                               sh.shading_normal, d, Transport::kImportance);
+      // Stored with the base's factor for the way it came (surface_bsdf.h), so that a gather
+      // weighing the density by the base's albedo towards the viewer has the base's light.
+      if (p.bounce > 0 && bsdf.has_base()) {
+        PhotonFootprint footprint{};
+        if constexpr (kDifferentials)
+          footprint = {p.differentials.dz1 * spacing, p.differentials.dz2 * spacing};
+        stores.store(p.path, p.bounce, Photon{sh.position, p.power * bsdf.base_in(-d), -d},
+                     p.only_specular ? kCausticPhoton : kGlobalPhoton, footprint);
+      }
+      const float uc = p.s.next_float(), u0 = p.s.next_float();
+      const SurfaceSample b = bsdf.sample(-d, uc, u0, p.s.next_float());
+      if (!b.valid()) return false;
+      next_dir = b.wi;
+      const bool transmits = (b.flags & kBsdfTransmission) != 0;
+      if ((dot(next_dir, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits)
+        return false;
+      // A glossy bounce counts as a specular one: its photons are caustics, and a run of them is
+      // capped as mirrors' and glass's are.
+      if ((b.flags & kBsdfDiffuse) != 0) {
+        p.scattered();
+      } else if (!specular_bounce_allowed(p)) {
+        return false;
+      }
+      const Vec3f weight = b.weight;
+      const float survive = min_f(1.0f, average(weight));
+      if (!(p.s.next_float() < survive)) return false;
+      p.power = p.power * weight / survive;
+      if (transmits)
+        p.medium = medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal);
+      if constexpr (kDifferentials) {
+        survived_roulette(p.differentials, survive);
+        const Vec3f n =
+            dot(next_dir, sh.geometric_normal) > 0.0f ? sh.geometric_normal : -sh.geometric_normal;
+        p.differentials =
+            reemitted_by_density(next_dir, n, b.pdf, reemission_offset(p.differentials));
+      }
+    } else if (m.type == MaterialType::kDiffuse) {
       if (p.bounce > 0) {
         PhotonFootprint footprint{};
         if constexpr (kDifferentials)

@@ -16,13 +16,6 @@
 namespace caustica {
 namespace {
 
-// Veach's power heuristic (beta = 2): the weight of a sample drawn with pdf `a` when `b` could
-// have drawn it too.
-CAUSTICA_HDI float power_heuristic(float a, float b) {
-  const float a2 = a * a, b2 = b * b;
-  return a2 + b2 > 0.0f ? a2 / (a2 + b2) : 0.0f;
-}
-
 // The solid-angle pdf with which a shadow ray would have chosen a direction that meets area light
 // `a` at squared distance `dist2` with cosine `cos_light` there.
 CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist2,
@@ -32,24 +25,24 @@ CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, fl
 }
 
 // One shadow ray from `p`, inside `medium`, to a point drawn on an area light chosen by power,
-// weighed against the path's own sampling that could have found the same point. `density(wi)` is
-// both what the path scatters towards wi by and the solid-angle pdf it samples wi with (cos / pi
-// off a diffuse surface, the phase function in a medium); `shadow_origin(wi)` where the shadow
-// ray starts. The shadow ray stops just short of the light, whose own triangle must not block it,
-// and its light is attenuated by the transmittance of the way.
-template <typename Structure, typename Density, typename ShadowOrigin>
+// weighed against the path's own sampling that could have found the same point: `value(wi)` is
+// what the path scatters light from wi by (f |cos| off a surface, the phase function in a medium)
+// and `pdf(wi)` the solid-angle density with which it samples wi; `shadow_origin(wi)` where the
+// shadow ray starts. The shadow ray stops just short of the light, whose own triangle must not
+// block it, and its light is attenuated by the transmittance of the way.
+template <typename Structure, typename Value, typename Pdf, typename ShadowOrigin>
 CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Structure& structure,
-                                     Vec3f p, uint32_t medium, Sampler& s, Density density,
+                                     Vec3f p, uint32_t medium, Sampler& s, Value value, Pdf pdf,
                                      ShadowOrigin shadow_origin) {
   const AreaLightPoint y = draw_area_light_point(scene, p, s);
   if (!(y.dist2 > 0.0f) || y.cos_light <= 0.0f) return Vec3f(0.0f);
-  const float f = density(y.wi);
-  if (!(f > 0.0f)) return Vec3f(0.0f);
+  const Vec3f f = value(y.wi);
+  if (is_black(f)) return Vec3f(0.0f);
   const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
   if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
   if (any_hit(structure, shadow_ray(shadow_origin(y.wi), y.position, 1e-3f))) return Vec3f(0.0f);
-  return y.radiance * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
-         (f * power_heuristic(light_pdf, f) / light_pdf);
+  return y.radiance * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) * f *
+         (power_heuristic(light_pdf, pdf(y.wi)) / light_pdf);
 }
 
 // The light scattered at `x`, inside `medium`, towards where `travel` came from: one shadow ray
@@ -72,9 +65,10 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
            (henyey_greenstein(dot(way.wi, travel), g) * way.scale);
   }
   if (scene.area_light_count > 0) {
+    const auto phase = [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); };
     sum += sample_area_light(
-        scene, structure, x, medium, s,
-        [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); }, [&](Vec3f) { return x; });
+        scene, structure, x, medium, s, [&](Vec3f wi) { return Vec3f(phase(wi)); }, phase,
+        [&](Vec3f) { return x; });
   }
   return sum;
 }
@@ -138,6 +132,40 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       }
     }
     if (m.type == MaterialType::kEmissive) break;  // lights do not reflect
+    if (is_sampled_model(m)) {
+      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
+                                               sh.shading_normal, d, Transport::kRadiance);
+      const Vec3f wo = -d;
+      // Point, spot and directional lights through every lobe, then an area light weighed
+      // against the BSDF's own sampling.
+      radiance += throughput * direct_light_traced(
+                                   scene, structure, sh.position, sh.geometric_normal,
+                                   SurfaceReflection{bsdf, wo, 0.0f}, 0, scene_radius, s, medium);
+      if (scene.area_light_count > 0) {
+        radiance +=
+            throughput *
+            sample_area_light(
+                scene, structure, sh.position, medium, s,
+                [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
+                [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
+                [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
+      }
+      const float uc = s.next_float(), u0 = s.next_float();
+      const SurfaceSample b = bsdf.sample(wo, uc, u0, s.next_float());
+      if (!b.valid()) break;
+      const bool transmits = (b.flags & kBsdfTransmission) != 0;
+      // A direction on the wrong side of the triangle itself would leak through it.
+      if ((dot(b.wi, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits) break;
+      throughput *= b.weight;
+      bounce_pdf = b.pdf;
+      if (transmits)
+        medium = medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal);
+      ray = Ray{};
+      ray.origin = offset_origin(sh.position, sh.geometric_normal, b.wi);
+      ray.direction = b.wi;
+      if (!survives_roulette(bounce, throughput, s)) break;
+      continue;
+    }
     // The reference reads the finest level of a map at every hit: its samples average the pixel.
     switch (m.type) {
       case MaterialType::kDiffuse: {
@@ -149,10 +177,11 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         radiance += throughput * direct_light(scene, structure, sh.position, n, ng, color, 0,
                                               scene_radius, s, medium);
         if (scene.area_light_count > 0) {
+          const auto density = [&](Vec3f wi) { return dot(n, wi) * kInvPi; };
           radiance += throughput * color *
                       sample_area_light(
                           scene, structure, sh.position, medium, s,
-                          [&](Vec3f wi) { return dot(n, wi) * kInvPi; },
+                          [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
                           [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
         }
         const Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
@@ -192,7 +221,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         ray.direction = next;
         break;
       }
-      case MaterialType::kEmissive:
+      default:  // emissive, or a sampled model (above)
         break;
     }
     if (!survives_roulette(bounce, throughput, s)) break;

@@ -22,6 +22,7 @@ struct Chain {
   Vec3f light;  // emitted and direct light seen so far
   Sampler s;
   uint32_t depth;
+  float glossy_pdf;  // the density the ray was drawn with off a glossy surface, else 0
 };
 
 // The chain's first ray: the pixel's jittered camera ray (the sampler's first two dimensions).
@@ -30,14 +31,14 @@ CAUSTICA_HDI Chain start_chain(const PinholeCamera& camera, const VisiblePointSe
   Sampler s(cfg.seed, camera.stream(pixel), cfg.pass);
   const float jx = s.next_float();
   const Ray ray = camera.pixel_ray(pixel, jx, s.next_float());
-  return {ray, Vec3f(1.0f), Vec3f(0.0f), s, 0};
+  return {ray, Vec3f(1.0f), Vec3f(0.0f), s, 0, 0.0f};
 }
 
 // The chain's hit `hit` of its current ray: true when the chain goes on (its next ray set), false
 // when it ended, at a light, in the background or at a diffuse surface, which becomes `point`.
-// `direct(sh, n, colour, s)` gives the direct light at a diffuse hit (whitted.h's
-// direct_light_with). Maps are read at their finest level: each pass's jittered chains average the
-// pixel, as the passes accumulate.
+// `direct(sh, reflection, s)` gives the direct light at a diffuse hit or one on a sampled model
+// (whitted.h's direct_light_by). Maps are read at their finest level: each pass's jittered chains
+// average the pixel, as the passes accumulate.
 template <typename Direct>
 CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
                              const VisiblePointSettings& cfg, Chain& c, VisiblePoint& point,
@@ -48,29 +49,64 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
   const Vec3f d = c.ray.direction;
   Vec3f next;
   // Any surface may emit from its front face; an emissive one does nothing else.
-  if (!is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f)
-    c.light += c.throughput * surface_emission(scene, m, hit, d, 0.0f);
-  switch (m.type) {
-    case MaterialType::kEmissive:
-      return false;
-    case MaterialType::kDiffuse: {
-      const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-      const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
-      c.light += c.throughput * direct(sh, n, color, c.s);
-      point = {sh.position, n, c.throughput * color};
+  const float cos_light = -dot(d, sh.geometric_normal);
+  if (!is_black(m.radiance) && cos_light > 0.0f)
+    c.light +=
+        c.throughput * surface_emission(scene, m, hit, d, 0.0f) *
+        glossy_emission_weight(scene, c.glossy_pdf, float(cfg.area_light_samples), hit, cos_light);
+  c.glossy_pdf = 0.0f;
+  if (is_sampled_model(m)) {
+    const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
+                                             sh.shading_normal, d, Transport::kRadiance);
+    const Vec3f wo = -d;
+    c.light +=
+        c.throughput * direct(sh, SurfaceReflection{bsdf, wo, float(cfg.area_light_samples)}, c.s);
+    // One point a pixel: the base's, with the probability of its share of what this hit reflects,
+    // or else the chain goes on along the glossy lobes' direction. The share may depend on the
+    // direction drawn, which is drawn first.
+    const Vec3f base = bsdf.base_albedo(wo);
+    const float uc = c.s.next_float(), u0 = c.s.next_float(), u1 = c.s.next_float();
+    const SurfaceSample g = bsdf.sample_glossy(wo, uc, u0, u1);
+    const float base_share = luminance(base);
+    const float glossy_share = g.valid() ? luminance(g.weight) : 0.0f;
+    const float stop =
+        base_share + glossy_share > 0.0f ? base_share / (base_share + glossy_share) : 1.0f;
+    if (c.s.next_float() < stop) {
+      if (base_share > 0.0f) point = {sh.position, bsdf.normal(), c.throughput * base / stop};
       return false;
     }
-    case MaterialType::kMirror:
-      next = reflect(d, sh.shading_normal);
-      c.throughput *= surface_color(scene, m, hit, d, 0.0f);
-      break;
-    case MaterialType::kDielectric: {
-      const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
-      const float fr = fresnel_dielectric(side.cos_i, side.eta);
-      next = reflect(d, side.normal);
-      Vec3f refracted;
-      if (c.s.next_float() >= fr && refract(d, side.normal, side.eta, refracted)) next = refracted;
-      break;
+    const bool transmits = (g.flags & kBsdfTransmission) != 0;
+    if ((dot(g.wi, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits)
+      return false;
+    c.throughput *= g.weight / (1.0f - stop);
+    c.glossy_pdf = g.pdf;
+    next = g.wi;
+  } else {
+    switch (m.type) {
+      case MaterialType::kEmissive:
+        return false;
+      case MaterialType::kDiffuse: {
+        const Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        const Vec3f color = surface_color(scene, m, hit, d, 0.0f);
+        c.light += c.throughput * direct(sh, LambertReflection{color * kInvPi, n}, c.s);
+        point = {sh.position, n, c.throughput * color};
+        return false;
+      }
+      case MaterialType::kMirror:
+        next = reflect(d, sh.shading_normal);
+        c.throughput *= surface_color(scene, m, hit, d, 0.0f);
+        break;
+      case MaterialType::kDielectric: {
+        const DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
+        const float fr = fresnel_dielectric(side.cos_i, side.eta);
+        next = reflect(d, side.normal);
+        Vec3f refracted;
+        if (c.s.next_float() >= fr && refract(d, side.normal, side.eta, refracted))
+          next = refracted;
+        break;
+      }
+      default:
+        return false;
     }
   }
   if (c.depth >= cfg.max_depth) return false;
@@ -102,9 +138,9 @@ void trace_chains_through(const Structure& structure, Backend& backend,
     if (!blocks.pixel_of(thread, pixel)) return;
     Chain c = start_chain(camera, cfg, pixel);
     VisiblePoint point{Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
-    const auto direct = [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
-      return direct_light(scene, structure, sh.position, n, sh.geometric_normal, color,
-                          cfg.area_light_samples, scene_radius, s);
+    const auto direct = [&](const SurfaceHit& sh, const auto& reflection, Sampler& s) {
+      return direct_light_traced(scene, structure, sh.position, sh.geometric_normal, reflection,
+                                 cfg.area_light_samples, scene_radius, s);
     };
     while (chain_step(scene, closest_hit(structure, c.ray), cfg, c, point, direct)) {
     }
@@ -156,13 +192,13 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
       Chain copy = chain[index[i]];
       VisiblePoint unused;
       (void)chain_step(scene, hit[i], cfg, copy, unused,
-                       [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
-                         return direct_light_with(scene, sh.position, n, sh.geometric_normal, color,
-                                                  cfg.area_light_samples, scene_radius, s,
-                                                  [&](uint32_t slot, const Ray& r) {
-                                                    mine[slot] = r;
-                                                    return false;
-                                                  });
+                       [&](const SurfaceHit& sh, const auto& reflection, Sampler& s) {
+                         return direct_light_by(scene, sh.position, sh.geometric_normal, reflection,
+                                                cfg.area_light_samples, scene_radius, s,
+                                                [&](uint32_t slot, const Ray& r) {
+                                                  mine[slot] = r;
+                                                  return false;
+                                                });
                        });
     });
     trace_any(backend, structure, shadow.data(), count * slots, blocked.data());
@@ -172,9 +208,9 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
       const uint8_t* mine = is_blocked + i * slots;
       Chain c = chain[pixel];
       on[pixel] = chain_step(scene, hit[i], cfg, c, points[pixel],
-                             [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Sampler& s) {
-                               return direct_light_with(
-                                   scene, sh.position, n, sh.geometric_normal, color,
+                             [&](const SurfaceHit& sh, const auto& reflection, Sampler& s) {
+                               return direct_light_by(
+                                   scene, sh.position, sh.geometric_normal, reflection,
                                    cfg.area_light_samples, scene_radius, s,
                                    [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
                              })

@@ -27,6 +27,7 @@ struct PendingRay {
   uint64_t branch;  // PathRay::branch
   uint32_t medium;  // the one the ray travels in (medium/medium.h)
   float travelled;  // from the camera to the ray's origin: its ray cone's width over the spread
+  float glossy_pdf;  // the density it was drawn with off a glossy surface, else 0
 };
 
 // Room for the pending branches of a specular walk, left unconstructed (a walk uses a handful).
@@ -64,49 +65,78 @@ class BranchRoulette {
     return true;
   }
 
+  // Uniform number `dim` (0 to 2) of the branch `branch` at `depth` where it scatters off a glossy
+  // surface: a hash of the branch's key apart from the roulette's, the same in walks and queues.
+  CAUSTICA_HDI float uniform(uint64_t branch, uint32_t depth, uint32_t dim) const {
+    return unit_float(pcg_hash((key_ ^ 0x68e31da4u) ^
+                               pcg_hash(uint32_t(branch) ^ pcg_hash(uint32_t(branch >> 32) ^
+                                                                    pcg_hash(4u * depth + dim)))));
+  }
+
  private:
   uint32_t key_;
   float survival_;
 };
 
 // The branches a mirror or dielectric hit (material `m`, `sh`, ray direction `d`) spawns with the
-// path's `throughput`: spawn(direction, throughput, choice), choice 1 for the refraction and 0
+// path's `throughput`: spawn(direction, throughput, choice, 0), choice 1 for the refraction and 0
 // for a reflection; a dielectric's both Fresnel branches, the refraction first. `color` is the
 // mirror's reflectance there (surface_color).
 template <typename Spawn>
 CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, Vec3f color, const SurfaceHit& sh,
                                     Vec3f d, Vec3f throughput, Spawn spawn) {
   if (m.type == MaterialType::kMirror) {
-    spawn(reflect(d, sh.shading_normal), throughput * color, uint64_t(0));
+    spawn(reflect(d, sh.shading_normal), throughput * color, uint64_t(0), 0.0f);
     return;
   }
   DielectricSide side = dielectric_side(d, sh.shading_normal, m.ior);
   float fr = fresnel_dielectric(side.cos_i, side.eta);
   Vec3f refracted;
   if (fr < 1.0f && refract(d, side.normal, side.eta, refracted))
-    spawn(refracted, throughput * (1.0f - fr), uint64_t(1));
-  spawn(reflect(d, side.normal), throughput * fr, uint64_t(0));
+    spawn(refracted, throughput * (1.0f - fr), uint64_t(1), 0.0f);
+  spawn(reflect(d, side.normal), throughput * fr, uint64_t(0), 0.0f);
+}
+
+// The branch a hit on a sampled model (surface_bsdf.h) spawns: one direction from its glossy lobes,
+// drawn by the branch's own numbers, spawn(direction, throughput, choice, density) with choice 1
+// for a transmission. A direction on the wrong side of the triangle itself (a shading normal tilted
+// from the geometric one) would leak through it and is dropped.
+template <typename Spawn>
+CAUSTICA_HDI void glossy_branch(const SurfaceBsdf& bsdf, const SurfaceHit& sh, Vec3f d,
+                                Vec3f throughput, const BranchRoulette& roulette, uint64_t branch,
+                                uint32_t depth, Spawn spawn) {
+  const SurfaceSample g =
+      bsdf.sample_glossy(-d, roulette.uniform(branch, depth, 0), roulette.uniform(branch, depth, 1),
+                         roulette.uniform(branch, depth, 2));
+  if (!g.valid()) return;
+  const bool transmits = (g.flags & kBsdfTransmission) != 0;
+  if ((dot(g.wi, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits) return;
+  spawn(g.wi, throughput * g.weight, transmits ? uint64_t(1) : uint64_t(0), g.pdf);
 }
 
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
-// pending branch) from its first hit. `on_diffuse(hit, facing normal, colour, throughput,
-// medium)` is called at every diffuse hit in a fixed order, the colour read through a ray cone
-// `pixel_spread` wide per unit of distance from the camera; emitted light seen along the tree is
-// returned. With kMedia, `on_beam(ray, span, medium, throughput)` is called in the same order for
-// every stretch through a medium, whose beam estimate the caller owes the path, and each branch
-// is attenuated by the media it crosses. Without kMedia the scene has none, and the walk compiles
-// to what it was before media, registers and all.
+// pending branch) from its first hit. `on_diffuse(hit, normal, colour, throughput, medium, bsdf)`
+// is called at every diffuse hit (bsdf null, the normal facing the viewer) and every hit on a
+// sampled model (its SurfaceBsdf, whose frame's normal is given), with wo, in a fixed order, a
+// sampled model's glossy branch following, the colour read through a ray cone `pixel_spread` wide
+// per unit of distance from the camera; emitted light seen along the tree is returned. With kMedia,
+// `on_beam(ray, span, medium, throughput)` is called in the same order for every stretch through a
+// medium, whose beam estimate the caller owes the path, and each branch is attenuated by the media
+// it crosses. `light_samples`: the shadow rays each diffuse or glossy hit sends to area lights
+// (SurfaceReflection's). Without kMedia the scene has none, and the walk compiles to what it was
+// before media, registers and all.
 template <bool kMedia, typename Structure, typename OnDiffuse, typename OnBeam>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
-                                      uint32_t max_depth, float pixel_spread,
+                                      uint32_t max_depth, float pixel_spread, float light_samples,
                                       const BranchRoulette& roulette, OnDiffuse on_diffuse,
                                       OnBeam on_beam) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
   // The camera stands outside every shape: in the scene-wide medium, where there is one.
-  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0, kMedia ? scene.media.scene_medium : kVacuum, 0.0f};
+  stack[top++] = {camera_ray, Vec3f(1.0f), 0, 0, kMedia ? scene.media.scene_medium : kVacuum,
+                  0.0f,       0.0f};
   bool first = true;
   Vec3f emitted(0.0f);
   while (top > 0) {
@@ -126,7 +156,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = pr.ray.direction;
-    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
+    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice, float glossy_pdf) {
       const uint64_t branch = child_branch(pr.branch, pr.depth, choice);
       if (!roulette.spares(branch, pr.depth, max_depth, throughput)) return;
       Ray r;
@@ -136,24 +166,35 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
           kMedia && choice == 1
               ? medium_after_crossing(scene.media, hit.triangle, d, sh.geometric_normal)
               : pr.medium;
-      stack[top++] = {r, throughput, pr.depth + 1, branch, medium, pr.travelled + hit.t};
+      stack[top++] = {r,      throughput,           pr.depth + 1, branch,
+                      medium, pr.travelled + hit.t, glossy_pdf};
     };
     const float cone = pixel_spread * (pr.travelled + hit.t);
     // Any surface may emit from its front face; an emissive one does nothing else.
-    if (!is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f)
-      emitted += pr.throughput * surface_emission(scene, m, hit, d, cone);
+    const float cos_light = -dot(d, sh.geometric_normal);
+    if (!is_black(m.radiance) && cos_light > 0.0f)
+      emitted += pr.throughput * surface_emission(scene, m, hit, d, cone) *
+                 glossy_emission_weight(scene, pr.glossy_pdf, light_samples, hit, cos_light);
+    if (is_sampled_model(m)) {
+      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, cone),
+                                               sh.shading_normal, d, Transport::kRadiance);
+      on_diffuse(sh, bsdf.normal(), bsdf.color, pr.throughput, kMedia ? pr.medium : kVacuum, &bsdf,
+                 -d);
+      glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
+      continue;
+    }
     switch (m.type) {
-      case MaterialType::kEmissive:
-        break;
       case MaterialType::kDiffuse: {
         Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
         on_diffuse(sh, n, surface_color(scene, m, hit, d, cone), pr.throughput,
-                   kMedia ? pr.medium : kVacuum);
+                   kMedia ? pr.medium : kVacuum, static_cast<const SurfaceBsdf*>(nullptr), -d);
         break;
       }
       case MaterialType::kMirror:
       case MaterialType::kDielectric:
         specular_branches(m, surface_color(scene, m, hit, d, cone), sh, d, pr.throughput, spawn);
+        break;
+      default:  // emissive: nothing else
         break;
     }
   }
@@ -328,15 +369,27 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           uint32_t made = 0, beams_made = 0;
           Vec3f emitted = walk_specular_tree<kMedia>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
-              in.pixel_spread, BranchRoulette(in.cfg, in.camera.stream(pixel)),
-              [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Vec3f throughput, uint32_t medium) {
-                direct +=
-                    throughput * direct_light(in.scene, structure, sh.position, n,
-                                              sh.geometric_normal, color, in.cfg.area_light_samples,
-                                              in.scene_radius, s, medium);
+              in.pixel_spread, float(in.cfg.area_light_samples),
+              BranchRoulette(in.cfg, in.camera.stream(pixel)),
+              [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Vec3f throughput, uint32_t medium,
+                  const SurfaceBsdf* bsdf, Vec3f wo) {
+                Vec3f weight = color;
+                if (bsdf == nullptr) {
+                  direct += throughput * direct_light(in.scene, structure, sh.position, n,
+                                                      sh.geometric_normal, color,
+                                                      in.cfg.area_light_samples, in.scene_radius, s,
+                                                      medium);
+                } else {
+                  const SurfaceReflection r{*bsdf, wo, float(in.cfg.area_light_samples)};
+                  direct += throughput * direct_light_traced(in.scene, structure, sh.position,
+                                                             sh.geometric_normal, r,
+                                                             in.cfg.area_light_samples,
+                                                             in.scene_radius, s, medium);
+                  weight = bsdf->base_albedo(wo);
+                }
                 const uint32_t slot = atomic_fetch_add(next_request, 1u);
                 if (slot < room)
-                  request[slot] = {sh.position, n, throughput * color, uint32_t(pixel), made};
+                  request[slot] = {sh.position, n, throughput * weight, uint32_t(pixel), made};
                 ++made;
               },
               [&](const Ray& ray, const MediumSpan& span, uint32_t medium, Vec3f throughput) {
@@ -381,16 +434,31 @@ struct PathRay {
   // The tree's choices down to this ray (child_branch): 0 for a mirror's or a dielectric's
   // reflection, which the walks follow first, 1 for a refraction.
   uint64_t branch;
-  float travelled;  // PendingRay::travelled
+  float travelled;   // PendingRay::travelled
+  float glossy_pdf;  // PendingRay::glossy_pdf
 };
 
 struct PathLeaf {
   uint64_t branch;
   uint32_t pixel;
-  uint32_t diffuse;  // 1: a diffuse hit; 0: emitted light seen
+  uint32_t diffuse;  // 1: a diffuse hit or one on a sampled model; 0: emitted light seen
   Vec3f throughput;
   Vec3f value;  // emitted radiance, or a diffuse hit's emission and then its direct light added
   Vec3f position, normal, geometric_normal, albedo;
+  // A hit on a sampled model: its material (else kLambertHit), `normal` its frame's and `albedo`
+  // its colour there, and the direction towards the viewer.
+  uint32_t sampled;
+  Vec3f wo;
+
+  // The leaf's direct light by reflected_at, and the weight of its gather request.
+  template <typename Direct>
+  CAUSTICA_HDI Vec3f reflected(const ResidentSceneView& scene, float light_samples, Vec3f& weight,
+                               Direct direct) const {
+    const Vec3f light =
+        reflected_at(scene, sampled, albedo, normal, wo, light_samples, weight, direct);
+    weight = throughput * weight;
+    return light;
+  }
 };
 
 // One wave's shading: leaves where the branch ends on a light or a diffuse surface, new branches
@@ -407,47 +475,53 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     const DeviceMaterial& m = in.scene.materials[sh.material];
     const Vec3f d = pr.ray.direction;
     const BranchRoulette roulette(in.cfg, in.camera.stream(pr.pixel));
-    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice) {
+    auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice, float glossy_pdf) {
       const uint64_t branch = child_branch(pr.branch, pr.depth, choice);
       if (!roulette.spares(branch, pr.depth, in.max_depth, throughput)) return;
       Ray r;
       r.origin = offset_origin(sh.position, sh.geometric_normal, dir);
       r.direction = dir;
       const uint32_t slot = atomic_fetch_add(next_count, 1u);
-      next[slot] = {r, throughput, pr.pixel, pr.depth + 1, branch, pr.travelled + hit.t};
+      next[slot] = {r,      throughput,           pr.pixel,  pr.depth + 1,
+                    branch, pr.travelled + hit.t, glossy_pdf};
     };
     const float cone = in.pixel_spread * (pr.travelled + hit.t);
     // Any surface may emit from its front face: a leaf of its own, or a diffuse leaf's start.
-    const Vec3f emission = !is_black(m.radiance) && dot(d, sh.geometric_normal) < 0.0f
-                               ? surface_emission(in.scene, m, hit, d, cone)
-                               : Vec3f(0.0f);
-    if (!is_black(emission) && m.type != MaterialType::kDiffuse) {
-      leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, emission,
-                   Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f)};
+    const float cos_light = -dot(d, sh.geometric_normal);
+    const Vec3f emission =
+        !is_black(m.radiance) && cos_light > 0.0f
+            ? surface_emission(in.scene, m, hit, d, cone) *
+                  glossy_emission_weight(in.scene, pr.glossy_pdf, float(in.cfg.area_light_samples),
+                                         hit, cos_light)
+            : Vec3f(0.0f);
+    const bool sampled = is_sampled_model(m);
+    if (!is_black(emission) && m.type != MaterialType::kDiffuse && !sampled) {
+      leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, emission,   Vec3f(0.0f),
+                   Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), kLambertHit,   Vec3f(0.0f)};
       is_leaf[i] = 1;
     }
-    switch (m.type) {
-      case MaterialType::kEmissive:
-        break;
-      case MaterialType::kDiffuse: {
-        Vec3f n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
-        leaves[i] = {pr.branch,
-                     pr.pixel,
-                     1u,
-                     pr.throughput,
-                     emission,
-                     sh.position,
-                     n,
-                     sh.geometric_normal,
-                     surface_color(in.scene, m, hit, d, cone)};
-        is_leaf[i] = 1;
-        break;
+    if (sampled || m.type == MaterialType::kDiffuse) {
+      Vec3f n, color;
+      uint32_t material = kLambertHit;
+      if (sampled) {
+        const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(in.scene, m, hit, d, cone),
+                                                 sh.shading_normal, d, Transport::kRadiance);
+        n = bsdf.normal();
+        color = bsdf.color;
+        material = sh.material;
+        glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
+      } else {
+        n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
+        color = surface_color(in.scene, m, hit, d, cone);
       }
-      case MaterialType::kMirror:
-      case MaterialType::kDielectric:
-        specular_branches(m, surface_color(in.scene, m, hit, d, cone), sh, d, pr.throughput, spawn);
-        break;
+      leaves[i] = {pr.branch, pr.pixel,    1u, pr.throughput,
+                   emission,  sh.position, n,  sh.geometric_normal,
+                   color,     material,    -d};
+      is_leaf[i] = 1;
+      return;
     }
+    if (m.type == MaterialType::kMirror || m.type == MaterialType::kDielectric)
+      specular_branches(m, surface_color(in.scene, m, hit, d, cone), sh, d, pr.throughput, spawn);
   });
 }
 
@@ -464,7 +538,8 @@ Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structu
     const PassInputs inputs = in;
     parallel_for(backend, "specular_wave_camera", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
       Sampler s(inputs.cfg.seed, inputs.camera.stream(pixel), inputs.cfg.pass);
-      first[pixel] = {inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u, 0.0f};
+      first[pixel] = {
+          inputs.camera_ray(pixel, s), Vec3f(1.0f), uint32_t(pixel), 0u, 0u, 0.0f, 0.0f};
     });
   }
   std::vector<Buffer<PathLeaf>> wave_leaves;
@@ -593,12 +668,16 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
     for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
     Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
                                     uint32_t(r) - pixel_offset[l.pixel], dimensions);
-    (void)direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
-                            inputs.cfg.area_light_samples, inputs.scene_radius, s,
-                            [&](uint32_t slot, const Ray& ray) {
-                              mine[slot] = ray;
-                              return false;
-                            });
+    Vec3f weight;
+    (void)l.reflected(
+        inputs.scene, float(inputs.cfg.area_light_samples), weight, [&](const auto& reflection) {
+          return direct_light_by(inputs.scene, l.position, l.geometric_normal, reflection,
+                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
+                                 [&](uint32_t slot, const Ray& ray) {
+                                   mine[slot] = ray;
+                                   return false;
+                                 });
+        });
   });
   trace_any(backend, structure, shadow_rays.data(), shadow_count, blocked.data());
   out.requests.resize_discard(requests);
@@ -609,11 +688,14 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
     const uint8_t* mine = is_blocked + r * slots;
     Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
                                     uint32_t(r) - pixel_offset[l.pixel], dimensions);
-    l.value += direct_light_with(inputs.scene, l.position, l.normal, l.geometric_normal, l.albedo,
+    Vec3f weight;
+    l.value += l.reflected(
+        inputs.scene, float(inputs.cfg.area_light_samples), weight, [&](const auto& reflection) {
+          return direct_light_by(inputs.scene, l.position, l.geometric_normal, reflection,
                                  inputs.cfg.area_light_samples, inputs.scene_radius, s,
                                  [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
-    request[r] = {l.position, l.normal, l.throughput * l.albedo, l.pixel,
-                  uint32_t(r) - pixel_offset[l.pixel]};
+        });
+    request[r] = {l.position, l.normal, weight, l.pixel, uint32_t(r) - pixel_offset[l.pixel]};
   });
   // Each pixel's emitted and direct light summed in its walk's order.
   Vec3f* direct_out = out.direct.data();

@@ -11,6 +11,7 @@
 #include "renderer/render/camera.h"
 #include "renderer/render/film.h"
 #include "renderer/resident/resident_scene.h"
+#include "renderer/resident/surface_bsdf.h"
 
 namespace caustica {
 
@@ -163,17 +164,17 @@ CAUSTICA_HDI WayToLight way_to_light(const DeviceLight& l, Vec3f p, float scene_
   return way;
 }
 
-// Direct light at a diffuse point: every point, spot and directional light with one shadow ray
-// each, and `area_samples` shadow rays to area lights chosen by power. `visible(slot, ray)` says
-// whether the shadow ray `ray` (slot: direct_light_slots) reaches its light. `normal` faces the
-// viewer. In `medium`, each light's share is attenuated by the transmittance of the way to it.
-template <typename Visible>
-CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
-                                     Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
-                                     float scene_radius, Sampler& s, Visible visible_slot,
-                                     uint32_t medium = kVacuum) {
+// Direct light at a point of a camera path: every point, spot and directional light with one
+// shadow ray each, and `area_samples` shadow rays to area lights chosen by power, each weighed by
+// what `reflection` (LambertReflection, SurfaceReflection) gives for its direction, f |cos|.
+// `visible(slot, ray)` says whether the shadow ray `ray` (slot: direct_light_slots) reaches its
+// light. In `medium`, each light's share is attenuated by the transmittance of the way to it.
+template <typename Reflection, typename Visible>
+CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3f geometric_normal,
+                                   const Reflection& reflection, uint32_t area_samples,
+                                   float scene_radius, Sampler& s, Visible visible_slot,
+                                   uint32_t medium = kVacuum) {
   Vec3f sum(0.0f);
-  const Vec3f f = albedo * kInvPi;
   // Shadow rays stop just short of the light so that an area light's own triangle never blocks.
   auto visible = [&](uint32_t slot, Vec3f light_point, Vec3f wi) {
     return visible_slot(slot,
@@ -183,27 +184,72 @@ CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Ve
     const DeviceLight& l = scene.lights[i];
     if (l.type == DeviceLightType::kArea) continue;
     const WayToLight way = way_to_light(l, p, scene_radius);
-    float cos_theta = dot(normal, way.wi);
-    if (cos_theta <= 0.0f || way.scale <= 0.0f) continue;
+    const Vec3f f_cos = reflection.delta(way.wi);
+    if (is_black(f_cos) || way.scale <= 0.0f) continue;
     if (visible(i, way.light_point, way.wi))
-      sum += f * l.color * transmittance_along(scene.media, medium, p, way.wi, way.dist) *
-             (cos_theta * way.scale);
+      sum += f_cos * l.color * transmittance_along(scene.media, medium, p, way.wi, way.dist) *
+             way.scale;
   }
   if (scene.area_light_count > 0 && area_samples > 0) {
     Vec3f area_sum(0.0f);
     for (uint32_t k = 0; k < area_samples; ++k) {
       const AreaLightPoint y = draw_area_light_point(scene, p, s);
       const DeviceLight& l = *y.light;
-      float cos_x = dot(normal, y.wi);
-      if (cos_x <= 0.0f || y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
+      if (y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
+      const Vec3f f_cos = reflection.area(y.wi, y.choice_pdf * y.dist2 / (y.cos_light * l.area));
+      if (is_black(f_cos)) continue;
       if (!visible(scene.light_count + k, y.position, y.wi)) continue;
-      area_sum += f * y.radiance *
+      area_sum += f_cos * y.radiance *
                   transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
-                  (cos_x * y.cos_light * l.area / (y.dist2 * y.choice_pdf));
+                  (y.cos_light * l.area / (y.dist2 * y.choice_pdf));
     }
     sum += area_sum / float(area_samples);
   }
   return sum;
+}
+
+// Direct light at a diffuse point of albedo `albedo`; `normal` faces the viewer.
+template <typename Visible>
+CAUSTICA_HDI Vec3f direct_light_with(const ResidentSceneView& scene, Vec3f p, Vec3f normal,
+                                     Vec3f geometric_normal, Vec3f albedo, uint32_t area_samples,
+                                     float scene_radius, Sampler& s, Visible visible_slot,
+                                     uint32_t medium = kVacuum) {
+  return direct_light_by(scene, p, geometric_normal, LambertReflection{albedo * kInvPi, normal},
+                         area_samples, scene_radius, s, visible_slot, medium);
+}
+
+// A hit's material for reflected_at: kLambertHit for a diffuse one, else a sampled model's index.
+constexpr uint32_t kLambertHit = 0xffffffffu;
+
+// What a hit that waits for its direct light reflects: `direct(reflection)` given a
+// LambertReflection of `albedo` (a diffuse hit) or the SurfaceReflection of material `sampled` of
+// colour `albedo` towards `wo`, whose frame's normal is `normal` (its `light_samples` as
+// SurfaceReflection's); `weight` gets what its gather request weighs the photons' density by
+// (albedo, or the base's albedo towards wo).
+template <typename Direct>
+CAUSTICA_HDI Vec3f reflected_at(const ResidentSceneView& scene, uint32_t sampled, Vec3f albedo,
+                                Vec3f normal, Vec3f wo, float light_samples, Vec3f& weight,
+                                Direct direct) {
+  if (sampled == kLambertHit) {
+    weight = albedo;
+    return direct(LambertReflection{albedo * kInvPi, normal});
+  }
+  const SurfaceReflection r{
+      SurfaceBsdf::at(scene.materials[sampled], albedo, normal, -wo, Transport::kRadiance), wo,
+      light_samples};
+  weight = r.bsdf.base_albedo(wo);
+  return direct(r);
+}
+
+// direct_light_by, each shadow ray traced on the spot through `structure` (a StructureView).
+template <typename Structure, typename Reflection>
+CAUSTICA_HDI Vec3f direct_light_traced(const ResidentSceneView& scene, const Structure& structure,
+                                       Vec3f p, Vec3f geometric_normal,
+                                       const Reflection& reflection, uint32_t area_samples,
+                                       float scene_radius, Sampler& s, uint32_t medium = kVacuum) {
+  return direct_light_by(
+      scene, p, geometric_normal, reflection, area_samples, scene_radius, s,
+      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); }, medium);
 }
 
 // direct_light_with, each shadow ray traced on the spot through `structure` (a StructureView).
@@ -212,9 +258,9 @@ CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure&
                                 Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
                                 uint32_t area_samples, float scene_radius, Sampler& s,
                                 uint32_t medium = kVacuum) {
-  return direct_light_with(
-      scene, p, normal, geometric_normal, albedo, area_samples, scene_radius, s,
-      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); }, medium);
+  return direct_light_traced(scene, structure, p, geometric_normal,
+                             LambertReflection{albedo * kInvPi, normal}, area_samples, scene_radius,
+                             s, medium);
 }
 
 }  // namespace caustica

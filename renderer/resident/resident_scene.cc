@@ -76,7 +76,8 @@ std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materi
     const Material& m = materials[i];
     out.push_back({m.type, m.color, m.ior, emitted_radiance(m),
                    i < color_maps.size() ? color_maps[i] : kNoTexture,
-                   i < emission_maps.size() ? emission_maps[i] : kNoTexture});
+                   i < emission_maps.size() ? emission_maps[i] : kNoTexture, m.metallic,
+                   m.roughness, m.specular, m.exponent});
   }
   return out;
 }

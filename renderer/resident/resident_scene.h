@@ -22,6 +22,9 @@ struct DeviceMaterial {
   Vec3f radiance;         // what the front face emits now (any type may emit)
   uint32_t color_map;     // index into ResidentSceneView::texture_maps, or kNoTexture
   uint32_t emission_map;  // likewise
+  float metallic, roughness;  // Material's
+  Vec3f specular;
+  float exponent;
 };
 
 // A material's colour or emission map as kernels read it: the image's mip chain with the map's

@@ -19,7 +19,13 @@ const char* type_name(MaterialType type) {
       return "dielectric";
     case MaterialType::kEmissive:
       return "emissive";
+    case MaterialType::kMetallicRoughness:
+      return "metallic_roughness";
+    case MaterialType::kPhong:
+      return "phong";
   }
+  static_assert(kLastMaterialType == MaterialType::kPhong,
+                "type_name names every material type: add the new one above");
   return "unknown";
 }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <exception>
 #include <initializer_list>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -53,9 +54,55 @@ Vec3f clamp01(Vec3f c) {
   return {std::clamp(c.x, 0.0f, 1.0f), std::clamp(c.y, 0.0f, 1.0f), std::clamp(c.z, 0.0f, 1.0f)};
 }
 
+// "model.fbx: material 'steel': ", for warnings.
+std::string material_where(const std::string& file_name, const std::string& material) {
+  return absl::StrCat(file_name, ": material '", material, "': ");
+}
+
+// A colour of the file, clamped to [0, 1] with a warning when it is not (0.8 grey when it is not
+// finite): validation would refuse the whole model for one exporter's overbright colour.
+Vec3f reflectance(Vec3f color, const char* what, const std::string& where,
+                  std::vector<std::string>* warnings) {
+  if (!is_finite(color)) return Vec3f(0.8f);
+  const Vec3f clamped = clamp01(color);
+  if (!(clamped == color)) {
+    warnings->push_back(absl::StrCat(where, what, " (", color.x, ", ", color.y, ", ", color.z,
+                                     ") clamped to [0, 1]"));
+  }
+  return clamped;
+}
+
+// A metalness or roughness factor of the file, clamped to [0, 1] with a warning when it is not
+// (`fallback` when it is not finite).
+float unit_factor(float value, float fallback, const char* what, const std::string& where,
+                  std::vector<std::string>* warnings) {
+  if (!std::isfinite(value)) {
+    warnings->push_back(
+        absl::StrCat(where, what, " ", value, " is not finite; ", fallback, " instead"));
+    return fallback;
+  }
+  const float clamped = std::clamp(value, 0.0f, 1.0f);
+  if (clamped != value) {
+    warnings->push_back(absl::StrCat(where, what, " ", value, " clamped to [0, 1]"));
+  }
+  return clamped;
+}
+
+// Assimp's shading models whose surfaces have no highlight, whatever specular colour the file
+// also stores: flat and Gouraud (COLLADA's lambert, FBX's and 3DS's diffuse materials), the
+// diffuse-only Oren-Nayar and Minnaert, and unlit.
+bool has_no_highlight(int shading_model) {
+  return shading_model == aiShadingMode_Flat || shading_model == aiShadingMode_Gouraud ||
+         shading_model == aiShadingMode_OrenNayar || shading_model == aiShadingMode_Minnaert ||
+         shading_model == aiShadingMode_NoShading;
+}
+
 // The same rules as OBJ's MTL and glTF, in the terms Assimp normalises every format's materials
-// to: transparency (a dielectric), then the diffuse (or PBR base) colour, emission on top.
-// Mirrors are not guessed: Assimp's shininess and reflectivity mean different things per format.
+// to, each model taken as the file states it: transparency (a dielectric); a glTF-like metalness
+// factor, with its roughness (metallic-roughness); a specular colour with a shininess under a
+// shading model that has highlights (modified Phong); else the diffuse (or PBR base) colour.
+// Emission comes on top. Mirrors are not guessed: Assimp's reflectivity means different things per
+// format.
 Material convert_material(const aiMaterial& source, size_t index, const std::string& file_name,
                           std::vector<std::string>* warnings) {
   Material m;
@@ -63,13 +110,11 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
   m.name = source.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name.length > 0
                ? std::string(name.C_Str())
                : absl::StrCat("material ", index);
-  aiColor3D color(0.8f, 0.8f, 0.8f);
-  Vec3f albedo(0.8f);
-  if (aiColor4D base; source.Get(AI_MATKEY_BASE_COLOR, base) == AI_SUCCESS) {
-    albedo = {base.r, base.g, base.b};
-  } else if (source.Get(AI_MATKEY_COLOR_DIFFUSE, color) == AI_SUCCESS) {
-    albedo = to_vec3(color);
-  }
+  const std::string where = material_where(file_name, m.name);
+  std::optional<Vec3f> base, diffuse;
+  if (aiColor4D c; source.Get(AI_MATKEY_BASE_COLOR, c) == AI_SUCCESS) base = Vec3f(c.r, c.g, c.b);
+  if (aiColor3D c; source.Get(AI_MATKEY_COLOR_DIFFUSE, c) == AI_SUCCESS) diffuse = to_vec3(c);
+  const Vec3f albedo = base.value_or(diffuse.value_or(Vec3f(0.8f)));
   aiColor3D emissive(0, 0, 0);
   Vec3f emission(0);
   if (source.Get(AI_MATKEY_COLOR_EMISSIVE, emissive) == AI_SUCCESS) {
@@ -82,6 +127,20 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
   source.Get(AI_MATKEY_OPACITY, opacity);
   float transmission = 0;
   source.Get(AI_MATKEY_TRANSMISSION_FACTOR, transmission);
+  // A metalness is what marks a metallic-roughness material: Assimp's FBX importer derives a
+  // roughness factor, 1 - sqrt(shininess) / 10, for every Phong material, an approximation of its
+  // own rather than anything the file states.
+  float metallic = 0, roughness = 0.5f;  // 0.5: the scene format's default, for one left out
+  const bool has_metallic = source.Get(AI_MATKEY_METALLIC_FACTOR, metallic) == AI_SUCCESS;
+  source.Get(AI_MATKEY_ROUGHNESS_FACTOR, roughness);
+  aiColor3D specular_color(0, 0, 0);
+  float shininess = 0, shininess_strength = 1;
+  int shading_model = aiShadingMode_Phong;
+  const bool has_specular = source.Get(AI_MATKEY_COLOR_SPECULAR, specular_color) == AI_SUCCESS;
+  source.Get(AI_MATKEY_SHININESS, shininess);
+  source.Get(AI_MATKEY_SHININESS_STRENGTH, shininess_strength);
+  source.Get(AI_MATKEY_SHADING_MODEL, shading_model);
+  const Vec3f specular = to_vec3(specular_color) * shininess_strength;
 
   // Emission comes on top of what the surface reflects; a surface that reflects nothing is a
   // light.
@@ -99,16 +158,32 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
     // Many exporters write 1 (or nothing) when they mean "not set".
     if (source.Get(AI_MATKEY_REFRACTI, ior) != AI_SUCCESS || !(ior > 1)) ior = 1.5f;
     m.ior = ior;
+  } else if (has_metallic) {
+    m.type = MaterialType::kMetallicRoughness;
+    m.color = reflectance(albedo, "base colour", where, warnings);
+    m.metallic = unit_factor(metallic, 0, "metallic factor", where, warnings);
+    m.roughness = unit_factor(roughness, 0.5f, "roughness factor", where, warnings);
+  } else if (has_specular && is_finite(specular) && !is_black(specular) && shininess > 0 &&
+             std::isfinite(shininess) && !has_no_highlight(shading_model)) {
+    m.type = MaterialType::kPhong;
+    // Negative channels are an exporter's mistake; overbright ones are scaled down with the
+    // other lobe below, keeping the hue.
+    const auto non_negative = [](Vec3f c) {
+      return Vec3f(std::max(c.x, 0.0f), std::max(c.y, 0.0f), std::max(c.z, 0.0f));
+    };
+    const Vec3f kd = diffuse.value_or(albedo);
+    m.color = is_finite(kd) ? non_negative(kd) : Vec3f(0.8f);
+    m.specular = non_negative(specular);
+    m.exponent = shininess;
+    const Vec3f sum = m.color + m.specular;
+    if (const float scale = conserve_phong_energy(&m); scale != 1) {
+      warnings->push_back(absl::StrCat(where, "diffuse + specular colour (", sum.x, ", ", sum.y,
+                                       ", ", sum.z, ") exceeds 1; both scaled by ", scale,
+                                       " so that it reflects no more than it receives"));
+    }
   } else {
     m.type = MaterialType::kDiffuse;
-    if (!is_finite(albedo)) albedo = Vec3f(0.8f);
-    const Vec3f clamped = clamp01(albedo);
-    if (!(clamped == albedo)) {
-      warnings->push_back(absl::StrCat(file_name, ": material '", m.name, "': diffuse colour (",
-                                       albedo.x, ", ", albedo.y, ", ", albedo.z,
-                                       ") clamped to [0, 1]"));
-    }
-    m.color = clamped;
+    m.color = reflectance(albedo, "diffuse colour", where, warnings);
   }
   return m;
 }

@@ -1,5 +1,7 @@
 #include "renderer/scene/mesh_file.h"
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "absl/status/status.h"
@@ -12,6 +14,24 @@
 #include "renderer/scene/status_util.h"
 
 namespace caustica {
+
+float conserve_phong_energy(Material* material) {
+  const Vec3f kd = material->color, ks = material->specular;
+  if (!is_finite(kd) || !is_finite(ks)) return 1;  // validation refuses these
+  const Vec3f sum = kd + ks;
+  const float worst = std::max({sum.x, sum.y, sum.z});
+  if (!(worst > 1 && std::isfinite(worst))) return 1;
+  // 1 / worst may leave a sum a rounding step above 1; step the factor down until none is.
+  const auto conserves = [&](float scale) {
+    const Vec3f scaled = kd * scale + ks * scale;
+    return scaled.x <= 1 && scaled.y <= 1 && scaled.z <= 1;
+  };
+  float scale = 1 / worst;
+  while (!conserves(scale)) scale = std::nextafter(scale, 0.0f);
+  material->color = kd * scale;
+  material->specular = ks * scale;
+  return scale;
+}
 
 absl::StatusOr<MeshFile> load_mesh_file(const std::filesystem::path& path) {
   std::string extension = absl::AsciiStrToLower(path.extension().string());

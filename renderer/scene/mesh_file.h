@@ -28,6 +28,12 @@ struct MeshFile {
   std::vector<std::string> warnings;
 };
 
+// A model file's Phong material whose color + specular (kd + ks) exceeds 1 in a channel would
+// reflect more light than it receives: both are scaled by one factor, which keeps their hues and
+// their balance, so that the worst channel sums to 1 as validation adds them. Returns the factor,
+// 1 when nothing was scaled.
+float conserve_phong_energy(Material* material);
+
 // Loads .obj (+ .mtl), .ply, .ply.gz, .gltf or .glb with the own loaders and every other extension
 // Assimp imports (.fbx, .dae, .stl, .3mf, .off, .3ds, ...) through mesh_assimp.h, chosen by the
 // file name's extension (case-insensitive). NotFoundError for a missing file; every error names

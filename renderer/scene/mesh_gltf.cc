@@ -100,9 +100,10 @@ Material convert_material(const tinygltf::Material& gltf, size_t index) {
                                           "emissiveStrength", 1.0));
   const double transmission =
       extension_number(gltf.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0);
-  // Our materials are pure types, so the strongest trait of the PBR material decides; emission
-  // comes on top of any (glTF adds it to what the surface reflects), and a surface that reflects
-  // nothing but emits is a light.
+  // The file's model is ours: its factors are taken as they are (tinygltf fills in the
+  // specification's defaults, metallic and roughness 1). A transmitting material is glass, rough
+  // by its roughness; emission comes on top of any kind (glTF adds it to what the surface
+  // reflects), and a surface that reflects nothing but emits is a light.
   m.radiance = emission;
   if (!is_black(emission) && is_black(base_color) && transmission <= 0) {
     m.type = MaterialType::kEmissive;
@@ -110,12 +111,12 @@ Material convert_material(const tinygltf::Material& gltf, size_t index) {
   } else if (transmission > 0) {
     m.type = MaterialType::kDielectric;
     m.ior = static_cast<float>(extension_number(gltf.extensions, "KHR_materials_ior", "ior", 1.5));
-  } else if (pbr.metallicFactor >= 0.99 && pbr.roughnessFactor <= 0.01) {
-    m.type = MaterialType::kMirror;
-    m.color = base_color;
+    m.roughness = static_cast<float>(pbr.roughnessFactor);
   } else {
-    m.type = MaterialType::kDiffuse;
+    m.type = MaterialType::kMetallicRoughness;
     m.color = base_color;
+    m.metallic = static_cast<float>(pbr.metallicFactor);
+    m.roughness = static_cast<float>(pbr.roughnessFactor);
   }
   return m;
 }

@@ -14,6 +14,7 @@
 #include "absl/strings/string_view.h"
 #include "absl/strings/strip.h"
 #include "renderer/scene/file_io.h"
+#include "renderer/scene/mesh_file.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/texture_files.h"
@@ -23,7 +24,9 @@ namespace {
 
 Vec3f to_vec3(const tinyobj::real_t* v) { return {v[0], v[1], v[2]}; }
 
-Material convert_material(const tinyobj::material_t& mtl, size_t index) {
+// `file_name` names the OBJ in the warning of a Phong material scaled to conserve energy.
+Material convert_material(const tinyobj::material_t& mtl, size_t index,
+                          const std::string& file_name, std::vector<std::string>& warnings) {
   Material m;
   m.name = mtl.name.empty() ? absl::StrCat("material ", index) : mtl.name;
   const Vec3f emission = to_vec3(mtl.emission);
@@ -40,8 +43,22 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index) {
     // tinyobj reports 1 when Ni is absent, and glass of index 1 would be invisible.
     m.ior = mtl.ior > 1 ? mtl.ior : 1.5f;
   } else if (mtl.illum == 3 || mtl.illum == 5 || mtl.illum == 8) {
+    // The MTL specification's ray-traced reflection: a perfect mirror of colour Ks.
     m.type = MaterialType::kMirror;
     m.color = to_vec3(mtl.specular);
+  } else if (!is_black(to_vec3(mtl.specular)) && mtl.illum != 0 && mtl.illum != 1) {
+    // Illumination models 0 and 1 have no highlight whatever Ks says; the others add Ks's
+    // Phong lobe of exponent Ns to Kd's diffuse one.
+    m.type = MaterialType::kPhong;
+    m.color = to_vec3(mtl.diffuse);
+    m.specular = to_vec3(mtl.specular);
+    m.exponent = mtl.shininess > 0 ? mtl.shininess : 1.0f;
+    if (const float scale = conserve_phong_energy(&m); scale != 1) {
+      const Vec3f sum = to_vec3(mtl.diffuse) + to_vec3(mtl.specular);
+      warnings.push_back(absl::StrCat(file_name, ": material '", m.name, "': Kd + Ks = (", sum.x,
+                                      ", ", sum.y, ", ", sum.z, ") exceeds 1; both scaled by ",
+                                      scale, " so that it reflects no more than it receives"));
+    }
   } else {
     m.type = MaterialType::kDiffuse;
     m.color = to_vec3(mtl.diffuse);
@@ -266,7 +283,7 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
   const std::vector<tinyobj::material_t>& materials = reader.GetMaterials();
   TextureTable textures(path);
   for (size_t i = 0; i < materials.size(); ++i) {
-    Material m = convert_material(materials[i], i);
+    Material m = convert_material(materials[i], i, path.filename().string(), file.warnings);
     m.color_map = convert_map(materials[i].diffuse_texname, materials[i].diffuse_texopt, textures,
                               file.warnings);
     m.emission_map = convert_map(materials[i].emissive_texname, materials[i].emissive_texopt,

@@ -17,7 +17,17 @@
 
 namespace caustica {
 
-enum class MaterialType : uint32_t { kDiffuse = 0, kMirror = 1, kDielectric = 2, kEmissive = 3 };
+// How a surface scatters (docs/materials.md): the first four kinds, glTF's metallic-roughness
+// model and the modified Phong model (a Lambertian and a glossy lobe, as the seed's).
+enum class MaterialType : uint32_t {
+  kDiffuse = 0,
+  kMirror = 1,
+  kDielectric = 2,  // smooth glass when `roughness` is 0, rough (GGX) glass otherwise
+  kEmissive = 3,
+  kMetallicRoughness = 4,
+  kPhong = 5,
+};
+inline constexpr MaterialType kLastMaterialType = MaterialType::kPhong;
 
 // No texture: a TextureRef's `texture` when the material's factor stands alone.
 inline constexpr uint32_t kNoTexture = 0xffffffffu;
@@ -53,8 +63,18 @@ struct TextureRef {
 struct Material {
   std::string name;
   MaterialType type = MaterialType::kDiffuse;
-  Vec3f color{0.8f, 0.8f, 0.8f};  // diffuse albedo or mirror reflectance (each channel in [0, 1])
-  float ior = 1.5f;               // dielectric index of refraction (outside medium is vacuum)
+  // Diffuse albedo, mirror reflectance, metallic-roughness base colour or Phong's diffuse colour
+  // (each channel in [0, 1]).
+  Vec3f color{0.8f, 0.8f, 0.8f};
+  float ior = 1.5f;  // dielectric index of refraction (outside medium is vacuum)
+  // Metallic-roughness: glTF's metalness and perceptual roughness (GGX alpha = roughness^2), each
+  // in [0, 1]. A dielectric's roughness likewise, 0 for smooth glass.
+  float metallic = 0.0f;
+  float roughness = 0.0f;
+  // Phong: the glossy lobe's colour (color + specular <= 1 in every channel conserves energy) and
+  // its exponent (> 0).
+  Vec3f specular{0.0f, 0.0f, 0.0f};
+  float exponent = 20.0f;
   // Outgoing radiance of the front face. An emissive material's surface is black; another kind
   // given an emission (glTF's emissive factor, MTL's Ke) emits and reflects.
   Vec3f radiance{0, 0, 0};

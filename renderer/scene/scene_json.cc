@@ -319,14 +319,31 @@ class SceneReader {
     } else if (type == "dielectric") {
       material.type = MaterialType::kDielectric;
       SCENE_RETURN_IF_ERROR(object.read("ior", kOptional, &material.ior));
+      SCENE_RETURN_IF_ERROR(object.read("roughness", kOptional, &material.roughness));
     } else if (type == "emissive") {
       material.type = MaterialType::kEmissive;
       material.color = Vec3f(0);
       SCENE_RETURN_IF_ERROR(object.read("radiance", kRequired, &material.radiance));
+    } else if (type == "metallic_roughness") {
+      material.type = MaterialType::kMetallicRoughness;
+      // Half rough: a scene that names no roughness gets a visible highlight, neither a mirror
+      // nor a matte surface.
+      material.roughness = 0.5f;
+      SCENE_RETURN_IF_ERROR(object.read("color", kOptional, &material.color));
+      SCENE_RETURN_IF_ERROR(object.read("metallic", kOptional, &material.metallic));
+      SCENE_RETURN_IF_ERROR(object.read("roughness", kOptional, &material.roughness));
+    } else if (type == "phong") {
+      material.type = MaterialType::kPhong;
+      // The defaults sum to 1: white light is all reflected, mostly diffusely.
+      material.specular = Vec3f(0.2f);
+      SCENE_RETURN_IF_ERROR(object.read("color", kOptional, &material.color));
+      SCENE_RETURN_IF_ERROR(object.read("specular", kOptional, &material.specular));
+      SCENE_RETURN_IF_ERROR(object.read("exponent", kOptional, &material.exponent));
     } else {
       return invalid_field(object.field_path("type"),
                            absl::StrCat("unknown material type '", type,
-                                        "' (expected diffuse, mirror, dielectric or emissive)"));
+                                        "' (expected diffuse, mirror, dielectric, emissive, "
+                                        "metallic_roughness or phong)"));
     }
     // Any other kind may also emit from its front face, as a model file's emissive surfaces do.
     if (material.type != MaterialType::kEmissive)

@@ -35,6 +35,14 @@ absl::Status check_color(absl::string_view field, Vec3f c, float max = INFINITY)
   return absl::OkStatus();
 }
 
+// Metalness and roughness: finite and in [0, 1].
+absl::Status check_unit_interval(absl::string_view field, float value) {
+  if (!(value >= 0 && value <= 1)) {
+    return invalid_field(field, absl::StrCat(value, " is not a number in [0, 1]"));
+  }
+  return absl::OkStatus();
+}
+
 // For the integer fields: camera size and the settings counts.
 absl::Status check_in_range(absl::string_view field, int64_t value, int64_t lo, int64_t hi) {
   if (!(value >= lo && value <= hi)) {
@@ -168,10 +176,35 @@ absl::Status validate_material(const Material& m, size_t textures) {
         return invalid_field(absl::StrCat(field, ".ior"),
                              absl::StrCat(m.ior, " is not a positive number"));
       }
-      return absl::OkStatus();
+      return check_unit_interval(absl::StrCat(field, ".roughness"), m.roughness);
     case MaterialType::kEmissive:
       return absl::OkStatus();
+    case MaterialType::kMetallicRoughness:
+      SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".color"), m.color, 1));
+      SCENE_RETURN_IF_ERROR(check_unit_interval(absl::StrCat(field, ".metallic"), m.metallic));
+      return check_unit_interval(absl::StrCat(field, ".roughness"), m.roughness);
+    case MaterialType::kPhong: {
+      SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".color"), m.color, 1));
+      SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".specular"), m.specular, 1));
+      // The two lobes share what arrives: more than all of it in sum would create light.
+      const Vec3f sum = m.color + m.specular;
+      if (sum.x > 1 || sum.y > 1 || sum.z > 1) {
+        return invalid_field(
+            absl::StrCat(field, ".specular"),
+            absl::StrCat(
+                "color + specular = ", format_vec(sum),
+                " has a channel above 1 (a surface cannot reflect more than it receives)"));
+      }
+      if (!(m.exponent > 0 && m.exponent <= kMaxPhongExponent)) {
+        return invalid_field(
+            absl::StrCat(field, ".exponent"),
+            absl::StrCat(m.exponent, " is not a number in (0, ", kMaxPhongExponent, "]"));
+      }
+      return absl::OkStatus();
+    }
   }
+  static_assert(kLastMaterialType == MaterialType::kPhong,
+                "validate_material checks every material type: add the new one above");
   return invalid_field(field, "has an unknown type");
 }
 

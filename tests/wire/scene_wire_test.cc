@@ -411,6 +411,54 @@ TEST(SceneWire, LightsAndSettingsRoundTrip) {
   EXPECT_EQ(applied->photons_per_pass, current.photons_per_pass);  // unset fields stay
 }
 
+// The metallic-roughness and Phong models and a rough dielectric arrive with every field they
+// carry; a mirror keeps the fields it does not use too.
+TEST(SceneWire, MetallicRoughnessPhongAndRoughGlassRoundTrip) {
+  Scene scene = bundled("cornell-box");
+  scene.materials.push_back({.name = "steel",
+                             .type = MaterialType::kMetallicRoughness,
+                             .color = {0.9f, 0.8f, 0.7f},
+                             .metallic = 0.75f,
+                             .roughness = 0.25f});
+  scene.materials.push_back({.name = "plastic",
+                             .type = MaterialType::kPhong,
+                             .color = {0.5f, 0.4f, 0.3f},
+                             .specular = {0.125f, 0.25f, 0.375f},
+                             .exponent = 42.5f,
+                             .radiance = {1, 2, 3}});
+  scene.materials.push_back(
+      {.name = "frosted", .type = MaterialType::kDielectric, .ior = 1.33f, .roughness = 0.6f});
+  scene.meshes[0].material_ids.assign(scene.meshes[0].triangle_count(),
+                                      uint32_t(scene.materials.size() - 2));
+  absl::StatusOr<Scene> back = assemble(encode(scene, 1 << 20));
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->materials.size(), scene.materials.size());
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material& a = scene.materials[i];
+    const Material& b = back->materials[i];
+    SCOPED_TRACE(a.name);
+    EXPECT_EQ(b.name, a.name);
+    EXPECT_EQ(b.type, a.type);
+    EXPECT_EQ(b.color, a.color);
+    EXPECT_EQ(b.ior, a.ior);
+    EXPECT_EQ(b.metallic, a.metallic);
+    EXPECT_EQ(b.roughness, a.roughness);
+    EXPECT_EQ(b.specular, a.specular);
+    EXPECT_EQ(b.exponent, a.exponent);
+    EXPECT_EQ(b.radiance, a.radiance);
+  }
+  const v1::Material steel = encode_material(scene.materials.at(scene.materials.size() - 3));
+  EXPECT_EQ(steel.type(), v1::Material::METALLIC_ROUGHNESS);
+  EXPECT_EQ(steel.metallic(), 0.75f);
+  EXPECT_EQ(steel.roughness(), 0.25f);
+  const v1::Material plastic = encode_material(scene.materials.at(scene.materials.size() - 2));
+  EXPECT_EQ(plastic.type(), v1::Material::PHONG);
+  EXPECT_EQ(plastic.specular().z(), 0.375f);
+  EXPECT_EQ(plastic.exponent(), 42.5f);
+  EXPECT_EQ(back->meshes[0].material_ids.front(), scene.materials.size() - 2);
+  EXPECT_TRUE(validate_scene(*back).ok()) << validate_scene(*back);
+}
+
 struct BadUpload {
   const char* what;
   std::function<void(std::vector<v1::SceneChunk>&)> corrupt;
@@ -543,6 +591,19 @@ INSTANTIATE_TEST_SUITE_P(
                         v1::Material::TYPE_UNSPECIFIED);
                   },
                   absl::StatusCode::kInvalidArgument, "materials[0].type"},
+        BadUpload{"material type beyond the known ones",
+                  [](auto& c) {
+                    c[0].mutable_header()->mutable_materials(0)->set_type(
+                        static_cast<v1::Material::Type>(7));
+                  },
+                  absl::StatusCode::kInvalidArgument,
+                  "materials[0].type: 7 is not a material type"},
+        BadUpload{
+            "specular not finite",
+            [](auto& c) {
+              c[0].mutable_header()->mutable_materials(0)->mutable_specular()->set_y(std::nanf(""));
+            },
+            absl::StatusCode::kInvalidArgument, "materials[0].specular: (0, nan, 0) is not finite"},
         BadUpload{"material out of range",
                   [](auto& c) { c[0].mutable_header()->mutable_meshes(0)->set_material(42); },
                   absl::StatusCode::kInvalidArgument, "material: 42 is out of range"},

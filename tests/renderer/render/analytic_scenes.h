@@ -32,6 +32,14 @@ inline std::unique_ptr<Engine> engine_with(const Scene& scene) {
   return std::move(*engine);
 }
 
+// Where the ray through the centre of pixel (x, y) meets the plane z = 0, when it goes down.
+inline bool plane_point(const PinholeCamera& camera, int x, int y, Vec3f& p) {
+  const Ray r = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
+  if (!(r.direction.z < 0.0f)) return false;
+  p = r.origin + r.direction * (-r.origin.z / r.direction.z);
+  return true;
+}
+
 // A 2 x 2 diffuse square of albedo rho at z = 0, seen from above by a `size` x `size` camera, lit
 // by a point light of intensity I at `light`: no other surface, so every point's radiance is
 // rho / pi * I cos(theta) / r^2. `settings` is the scene's settings object.
@@ -121,6 +129,27 @@ struct PlaneUnderPointLight {
     return worst;
   }
 };
+
+// A 6 x 6 diffuse floor of albedo rho at z = 0 under a square lamp of radiance le, half side
+// `half`, at height h and facing down, seen from `eye` (looking at the origin) by a `width` x
+// `height` camera; `settings` is the scene's settings object.
+inline Scene floor_under_area_light(const std::string& settings, float rho, float le, float half,
+                                    float h, Vec3f eye, int width, int height) {
+  return parse_or_die(absl::StrFormat(R"({
+    "camera": {"position": [%f, %f, %f], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40,
+               "width": %d, "height": %d},
+    "settings": %s,
+    "materials": {"floor": {"type": "diffuse", "albedo": [%f, %f, %f]},
+                  "lamp": {"type": "emissive", "radiance": [%f, %f, %f]}},
+    "shapes": [{"type": "quad", "material": "floor",
+                "vertices": [[-3, -3, 0], [3, -3, 0], [3, 3, 0], [-3, 3, 0]]},
+               {"type": "quad", "material": "lamp",
+                "vertices": [[-%f, -%f, %f], [-%f, %f, %f], [%f, %f, %f], [%f, -%f, %f]]}]
+  })",
+                                      eye.x, eye.y, eye.z, width, height, settings, rho, rho, rho,
+                                      le, le, le, half, half, h, half, half, h, half, half, h, half,
+                                      half, h));
+}
 
 // Inside a closed diffuse sphere of albedo rho and radius R with a point light of power Phi at its
 // centre, the radiance everywhere is rho Phi / (4 pi^2 R^2 (1 - rho)): direct light plus every

@@ -16,14 +16,6 @@
 namespace caustica {
 namespace {
 
-// Where the ray through the pixel centre (x, y) meets the plane z = 0, if it does in front.
-bool plane_point(const PinholeCamera& camera, int x, int y, Vec3f& p) {
-  const Ray r = camera.ray_through(float(x) + 0.5f, float(y) + 0.5f);
-  if (!(r.direction.z < 0.0f)) return false;
-  p = r.origin + r.direction * (-r.origin.z / r.direction.z);
-  return true;
-}
-
 // The plane under a point light (analytic_scenes.h): one bounce sees nothing but the light, so
 // every pixel is what the photon integrator makes it.
 TEST(PathTracer, DiffusePlaneUnderPointLightMatchesInverseSquareCosineLaw) {
@@ -59,19 +51,8 @@ double rectangle_form_factor(double x0, double x1, double y0, double y1, double 
 // mean.
 TEST(PathTracer, FloorUnderAreaLightMatchesTheFormFactor) {
   const float rho = 0.7f, le = 2.0f, half = 0.5f, h = 1.0f;
-  const Scene scene = parse_or_die(absl::StrFormat(R"({
-    "camera": {"position": [0.2, -2.5, 1.0], "look_at": [0, 0, 0], "up": [0, 0, 1], "fov": 40,
-               "width": 64, "height": 48},
-    "settings": {"integrator": "path", "seed": 5},
-    "materials": {"floor": {"type": "diffuse", "albedo": [%f, %f, %f]},
-                  "lamp": {"type": "emissive", "radiance": [%f, %f, %f]}},
-    "shapes": [{"type": "quad", "material": "floor",
-                "vertices": [[-3, -3, 0], [3, -3, 0], [3, 3, 0], [-3, 3, 0]]},
-               {"type": "quad", "material": "lamp",
-                "vertices": [[-%f, -%f, %f], [-%f, %f, %f], [%f, %f, %f], [%f, -%f, %f]]}]
-  })",
-                                                   rho, rho, rho, le, le, le, half, half, h, half,
-                                                   half, h, half, half, h, half, half, h));
+  const Scene scene = floor_under_area_light(R"({"integrator": "path", "seed": 5})", rho, le, half,
+                                             h, Vec3f(0.2f, -2.5f, 1.0f), 64, 48);
   auto engine = engine_with(scene);
   ASSERT_TRUE(engine->render(256).ok());
   const std::span<const float> image = engine->image_linear();

@@ -2,7 +2,10 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "tests/renderer/scene/scene_test_util.h"
@@ -73,18 +76,33 @@ TEST_P(LoadGltfTest, AppliesTheNodeHierarchy) {
   EXPECT_THAT(lamp->positions[0], Vec3Near(Vec3f(0, 0, -2), 1e-5f));
 }
 
+// The file's pbrMetallicRoughness factors as they are, no longer sorted into diffuse and mirror.
 TEST_P(LoadGltfTest, MapsPbrMaterials) {
   ASSERT_EQ(file_.materials.size(), 4u);
-  EXPECT_EQ(file_.materials[0].name, "Clay");
-  EXPECT_EQ(file_.materials[0].type, MaterialType::kDiffuse);
-  EXPECT_THAT(file_.materials[0].color, Vec3Near(Vec3f(0.5f, 0.25f, 0.125f), 0));
-  EXPECT_EQ(file_.materials[1].type, MaterialType::kMirror);
-  EXPECT_THAT(file_.materials[1].color, Vec3Near(Vec3f(0.9f, 0.8f, 0.7f), 1e-6f));
+  // "Clay": baseColorFactor [0.5, 0.25, 0.125, 1], metallicFactor 0, roughnessFactor 1.
+  const Material& clay = file_.materials[0];
+  EXPECT_EQ(clay.name, "Clay");
+  EXPECT_EQ(clay.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(clay.color, Vec3Near(Vec3f(0.5f, 0.25f, 0.125f), 0));
+  EXPECT_EQ(clay.metallic, 0.0f);
+  EXPECT_EQ(clay.roughness, 1.0f);
+  // "Chrome": [0.9, 0.8, 0.7, 1], metallicFactor 1, roughnessFactor 0.
+  const Material& chrome = file_.materials[1];
+  EXPECT_EQ(chrome.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(chrome.color, Vec3Near(Vec3f(0.9f, 0.8f, 0.7f), 1e-6f));
+  EXPECT_EQ(chrome.metallic, 1.0f);
+  EXPECT_EQ(chrome.roughness, 0.0f);
+  // "Glass": transmissionFactor 1, KHR_materials_ior 1.33, roughnessFactor 0: smooth glass.
   EXPECT_EQ(file_.materials[2].type, MaterialType::kDielectric);
   EXPECT_FLOAT_EQ(file_.materials[2].ior, 1.33f);
-  // The lamp's emission comes on top of its (default white) base colour.
-  EXPECT_EQ(file_.materials[3].type, MaterialType::kDiffuse);
-  EXPECT_THAT(file_.materials[3].color, Vec3Near(Vec3f(1, 1, 1), 0));
+  EXPECT_EQ(file_.materials[2].roughness, 0.0f);
+  // "Lamp" has no pbrMetallicRoughness: the specification's white base, metallic 1 and
+  // roughness 1, with its emission on top.
+  const Material& lamp = file_.materials[3];
+  EXPECT_EQ(lamp.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(lamp.color, Vec3Near(Vec3f(1, 1, 1), 0));
+  EXPECT_EQ(lamp.metallic, 1.0f);
+  EXPECT_EQ(lamp.roughness, 1.0f);
   EXPECT_THAT(file_.materials[3].radiance, Vec3Near(Vec3f(4, 2, 1), 0));
   EXPECT_TRUE(is_emitter(file_.materials[3]));
   EXPECT_FALSE(is_emitter(file_.materials[0]));
@@ -118,6 +136,49 @@ TEST_P(LoadGltfTest, ReadsPunctualLightsWithNodeTransforms) {
 
 INSTANTIATE_TEST_SUITE_P(TextAndBinary, LoadGltfTest,
                          ::testing::Values("meshes/lights.gltf", "meshes/lights.glb"));
+
+// A transmitting material is glass as rough as its roughnessFactor, and an opaque one keeps
+// factors between the extremes; no threshold turns either into something else.
+TEST(LoadGltf, RoughGlassAndPartlyMetallicMaterialsKeepTheirFactors) {
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() /
+      ("caustica-rough-glass-" + std::to_string(::getpid()) + ".gltf");
+  // One triangle, (0, 0, 0), (1, 0, 0), (0, 1, 0), as a data URI.
+  std::ofstream(path) << R"({
+    "asset": {"version": "2.0"},
+    "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior"],
+    "buffers": [{"byteLength": 36,
+                 "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+    "bufferViews": [{"buffer": 0, "byteLength": 36}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 0]}],
+    "materials": [
+      {"name": "Frosted", "pbrMetallicRoughness": {"roughnessFactor": 0.35},
+       "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.5},
+                      "KHR_materials_ior": {"ior": 1.45}}},
+      {"name": "Brushed", "pbrMetallicRoughness": {"baseColorFactor": [0.2, 0.4, 0.6, 1],
+                                                   "metallicFactor": 0.98,
+                                                   "roughnessFactor": 0.005}}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0},
+                               {"attributes": {"POSITION": 0}, "material": 1}]}],
+    "nodes": [{"mesh": 0}],
+    "scenes": [{"nodes": [0]}]
+  })";
+  const absl::StatusOr<MeshFile> file = load_gltf(path);
+  std::filesystem::remove(path);
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 2u);
+  const Material& frosted = file->materials[0];
+  EXPECT_EQ(frosted.type, MaterialType::kDielectric);
+  EXPECT_FLOAT_EQ(frosted.ior, 1.45f);
+  EXPECT_FLOAT_EQ(frosted.roughness, 0.35f);
+  // Nearly a polished metal: kept as the file states it, not rounded to a mirror.
+  const Material& brushed = file->materials[1];
+  EXPECT_EQ(brushed.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(brushed.color, Vec3Near(Vec3f(0.2f, 0.4f, 0.6f), 1e-6f));
+  EXPECT_FLOAT_EQ(brushed.metallic, 0.98f);
+  EXPECT_FLOAT_EQ(brushed.roughness, 0.005f);
+}
 
 TEST(LoadGltf, AccessorPastItsBufferIsRejected) {
   const absl::StatusOr<MeshFile> file = load_gltf(scene_data("bad/overflowing_accessor.gltf"));

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "tests/renderer/scene/scene_test_util.h"
 
@@ -137,6 +138,72 @@ TEST(LoadObj, MapKeIsTheEmissionMap) {
   EXPECT_EQ(sign.emission_map.texture, sign.color_map.texture);
   EXPECT_EQ(file->textures.size(), 1u);
   std::filesystem::remove_all(dir);
+}
+
+// Writes `mtl` and an OBJ of one triangle per material it defines (their names given) into a
+// fresh directory; returns the OBJ's path.
+std::filesystem::path write_obj_with_mtl(const std::string& name, const std::string& mtl,
+                                         const std::vector<std::string>& materials) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("caustica-" + name + "-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / (name + ".mtl")) << mtl;
+  std::ofstream obj(dir / (name + ".obj"));
+  obj << "mtllib " << name << ".mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (const std::string& material : materials) obj << "usemtl " << material << "\nf 1 2 3\n";
+  return dir / (name + ".obj");
+}
+
+// Ks with a highlight's illumination model is the modified Phong lobe, Kd its diffuse one and Ns
+// its exponent; illum 0 and 1 have no highlight, whatever Ks says.
+TEST(LoadObj, MtlWithASpecularColourIsPhong) {
+  const std::filesystem::path path =
+      write_obj_with_mtl("phong",
+                         "newmtl glossy\nKd 0.5 0.4 0.3\nKs 0.25 0.3 0.35\nNs 64\nillum 2\n"
+                         "newmtl matte\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs 10\nillum 1\n"
+                         "newmtl flat\nKd 0.2 0.2 0.2\nKs 0.1 0.1 0.1\nNs 0\nillum 2\n",
+                         {"glossy", "matte", "flat"});
+  const absl::StatusOr<MeshFile> file = load_obj(path);
+  std::filesystem::remove_all(path.parent_path());
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_TRUE(file->warnings.empty()) << file->warnings.front();
+  ASSERT_EQ(file->materials.size(), 3u);
+  const Material& glossy = file->materials[0];
+  EXPECT_EQ(glossy.type, MaterialType::kPhong);
+  EXPECT_THAT(glossy.color, Vec3Near(Vec3f(0.5f, 0.4f, 0.3f), 0));
+  EXPECT_THAT(glossy.specular, Vec3Near(Vec3f(0.25f, 0.3f, 0.35f), 0));
+  EXPECT_EQ(glossy.exponent, 64.0f);
+  const Material& matte = file->materials[1];
+  EXPECT_EQ(matte.type, MaterialType::kDiffuse);
+  EXPECT_THAT(matte.color, Vec3Near(Vec3f(0.5f, 0.5f, 0.5f), 0));
+  // Ns 0 is no exponent the model has; 1 is the broadest lobe.
+  const Material& flat = file->materials[2];
+  EXPECT_EQ(flat.type, MaterialType::kPhong);
+  EXPECT_EQ(flat.exponent, 1.0f);
+  EXPECT_THAT(flat.specular, Vec3Near(Vec3f(0.1f, 0.1f, 0.1f), 0));
+}
+
+// Kd + Ks above 1 would reflect more light than arrives: both are scaled by one factor until
+// the worst channel sums to 1, and the file and material are named in a warning.
+TEST(LoadObj, PhongBrighterThanItsLightIsScaledWithAWarning) {
+  const std::filesystem::path path = write_obj_with_mtl(
+      "hot", "newmtl hot\nKd 0.8 0.6 0.2\nKs 0.5 0.2 0.1\nNs 30\nillum 2\n", {"hot"});
+  const absl::StatusOr<MeshFile> file = load_obj(path);
+  std::filesystem::remove_all(path.parent_path());
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 1u);
+  const Material& hot = file->materials[0];
+  EXPECT_EQ(hot.type, MaterialType::kPhong);
+  const float scale = 1 / 1.3f;  // the red channel's sum
+  EXPECT_THAT(hot.color, Vec3Near(Vec3f(0.8f, 0.6f, 0.2f) * scale, 1e-6f));
+  EXPECT_THAT(hot.specular, Vec3Near(Vec3f(0.5f, 0.2f, 0.1f) * scale, 1e-6f));
+  const Vec3f sum = hot.color + hot.specular;
+  EXPECT_LE(sum.x, 1.0f);  // as validation adds them
+  EXPECT_NEAR(sum.x, 1.0f, 1e-6f);
+  EXPECT_EQ(hot.exponent, 30.0f);
+  ASSERT_EQ(file->warnings.size(), 1u);
+  EXPECT_THAT(file->warnings[0], HasSubstr("hot.obj: material 'hot': Kd + Ks = (1.3, 0.8, 0.3) "
+                                           "exceeds 1; both scaled by 0.76923"));
 }
 
 }  // namespace

@@ -293,5 +293,99 @@ TEST(ParseScene, MaterialsNameImageFilesAsMaps) {
               HasSubstr("materials.logo.color_map.wrap: unknown wrap 'tile'"));
 }
 
+// A scene whose materials are `materials` (the text of the "materials" object), one quad of the
+// first, lit by a point light.
+absl::StatusOr<Scene> scene_with_materials(const std::string& materials, const std::string& first) {
+  return parse_scene(absl::StrCat(R"({
+    "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+    "materials": {)",
+                                  materials, R"(},
+    "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+    "shapes": [{"type": "quad", "material": ")",
+                                  first, R"(",
+                "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+  })"),
+                     scene_data("good"), "inline.json");
+}
+
+TEST(ParseScene, MetallicRoughnessPhongAndRoughGlassKeepTheirValues) {
+  const absl::StatusOr<Scene> scene = scene_with_materials(
+      R"("steel": {"type": "metallic_roughness", "color": [0.9, 0.8, 0.7], "metallic": 1,
+                   "roughness": 0.25},
+         "plastic": {"type": "phong", "color": [0.5, 0.4, 0.3], "specular": [0.3, 0.25, 0.2],
+                     "exponent": 50},
+         "frosted": {"type": "dielectric", "ior": 1.4, "roughness": 0.3})",
+      "steel");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const Material* steel = find_material(*scene, "steel");
+  ASSERT_NE(steel, nullptr);
+  EXPECT_EQ(steel->type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(steel->color, Vec3Near(Vec3f(0.9f, 0.8f, 0.7f), 0));
+  EXPECT_EQ(steel->metallic, 1.0f);
+  EXPECT_EQ(steel->roughness, 0.25f);
+  const Material* plastic = find_material(*scene, "plastic");
+  ASSERT_NE(plastic, nullptr);
+  EXPECT_EQ(plastic->type, MaterialType::kPhong);
+  EXPECT_THAT(plastic->color, Vec3Near(Vec3f(0.5f, 0.4f, 0.3f), 0));
+  EXPECT_THAT(plastic->specular, Vec3Near(Vec3f(0.3f, 0.25f, 0.2f), 0));
+  EXPECT_EQ(plastic->exponent, 50.0f);
+  const Material* frosted = find_material(*scene, "frosted");
+  ASSERT_NE(frosted, nullptr);
+  EXPECT_EQ(frosted->type, MaterialType::kDielectric);
+  EXPECT_EQ(frosted->ior, 1.4f);
+  EXPECT_EQ(frosted->roughness, 0.3f);
+}
+
+TEST(ParseScene, MetallicRoughnessPhongAndGlassDefaults) {
+  const absl::StatusOr<Scene> scene = scene_with_materials(
+      R"("plain": {"type": "metallic_roughness"}, "phong": {"type": "phong"},
+         "glass": {"type": "dielectric"})",
+      "plain");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const Material* plain = find_material(*scene, "plain");
+  ASSERT_NE(plain, nullptr);
+  EXPECT_EQ(plain->type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(plain->color, Vec3Near(Vec3f(0.8f, 0.8f, 0.8f), 0));
+  EXPECT_EQ(plain->metallic, 0.0f);
+  EXPECT_EQ(plain->roughness, 0.5f);
+  const Material* phong = find_material(*scene, "phong");
+  ASSERT_NE(phong, nullptr);
+  EXPECT_EQ(phong->type, MaterialType::kPhong);
+  EXPECT_THAT(phong->color, Vec3Near(Vec3f(0.8f, 0.8f, 0.8f), 0));
+  EXPECT_THAT(phong->specular, Vec3Near(Vec3f(0.2f, 0.2f, 0.2f), 0));
+  EXPECT_EQ(phong->exponent, 20.0f);
+  const Material* glass = find_material(*scene, "glass");
+  ASSERT_NE(glass, nullptr);
+  EXPECT_EQ(glass->roughness, 0.0f);  // smooth, as before roughness existed
+}
+
+// Each type takes its own keys only, typed as documented; the file and the field are named.
+TEST(ParseScene, NewMaterialKeysAreCheckedPerType) {
+  const auto error_of = [](const std::string& material) {
+    const absl::StatusOr<Scene> scene = scene_with_materials(material, "m");
+    EXPECT_FALSE(scene.ok()) << material;
+    return scene.ok() ? std::string() : message_of(scene.status());
+  };
+  EXPECT_THAT(error_of(R"("m": {"type": "metallic_roughness", "exponent": 20})"),
+              HasSubstr("inline.json: materials.m.exponent: unknown key"));
+  EXPECT_THAT(error_of(R"("m": {"type": "phong", "metallic": 0.5})"),
+              HasSubstr("materials.m.metallic: unknown key"));
+  EXPECT_THAT(error_of(R"("m": {"type": "diffuse", "albedo": [1, 1, 1], "specular": [0, 0, 0]})"),
+              HasSubstr("materials.m.specular: unknown key"));
+  EXPECT_THAT(error_of(R"("m": {"type": "mirror", "reflectance": [1, 1, 1], "roughness": 0})"),
+              HasSubstr("materials.m.roughness: unknown key"));
+  EXPECT_THAT(error_of(R"("m": {"type": "metallic_roughness", "metallic": "high"})"),
+              HasSubstr("materials.m.metallic: expected a number"));
+  EXPECT_THAT(error_of(R"("m": {"type": "phong", "specular": 0.5})"),
+              HasSubstr("materials.m.specular: expected [x, y, z]"));
+  EXPECT_THAT(error_of(R"("m": {"type": "dielectric", "roughness": [0.1]})"),
+              HasSubstr("materials.m.roughness: expected a number"));
+  EXPECT_THAT(error_of(R"("m": {"type": "phong", "exponent": true})"),
+              HasSubstr("materials.m.exponent: expected a number"));
+  EXPECT_THAT(error_of(R"("m": {"type": "plastic"})"),
+              HasSubstr("(expected diffuse, mirror, dielectric, emissive, metallic_roughness or "
+                        "phong)"));
+}
+
 }  // namespace
 }  // namespace caustica

@@ -3,9 +3,11 @@
 // reading the file independently of the loaders, or fails with a named error.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -242,8 +244,28 @@ TEST(ThirdPartyGltf, CesiumBoxCarriesItsBaseColourTextureAndSampler) {
   EXPECT_EQ(map.wrap_u, TextureWrap::kMirroredRepeat);
   EXPECT_EQ(map.wrap_v, TextureWrap::kClampToEdge);
   EXPECT_FALSE(file->materials[0].emission_map.used());
+  // "pbrMetallicRoughness": {"baseColorTexture": ..., "metallicFactor": 0.0}: the base colour
+  // and roughness are the specification's defaults, white and 1.
+  EXPECT_EQ(file->materials[0].type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(file->materials[0].color, Vec3Near(Vec3f(1, 1, 1), 0));
+  EXPECT_EQ(file->materials[0].metallic, 0.0f);
+  EXPECT_EQ(file->materials[0].roughness, 1.0f);
   ASSERT_EQ(file->meshes.size(), 1u);
   EXPECT_EQ(file->meshes[0].uvs.size(), file->meshes[0].positions.size());
+}
+
+TEST(ThirdPartyGltf, UnityCubeMaterialKeepsItsFactors) {
+  // "baseColorFactor": [0.6038274, 0.6038274, 0.6038274, 1.0], "metallicFactor": 0.0,
+  // "roughnessFactor": 0.5.
+  const absl::StatusOr<MeshFile> file = load("gltf2/AnimatedMorphCube.gltf");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 1u);
+  const Material& m = file->materials[0];
+  EXPECT_EQ(m.name, "Material");
+  EXPECT_EQ(m.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(m.color, Vec3Near(Vec3f(0.6038274f), 0));
+  EXPECT_EQ(m.metallic, 0.0f);
+  EXPECT_EQ(m.roughness, 0.5f);
 }
 
 TEST(ThirdPartyObj, SpiderReadsItsDiffuseMapsThroughWindowsPaths) {
@@ -319,12 +341,22 @@ TEST(ThirdPartyAssimp, ColladaTriangleStripsAndMaterial) {
   expected.add_point({-50, -50, -50});
   expected.add_point({50, 50, 50});
   expect_matches(*file, expected, 1e-3f);
-  // The phong effect's diffuse colour.
+  // The <phong> effect: diffuse (0.137255, 0.403922, 0.870588), specular 0.5 and shininess 16.
+  // Blue sums to 1.370588, so both colours are scaled by 1 / 1.370588 to conserve energy.
   ASSERT_FALSE(file->meshes.empty());
   const uint32_t id = file->meshes[0].material_ids[0];
   ASSERT_LT(id, file->materials.size());
-  EXPECT_EQ(file->materials[id].type, MaterialType::kDiffuse);
-  EXPECT_THAT(file->materials[id].color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
+  const Material& m = file->materials[id];
+  EXPECT_EQ(m.type, MaterialType::kPhong);
+  const float scale = 1 / 1.370588f;
+  EXPECT_THAT(m.color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f) * scale, 1e-5f));
+  EXPECT_THAT(m.specular, Vec3Near(Vec3f(0.5f) * scale, 1e-5f));
+  EXPECT_LE(m.color.z + m.specular.z, 1.0f);
+  EXPECT_EQ(m.exponent, 16.0f);
+  EXPECT_THAT(file->warnings,
+              ::testing::Contains(HasSubstr(
+                  "cube_tristrips.dae: material 'material': diffuse + specular colour (0.637255, "
+                  "0.903922, 1.37059) exceeds 1; both scaled by 0.7296")));
 }
 
 // The same file's two cameras and two point lights, placed by their nodes. The file is Z_UP and
@@ -358,6 +390,36 @@ TEST(ThirdPartyAssimp, ColladaCamerasAndLightsArePlacedByTheirNodes) {
   EXPECT_THAT(where["pointLight1"], Vec3Near(Vec3f(3, 4, 10), 1e-4f));
 }
 
+// The shading model decides whether a specular colour is a lobe: the same effect as <lambert>
+// (Assimp's Gouraud, diffuse only) is diffuse with the file's colour, and as <phong> with a black
+// specular colour too.
+TEST(ThirdPartyAssimp, ColladaEffectsWithoutAHighlightAreDiffuse) {
+  const std::string text = file_bytes("thirdparty/collada/cube_tristrips.dae");
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("caustica-dae-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto replaced = [](std::string s, const std::string& from, const std::string& to) {
+    for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) {
+      s.replace(at, from.size(), to);
+    }
+    return s;
+  };
+  std::ofstream(dir / "lambert.dae")
+      << replaced(replaced(text, "<phong>", "<lambert>"), "</phong>", "</lambert>");
+  std::ofstream(dir / "black.dae")
+      << replaced(text, "<specular>\n\t\t\t\t\t\t\t<color>0.5 0.5 0.5 1</color>",
+                  "<specular>\n\t\t\t\t\t\t\t<color>0 0 0 1</color>");
+  for (const char* name : {"lambert.dae", "black.dae"}) {
+    SCOPED_TRACE(name);
+    const absl::StatusOr<MeshFile> file = load_mesh_file(dir / name);
+    ASSERT_TRUE(file.ok()) << file.status();
+    ASSERT_EQ(file->materials.size(), 1u);
+    EXPECT_EQ(file->materials[0].type, MaterialType::kDiffuse);
+    EXPECT_THAT(file->materials[0].color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
+  }
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ThirdPartyAssimp, ColladaConcavePolygonIsTriangulated) {
   // One <polylist> polygon of 66 corners (<vcount>): a concave outline with a bridged hole, so
   // 64 triangles; the bounds are those of the positions float_array.
@@ -375,6 +437,16 @@ TEST(ThirdPartyAssimp, ColladaConcavePolygonIsTriangulated) {
     expected.add_point(p);
   }
   expect_matches(*file, expected, 1e-6f);
+  // Its <blinn> effect names only a diffuse colour; Assimp's COLLADA reader gives every effect a
+  // specular colour of 0.4 and a shininess of 10 the file does not override, which is what the
+  // file says through it. The sum stays within 1, so nothing is scaled.
+  ASSERT_EQ(file->materials.size(), 1u);
+  const Material& m = file->materials[0];
+  EXPECT_EQ(m.type, MaterialType::kPhong);
+  EXPECT_THAT(m.color, Vec3Near(Vec3f(0.141176f, 0.184314f, 0.411765f), 1e-6f));
+  EXPECT_THAT(m.specular, Vec3Near(Vec3f(0.4f), 1e-6f));
+  EXPECT_EQ(m.exponent, 10.0f);
+  EXPECT_TRUE(file->warnings.empty()) << file->warnings.front();
 }
 
 TEST(ThirdPartyAssimp, BinaryFbxBoxWithGeometricPivot) {
@@ -399,6 +471,27 @@ TEST(ThirdPartyAssimp, BinaryFbxBoxWithGeometricPivot) {
   EXPECT_EQ(vertices, 24u);
 }
 
+// The same file's material, from its Properties70: ShadingModel "Phong", DiffuseColor (253, 236,
+// 166) / 255, SpecularColor 9 / 255 with SpecularFactor 1 and ShininessExponent 62.869449615. A
+// Phong material, though Assimp also reports a roughness factor it derives from the exponent; red
+// sums to 262 / 255, so both colours are scaled by 255 / 262.
+TEST(ThirdPartyAssimp, BinaryFbxPhongMaterialConservesEnergy) {
+  const absl::StatusOr<MeshFile> file = load("fbx/box.fbx");
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 1u);
+  const Material& m = file->materials[0];
+  EXPECT_EQ(m.type, MaterialType::kPhong);
+  const float scale = 255.0f / 262.0f;
+  EXPECT_THAT(m.color, Vec3Near(Vec3f(253, 236, 166) * (scale / 255), 1e-6f));
+  EXPECT_THAT(m.specular, Vec3Near(Vec3f(9) * (scale / 255), 1e-6f));
+  EXPECT_LE(m.color.x + m.specular.x, 1.0f);
+  EXPECT_NEAR(m.color.x + m.specular.x, 1.0f, 1e-6f);
+  EXPECT_FLOAT_EQ(m.exponent, 62.869449615f);
+  EXPECT_THAT(file->warnings,
+              ::testing::Contains(HasSubstr("box.fbx: material 'Material_50': diffuse + specular "
+                                            "colour (1.02745, 0.960784, 0.686275) exceeds 1")));
+}
+
 // A scene JSON's "mesh" shape reads the same files, with the file's materials or an override.
 TEST(ThirdPartyInJsonScene, AssimpFilesAsMeshShapes) {
   const std::string json = R"({
@@ -420,7 +513,9 @@ TEST(ThirdPartyInJsonScene, AssimpFilesAsMeshShapes) {
   for (const Material& m : scene->materials) {
     if (m.name.rfind("cube_tristrips.dae:", 0) == 0) {
       found = true;
-      EXPECT_THAT(m.color, Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f), 1e-5f));
+      EXPECT_EQ(m.type, MaterialType::kPhong);
+      EXPECT_THAT(m.color,
+                  Vec3Near(Vec3f(0.137255f, 0.403922f, 0.870588f) * (1 / 1.370588f), 1e-5f));
     }
   }
   EXPECT_TRUE(found);

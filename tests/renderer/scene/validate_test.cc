@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_cat.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/shapes.h"
 #include "tests/renderer/scene/scene_test_util.h"
@@ -148,6 +149,77 @@ TEST(ValidateScene, DielectricNeedsPositiveIor) {
   Scene scene = minimal_scene();
   scene.materials.push_back({.name = "glass", .type = MaterialType::kDielectric, .ior = 0});
   EXPECT_THAT(error_of(scene), HasSubstr("materials.glass.ior: 0 is not a positive number"));
+}
+
+TEST(ValidateScene, RoughDielectricNeedsARoughnessInTheUnitInterval) {
+  Scene scene = minimal_scene();
+  scene.materials.push_back(
+      {.name = "frosted", .type = MaterialType::kDielectric, .ior = 1.5f, .roughness = 0.4f});
+  EXPECT_TRUE(validate_scene(scene).ok());
+  scene.materials[1].roughness = 1.5f;
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.frosted.roughness: 1.5 is not a number in [0, 1]"));
+  scene.materials[1].roughness = NAN;
+  EXPECT_THAT(error_of(scene), HasSubstr("materials.frosted.roughness: nan is not a number"));
+}
+
+TEST(ValidateScene, MetallicRoughnessFactorsAndColourAreInTheUnitInterval) {
+  const Material steel{.name = "steel",
+                       .type = MaterialType::kMetallicRoughness,
+                       .color = {0.9f, 0.8f, 0.7f},
+                       .metallic = 1,
+                       .roughness = 0.3f};
+  Scene scene = minimal_scene();
+  scene.materials.push_back(steel);
+  EXPECT_TRUE(validate_scene(scene).ok());
+  scene.materials[1].metallic = -0.5f;
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.steel.metallic: -0.5 is not a number in [0, 1]"));
+  scene.materials[1].metallic = INFINITY;
+  EXPECT_THAT(error_of(scene), HasSubstr("materials.steel.metallic: inf is not a number"));
+  scene.materials[1] = steel;
+  scene.materials[1].roughness = 2;
+  EXPECT_THAT(error_of(scene), HasSubstr("materials.steel.roughness: 2 is not a number in [0, 1]"));
+  scene.materials[1] = steel;
+  scene.materials[1].color = {0.5f, 1.5f, 0.5f};
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.steel.color: (0.5, 1.5, 0.5) has a channel above 1"));
+  scene.materials[1].color = {0.5f, -0.5f, 0.5f};
+  EXPECT_THAT(error_of(scene), HasSubstr("materials.steel.color: (0.5, -0.5, 0.5) has a negative"));
+}
+
+TEST(ValidateScene, PhongColoursConserveEnergyAndItsExponentIsPositive) {
+  const Material plastic{.name = "plastic",
+                         .type = MaterialType::kPhong,
+                         .color = {0.5f, 0.4f, 0.3f},
+                         .specular = {0.5f, 0.25f, 0.2f},
+                         .exponent = 50};
+  Scene scene = minimal_scene();
+  scene.materials.push_back(plastic);
+  EXPECT_TRUE(validate_scene(scene).ok());  // red sums to exactly 1
+  scene.materials[1].color = {1.25f, 0.4f, 0.3f};
+  EXPECT_THAT(error_of(scene), HasSubstr("materials.plastic.color: (1.25, 0.4, 0.3) has a channel "
+                                         "above 1"));
+  scene.materials[1] = plastic;
+  scene.materials[1].specular = {0.5f, NAN, 0.2f};
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.plastic.specular: (0.5, nan, 0.2) is not finite"));
+  scene.materials[1].specular = {0.5f, -0.25f, 0.2f};
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.plastic.specular: (0.5, -0.25, 0.2) has a negative"));
+  scene.materials[1] = plastic;
+  scene.materials[1].specular = {0.5f, 0.75f, 0.2f};
+  EXPECT_THAT(error_of(scene),
+              HasSubstr("materials.plastic.specular: color + specular = (1, 1.15, 0.5) has a "
+                        "channel above 1"));
+  scene.materials[1] = plastic;
+  for (const float exponent : {0.0f, -3.0f, 2e6f, float(NAN), float(INFINITY)}) {
+    scene.materials[1].exponent = exponent;
+    EXPECT_THAT(error_of(scene), HasSubstr(absl::StrCat("materials.plastic.exponent: ", exponent,
+                                                        " is not a number in (0, 1e+06]")));
+  }
+  scene.materials[1].exponent = kMaxPhongExponent;
+  EXPECT_TRUE(validate_scene(scene).ok());
 }
 
 }  // namespace
