@@ -279,6 +279,8 @@ v1::Material encode_material(const Material& m) {
   out.set_off(m.off);
   if (m.color_map.used()) *out.mutable_color_map() = encode_texture_ref(m.color_map);
   if (m.emission_map.used()) *out.mutable_emission_map() = encode_texture_ref(m.emission_map);
+  if (m.metallic_roughness_map.used())
+    *out.mutable_metallic_roughness_map() = encode_texture_ref(m.metallic_roughness_map);
   return out;
 }
 
@@ -802,17 +804,19 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.roughness = in.roughness();
     m.specular = *specular;
     m.exponent = in.exponent();
-    if (in.has_color_map()) {
-      absl::StatusOr<TextureRef> ref = decode_texture_ref(
-          in.color_map(), join_field(field, "color_map"), scene_.textures.size());
+    for (const auto& [map, name, has, get] :
+         {std::tuple{&m.color_map, "color_map", &v1::Material::has_color_map,
+                     &v1::Material::color_map},
+          std::tuple{&m.emission_map, "emission_map", &v1::Material::has_emission_map,
+                     &v1::Material::emission_map},
+          std::tuple{&m.metallic_roughness_map, "metallic_roughness_map",
+                     &v1::Material::has_metallic_roughness_map,
+                     &v1::Material::metallic_roughness_map}}) {
+      if (!(in.*has)()) continue;
+      absl::StatusOr<TextureRef> ref =
+          decode_texture_ref((in.*get)(), join_field(field, name), scene_.textures.size());
       if (!ref.ok()) return ref.status();
-      m.color_map = *ref;
-    }
-    if (in.has_emission_map()) {
-      absl::StatusOr<TextureRef> ref = decode_texture_ref(
-          in.emission_map(), join_field(field, "emission_map"), scene_.textures.size());
-      if (!ref.ok()) return ref.status();
-      m.emission_map = *ref;
+      *map = *ref;
     }
     scene_.materials.push_back(std::move(m));
   }

@@ -52,6 +52,7 @@ struct GatherHit {
   // and `normal` its frame's, and the direction back along the ray.
   uint32_t sampled;
   Vec3f wo;
+  Vec2f metal_rough;  // its metalness and roughness there
 };
 
 CAUSTICA_HDI Sampler gather_sampler(uint32_t seed, uint32_t ray, uint32_t pass) {
@@ -135,17 +136,26 @@ Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend
                       1u,
                       hit_out[i].distance,
                       kLambertHit,
-                      -d};
+                      -d,
+                      Vec2f{0.0f, 0.0f}};
         return;
       }
       // A sampled model ends the gather ray too: its direct light and its base's photons; the
       // light its glossy lobes reflect there is left out (docs/materials.md, "In the
       // integrators").
       if (is_sampled_model(mat)) {
-        const SurfaceBsdf bsdf = SurfaceBsdf::at(mat, surface_color(scene, mat, hit[i], d, 0.0f),
-                                                 sh.shading_normal, d, Transport::kRadiance);
-        hit_out[i] = {sh.position, bsdf.normal(),       ng,          bsdf.color, p.throughput,
-                      1u,          hit_out[i].distance, sh.material, -d};
+        const SurfaceBsdf bsdf =
+            SurfaceBsdf::at_hit(scene, mat, hit[i], sh, d, 0.0f, Transport::kRadiance);
+        hit_out[i] = {sh.position,
+                      bsdf.normal(),
+                      ng,
+                      bsdf.color,
+                      p.throughput,
+                      1u,
+                      hit_out[i].distance,
+                      sh.material,
+                      -d,
+                      Vec2f{bsdf.metallic, bsdf.roughness}};
         return;
       }
       if (mat.type == MaterialType::kMirror) {
@@ -198,7 +208,8 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     Sampler s = direct_sampler(i);
     Vec3f weight;
     (void)reflected_at(
-        scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight, [&](const auto& reflection) {
+        scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
+        [&](const auto& reflection) {
           return direct_light_by(scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
                                  s, [&](uint32_t slot, const Ray& r) {
                                    mine[slot] = r;
@@ -220,7 +231,7 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     const uint8_t* mine = is_blocked + i * slots;
     Vec3f weight;
     out[i] = h.throughput *
-             reflected_at(scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight,
+             reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
                           [&](const auto& reflection) {
                             return direct_light_by(
                                 scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
@@ -242,7 +253,7 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     const uint32_t i = index[j];
     const GatherHit& h = hit[i];
     Vec3f weight;
-    (void)reflected_at(scene, h.sampled, h.albedo, h.normal, h.wo, 0.0f, weight,
+    (void)reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
                        [](const auto&) { return Vec3f(0.0f); });
     request[j] = {h.position, h.normal, h.throughput * weight, i / per_seed, i % per_seed};
   });

@@ -315,8 +315,8 @@ struct PhotonPathInputs {
     if (m.type == MaterialType::kEmissive) return false;  // lights have black surfaces
     if constexpr (kDifferentials) transfer(p.differentials, d, hit.t, sh.geometric_normal);
     if (is_sampled_model(m)) {
-      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
-                                               sh.shading_normal, d, Transport::kImportance);
+      const SurfaceBsdf bsdf =
+          SurfaceBsdf::at_hit(scene, m, hit, sh, d, 0.0f, Transport::kImportance);
       // Stored with the base's factor for the way it came (surface_bsdf.h), so that a gather
       // weighing the density by the base's albedo towards the viewer has the base's light.
       if (p.bounce > 0 && bsdf.has_base()) {

@@ -133,8 +133,8 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
     }
     if (m.type == MaterialType::kEmissive) break;  // lights do not reflect
     if (is_sampled_model(m)) {
-      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
-                                               sh.shading_normal, d, Transport::kRadiance);
+      const SurfaceBsdf bsdf =
+          SurfaceBsdf::at_hit(scene, m, hit, sh, d, 0.0f, Transport::kRadiance);
       const Vec3f wo = -d;
       // Point, spot and directional lights through every lobe, then an area light weighed
       // against the BSDF's own sampling.

@@ -56,8 +56,7 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
         glossy_emission_weight(scene, c.glossy_pdf, float(cfg.area_light_samples), hit, cos_light);
   c.glossy_pdf = 0.0f;
   if (is_sampled_model(m)) {
-    const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, 0.0f),
-                                             sh.shading_normal, d, Transport::kRadiance);
+    const SurfaceBsdf bsdf = SurfaceBsdf::at_hit(scene, m, hit, sh, d, 0.0f, Transport::kRadiance);
     const Vec3f wo = -d;
     c.light +=
         c.throughput * direct(sh, SurfaceReflection{bsdf, wo, float(cfg.area_light_samples)}, c.s);

@@ -176,8 +176,8 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
       emitted += pr.throughput * surface_emission(scene, m, hit, d, cone) *
                  glossy_emission_weight(scene, pr.glossy_pdf, light_samples, hit, cos_light);
     if (is_sampled_model(m)) {
-      const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(scene, m, hit, d, cone),
-                                               sh.shading_normal, d, Transport::kRadiance);
+      const SurfaceBsdf bsdf =
+          SurfaceBsdf::at_hit(scene, m, hit, sh, d, cone, Transport::kRadiance);
       on_diffuse(sh, bsdf.normal(), bsdf.color, pr.throughput, kMedia ? pr.medium : kVacuum, &bsdf,
                  -d);
       glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
@@ -446,16 +446,17 @@ struct PathLeaf {
   Vec3f value;  // emitted radiance, or a diffuse hit's emission and then its direct light added
   Vec3f position, normal, geometric_normal, albedo;
   // A hit on a sampled model: its material (else kLambertHit), `normal` its frame's and `albedo`
-  // its colour there, and the direction towards the viewer.
+  // its colour there, the direction towards the viewer, and its metalness and roughness there.
   uint32_t sampled;
   Vec3f wo;
+  Vec2f metal_rough;
 
   // The leaf's direct light by reflected_at, and the weight of its gather request.
   template <typename Direct>
   CAUSTICA_HDI Vec3f reflected(const ResidentSceneView& scene, float light_samples, Vec3f& weight,
                                Direct direct) const {
-    const Vec3f light =
-        reflected_at(scene, sampled, albedo, normal, wo, light_samples, weight, direct);
+    const Vec3f light = reflected_at(scene, sampled, albedo, metal_rough, normal, wo, light_samples,
+                                     weight, direct);
     weight = throughput * weight;
     return light;
   }
@@ -496,19 +497,22 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
             : Vec3f(0.0f);
     const bool sampled = is_sampled_model(m);
     if (!is_black(emission) && m.type != MaterialType::kDiffuse && !sampled) {
-      leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput, emission,   Vec3f(0.0f),
-                   Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f), kLambertHit,   Vec3f(0.0f)};
+      leaves[i] = {pr.branch,   pr.pixel,    0u,          pr.throughput,
+                   emission,    Vec3f(0.0f), Vec3f(0.0f), Vec3f(0.0f),
+                   Vec3f(0.0f), kLambertHit, Vec3f(0.0f), Vec2f{0.0f, 0.0f}};
       is_leaf[i] = 1;
     }
     if (sampled || m.type == MaterialType::kDiffuse) {
       Vec3f n, color;
+      Vec2f metal_rough{0.0f, 0.0f};
       uint32_t material = kLambertHit;
       if (sampled) {
-        const SurfaceBsdf bsdf = SurfaceBsdf::at(m, surface_color(in.scene, m, hit, d, cone),
-                                                 sh.shading_normal, d, Transport::kRadiance);
+        const SurfaceBsdf bsdf =
+            SurfaceBsdf::at_hit(in.scene, m, hit, sh, d, cone, Transport::kRadiance);
         n = bsdf.normal();
         color = bsdf.color;
         material = sh.material;
+        metal_rough = Vec2f{bsdf.metallic, bsdf.roughness};
         glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
       } else {
         n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
@@ -516,7 +520,7 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
       }
       leaves[i] = {pr.branch, pr.pixel,    1u, pr.throughput,
                    emission,  sh.position, n,  sh.geometric_normal,
-                   color,     material,    -d};
+                   color,     material,    -d, metal_rough};
       is_leaf[i] = 1;
       return;
     }

@@ -223,20 +223,20 @@ constexpr uint32_t kLambertHit = 0xffffffffu;
 
 // What a hit that waits for its direct light reflects: `direct(reflection)` given a
 // LambertReflection of `albedo` (a diffuse hit) or the SurfaceReflection of material `sampled` of
-// colour `albedo` towards `wo`, whose frame's normal is `normal` (its `light_samples` as
-// SurfaceReflection's); `weight` gets what its gather request weighs the photons' density by
-// (albedo, or the base's albedo towards wo).
+// colour `albedo` and metalness and roughness `metal_rough` towards `wo`, whose frame's normal is
+// `normal` (its `light_samples` as SurfaceReflection's); `weight` gets what its gather request
+// weighs the photons' density by (albedo, or the base's albedo towards wo).
 template <typename Direct>
 CAUSTICA_HDI Vec3f reflected_at(const ResidentSceneView& scene, uint32_t sampled, Vec3f albedo,
-                                Vec3f normal, Vec3f wo, float light_samples, Vec3f& weight,
-                                Direct direct) {
+                                Vec2f metal_rough, Vec3f normal, Vec3f wo, float light_samples,
+                                Vec3f& weight, Direct direct) {
   if (sampled == kLambertHit) {
     weight = albedo;
     return direct(LambertReflection{albedo * kInvPi, normal});
   }
-  const SurfaceReflection r{
-      SurfaceBsdf::at(scene.materials[sampled], albedo, normal, -wo, Transport::kRadiance), wo,
-      light_samples};
+  const SurfaceReflection r{SurfaceBsdf::at(scene.materials[sampled], albedo, metal_rough, normal,
+                                            -wo, Transport::kRadiance),
+                            wo, light_samples};
   weight = r.bsdf.base_albedo(wo);
   return direct(r);
 }

@@ -68,16 +68,15 @@ void write_light_weights(Backend& backend, const DeviceLight* lights, const uint
 }
 
 std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materials,
-                                                std::span<const uint32_t> color_maps,
-                                                std::span<const uint32_t> emission_maps) {
+                                                std::span<const ResidentScene::MaterialMaps> maps) {
   std::vector<DeviceMaterial> out;
   out.reserve(materials.size());
   for (size_t i = 0; i < materials.size(); ++i) {
     const Material& m = materials[i];
-    out.push_back({m.type, m.color, m.ior, emitted_radiance(m),
-                   i < color_maps.size() ? color_maps[i] : kNoTexture,
-                   i < emission_maps.size() ? emission_maps[i] : kNoTexture, m.metallic,
-                   m.roughness, m.specular, m.exponent});
+    const ResidentScene::MaterialMaps mine =
+        i < maps.size() ? maps[i] : ResidentScene::MaterialMaps{};
+    out.push_back({m.type, m.color, m.ior, emitted_radiance(m), mine.color, mine.emission,
+                   m.metallic, m.roughness, m.specular, m.exponent, mine.metallic_roughness});
   }
   return out;
 }
@@ -107,9 +106,10 @@ Vec3f triangle_map_mean(const TextureView& view, const TextureTransform& transfo
   return {std::max(mean.x, kFloor), std::max(mean.y, kFloor), std::max(mean.z, kFloor)};
 }
 
-// A decoded image as linear texels: 8-bit colour maps are sRGB-encoded (glTF's base colour,
-// MTL's map_Kd), float images already linear.
-std::vector<Texel> linear_texels(const DecodedImage& image) {
+// A decoded image as linear texels: 8-bit colour and emission maps are sRGB-encoded (glTF's base
+// colour, MTL's map_Kd), other 8-bit maps (`srgb` false: glTF's metallic-roughness) and float
+// images already linear.
+std::vector<Texel> linear_texels(const DecodedImage& image, bool srgb_encoded) {
   const size_t count = size_t(image.width) * image.height;
   std::vector<Texel> texels(count);
   if (image.is_float()) {
@@ -120,7 +120,8 @@ std::vector<Texel> linear_texels(const DecodedImage& image) {
     return texels;
   }
   float srgb[256];
-  for (int v = 0; v < 256; ++v) srgb[v] = srgb_to_linear(float(v) / 255.0f);
+  for (int v = 0; v < 256; ++v)
+    srgb[v] = srgb_encoded ? srgb_to_linear(float(v) / 255.0f) : float(v) / 255.0f;
   for (size_t i = 0; i < count; ++i) {
     const uint8_t* p = &image.rgba8[4 * i];
     texels[i] = {srgb[p[0]], srgb[p[1]], srgb[p[2]], float(p[3]) / 255.0f};
@@ -210,7 +211,7 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         a.direction = normalize(ng);
         a.color = emitted_radiance(scene.materials[mat]);
         a.triangle = uint32_t(triangles.size());
-        a.emission_map = any_uvs ? r.material_emission_maps_[mat] : kNoTexture;
+        a.emission_map = any_uvs ? r.material_maps_[mat].emission : kNoTexture;
         if (a.emission_map != kNoTexture) {
           Vec2f uv[3];
           for (int c = 0; c < 3; ++c) uv[c] = m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]];
@@ -279,19 +280,20 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
 }
 
 ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene) {
-  // Each image once, however many maps read it.
-  std::vector<uint32_t> chain_of_texture(scene.textures.size(), kNoTexture);
+  // Each image once per encoding, however many maps read it: [texture][1] decoded from sRGB.
+  std::vector<std::array<uint32_t, 2>> chain_of_texture(scene.textures.size(),
+                                                        {kNoTexture, kNoTexture});
   std::vector<uint32_t> chain_of_map;
   TextureMaps maps;
-  auto add_map = [&](const TextureRef& ref) -> uint32_t {
+  auto add_map = [&](const TextureRef& ref, bool srgb) -> uint32_t {
     if (!ref.used() || ref.texture >= scene.textures.size()) return kNoTexture;
     const TextureImage& image = scene.textures[ref.texture];
     if (image.decoded == nullptr || image.decoded->width == 0) return kNoTexture;
-    uint32_t& chain = chain_of_texture[ref.texture];
+    uint32_t& chain = chain_of_texture[ref.texture][srgb ? 1 : 0];
     if (chain == kNoTexture) {
       chain = uint32_t(maps.chains.size());
       const MipChain& mips = maps.chains.emplace_back(build_mip_chain(
-          image.decoded->width, image.decoded->height, linear_texels(*image.decoded)));
+          image.decoded->width, image.decoded->height, linear_texels(*image.decoded, srgb)));
       texels_.emplace_back(*backend_, 0).upload(mips.texels);
       mip_levels_.emplace_back(*backend_, 0).upload(mips.levels);
     }
@@ -306,11 +308,13 @@ ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene
     maps.device.push_back(map);
     return uint32_t(maps.device.size() - 1);
   };
-  material_color_maps_.assign(scene.materials.size(), kNoTexture);
-  material_emission_maps_.assign(scene.materials.size(), kNoTexture);
+  material_maps_.assign(scene.materials.size(), MaterialMaps{});
   for (size_t i = 0; i < scene.materials.size(); ++i) {
-    material_color_maps_[i] = add_map(scene.materials[i].color_map);
-    material_emission_maps_[i] = add_map(scene.materials[i].emission_map);
+    const Material& m = scene.materials[i];
+    material_maps_[i].color = add_map(m.color_map, true);
+    material_maps_[i].emission = add_map(m.emission_map, true);
+    if (m.type == MaterialType::kMetallicRoughness)
+      material_maps_[i].metallic_roughness = add_map(m.metallic_roughness_map, false);
   }
   // The same maps over the host's copies, now that the chains no longer move.
   for (size_t i = 0; i < maps.device.size(); ++i) {
@@ -347,8 +351,7 @@ ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> light
   lighting.light_cdf.bind(*backend_);
   lighting.area_light_index.bind(*backend_);
   lighting.area_light_cdf.bind(*backend_);
-  lighting.materials.upload(
-      to_device_materials(materials, material_color_maps_, material_emission_maps_));
+  lighting.materials.upload(to_device_materials(materials, material_maps_));
   lighting.lights.upload(all);
   build_light_tables(*backend_, radius(), lighting);
   return lighting;

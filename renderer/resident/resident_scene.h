@@ -25,6 +25,8 @@ struct DeviceMaterial {
   float metallic, roughness;  // Material's
   Vec3f specular;
   float exponent;
+  // A metallic-roughness material's map (linear): green multiplies roughness, blue metallic.
+  uint32_t metallic_roughness_map;
 };
 
 // A material's colour or emission map as kernels read it: the image's mip chain with the map's
@@ -217,6 +219,11 @@ CAUSTICA_HDI float spot_falloff(const DeviceLight& l, Vec3f direction_from_light
 
 class ResidentScene {
  public:
+  // A material's maps: indices into texture_maps_, or kNoTexture.
+  struct MaterialMaps {
+    uint32_t color = kNoTexture, emission = kNoTexture, metallic_roughness = kNoTexture;
+  };
+
   // The materials and every light as kernels read them: what a light change replaces as a whole.
   struct Lighting {
     Buffer<DeviceMaterial> materials;
@@ -262,8 +269,8 @@ class ResidentScene {
     std::vector<TextureView> host;
     std::deque<MipChain> chains;
   };
-  // Uploads the mip chain of every image a colour or emission map reads and sets
-  // material_color_maps_ and material_emission_maps_, indices into the maps it returns.
+  // Uploads the mip chain of every image a map reads and sets material_maps_, indices into the
+  // maps it returns.
   TextureMaps upload_texture_maps(const Scene& scene);
 
   Backend* backend_ = nullptr;
@@ -272,8 +279,7 @@ class ResidentScene {
   std::vector<DeviceLight> area_lights_host_;
   std::vector<uint32_t> area_light_materials_;
   // Each material's index into texture_maps_, or kNoTexture.
-  std::vector<uint32_t> material_color_maps_;
-  std::vector<uint32_t> material_emission_maps_;
+  std::vector<MaterialMaps> material_maps_;
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<Vec2f> corner_uvs_;

@@ -18,6 +18,16 @@ CAUSTICA_HDI bool is_sampled_model(const DeviceMaterial& m) {
          (m.type == MaterialType::kDielectric && m.roughness > 0.0f);
 }
 
+// A material's metalness and roughness at `hit`: its factors, a metallic-roughness material's times
+// its map there (blue and green, linear), read as surface_color reads colour maps.
+CAUSTICA_HDI Vec2f metal_rough_at(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                  const Hit& hit, Vec3f direction, float cone_width) {
+  if (m.metallic_roughness_map == kNoTexture || scene.corner_uvs == nullptr)
+    return Vec2f{m.metallic, m.roughness};
+  const Vec3f texel = map_at_hit(scene, m.metallic_roughness_map, hit, direction, cone_width);
+  return Vec2f{m.metallic * texel.z, m.roughness * texel.y};
+}
+
 // A direction a SurfaceBsdf drew, in world space, with its weight f |cos| / pdf (the cosine taken
 // in the shading frame), the density and the lobe's flags.
 struct SurfaceSample {
@@ -40,20 +50,30 @@ struct SurfaceBsdf {
 
   // The scattering of material `m` of colour `color` at a hit with `shading_normal` (on the side of
   // the geometric normal) of a ray travelling along `d`; photons carry importance.
-  CAUSTICA_HDI static SurfaceBsdf at(const DeviceMaterial& m, Vec3f color, Vec3f shading_normal,
-                                     Vec3f d, Transport transport) {
+  // `metal_rough`: its metalness and roughness there (metal_rough_at).
+  CAUSTICA_HDI static SurfaceBsdf at(const DeviceMaterial& m, Vec3f color, Vec2f metal_rough,
+                                     Vec3f shading_normal, Vec3f d, Transport transport) {
     SurfaceBsdf b;
     b.type = m.type;
     const bool flip = m.type != MaterialType::kDielectric && dot(d, shading_normal) > 0.0f;
     b.frame = Frame::from_normal(flip ? -shading_normal : shading_normal);
     b.color = color;
     b.specular = m.specular;
-    b.metallic = m.metallic;
-    b.roughness = m.roughness;
+    b.metallic = metal_rough.x;
+    b.roughness = metal_rough.y;
     b.ior = m.ior;
     b.exponent = m.exponent;
     b.transport = transport;
     return b;
+  }
+
+  // The scattering of material `m` where a ray along `d` meets `hit` (`sh` its surface), its maps
+  // read through a ray cone `cone_width` wide there (0: the finest level).
+  CAUSTICA_HDI static SurfaceBsdf at_hit(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                         const Hit& hit, const SurfaceHit& sh, Vec3f d,
+                                         float cone_width, Transport transport) {
+    return at(m, surface_color(scene, m, hit, d, cone_width),
+              metal_rough_at(scene, m, hit, d, cone_width), sh.shading_normal, d, transport);
   }
 
   CAUSTICA_HDI Vec3f normal() const { return frame.n; }

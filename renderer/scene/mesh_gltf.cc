@@ -317,6 +317,10 @@ class GltfReader {
                                 gltf.pbrMetallicRoughness.baseColorTexture.extensions, m.name);
       m.emission_map = texture_ref(gltf.emissiveTexture.index, gltf.emissiveTexture.texCoord,
                                    gltf.emissiveTexture.extensions, m.name);
+      if (m.type == MaterialType::kMetallicRoughness) {
+        const tinygltf::TextureInfo& mr = gltf.pbrMetallicRoughness.metallicRoughnessTexture;
+        m.metallic_roughness_map = texture_ref(mr.index, mr.texCoord, mr.extensions, m.name);
+      }
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();

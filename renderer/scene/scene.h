@@ -2,10 +2,12 @@
 // Units are the scene's own (the bundled Cornell boxes use millimetres); colours are linear RGB.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "renderer/accel/build_options.h"
@@ -83,6 +85,21 @@ struct Material {
   // glTF's emissive texture) where the mesh has texture coordinates.
   TextureRef color_map;
   TextureRef emission_map;
+  // glTF's metallicRoughnessTexture, linear: its green channel multiplies `roughness`, its blue
+  // `metallic` (metallic-roughness materials only).
+  TextureRef metallic_roughness_map;
+
+  // Every map with its field's name, for what treats them alike.
+  std::array<std::pair<TextureRef*, const char*>, 3> maps() {
+    return {{{&color_map, "color_map"},
+             {&emission_map, "emission_map"},
+             {&metallic_roughness_map, "metallic_roughness_map"}}};
+  }
+  std::array<std::pair<const TextureRef*, const char*>, 3> maps() const {
+    return {{{&color_map, "color_map"},
+             {&emission_map, "emission_map"},
+             {&metallic_roughness_map, "metallic_roughness_map"}}};
+  }
 };
 
 // Whether a material's triangles are area lights: an emissive material's always, so that one off

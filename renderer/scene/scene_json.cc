@@ -332,6 +332,8 @@ class SceneReader {
       SCENE_RETURN_IF_ERROR(object.read("color", kOptional, &material.color));
       SCENE_RETURN_IF_ERROR(object.read("metallic", kOptional, &material.metallic));
       SCENE_RETURN_IF_ERROR(object.read("roughness", kOptional, &material.roughness));
+      SCENE_ASSIGN_OR_RETURN(material.metallic_roughness_map,
+                             read_map(object, "metallic_roughness_map"));
     } else if (type == "phong") {
       material.type = MaterialType::kPhong;
       // The defaults sum to 1: white light is all reflected, mostly diffusely.
@@ -587,7 +589,7 @@ class SceneReader {
         scene_.textures.push_back(std::move(texture));
       for (Material& material : mesh_file.materials) {
         material.name = absl::StrCat(file_name, ":", material.name);
-        for (TextureRef* map : {&material.color_map, &material.emission_map}) {
+        for (auto [map, name] : material.maps()) {
           if (map->used()) map->texture += first_texture;
         }
         scene_.materials.push_back(std::move(material));

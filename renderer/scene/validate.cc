@@ -156,8 +156,7 @@ namespace {
 
 absl::Status validate_material(const Material& m, size_t textures) {
   const std::string field = absl::StrCat("materials.", m.name);
-  for (const auto& [map, name] :
-       {std::pair{&m.color_map, "color_map"}, std::pair{&m.emission_map, "emission_map"}}) {
+  for (const auto& [map, name] : m.maps()) {
     if (map->used() && map->texture >= textures) {
       return invalid_field(
           absl::StrCat(field, ".", name),

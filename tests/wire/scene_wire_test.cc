@@ -733,6 +733,10 @@ Scene with_textures() {
   white.color_map.wrap_v = TextureWrap::kClampToEdge;
   white.color_map.transform = {{0.25f, -0.5f}, 0.3f, {2.0f, 3.0f}};
   scene.materials.at(1).emission_map.texture = 1;
+  Material& red = scene.materials.at(2);
+  red.type = MaterialType::kMetallicRoughness;
+  red.metallic_roughness_map.texture = 1;
+  red.metallic_roughness_map.wrap_u = TextureWrap::kClampToEdge;
   return scene;
 }
 
@@ -764,6 +768,9 @@ TEST(SceneWire, TexturesArriveByteForByteWithTheirMaps) {
   EXPECT_FALSE(back->materials.at(0).emission_map.used());
   EXPECT_EQ(back->materials.at(1).emission_map.texture, 1u);
   EXPECT_FALSE(back->materials.at(2).color_map.used());
+  EXPECT_EQ(back->materials.at(2).metallic_roughness_map.texture, 1u);
+  EXPECT_EQ(back->materials.at(2).metallic_roughness_map.wrap_u, TextureWrap::kClampToEdge);
+  EXPECT_FALSE(back->materials.at(0).metallic_roughness_map.used());
   EXPECT_TRUE(validate_scene(*back).ok());
 }
 

@@ -249,3 +249,66 @@ TEST(Glossy, APhongSurfaceWithoutALobeIsTheDiffuseOneFacingAnyWay) {
 }
 }  // namespace
 }  // namespace caustica
+
+namespace caustica {
+namespace {
+
+// PlaneUnderPointLight's square as a metallic-roughness surface of factors 1 and 1 under a map of
+// two texels, clamped: rough dielectric (green 255, blue 0) on the left, smooth-ish metal (green
+// 77, blue 255) on the right, read linearly. Each pixel is the model's value with the map's
+// bilinear lookup at its point, f(wo, wi) cos I / r^2.
+TEST(Glossy, AMetallicRoughnessMapSetsMetalnessAndRoughnessWhereItsCoordinatesSay) {
+  const Vec3f base(0.8f, 0.6f, 0.3f);
+  for (const char* settings : kIntegrators) {
+    SCOPED_TRACE(settings);
+    PlaneUnderPointLight plane;
+    plane.size = 64;
+    Scene scene = plane.scene_with_uvs(settings);
+    auto image = std::make_shared<DecodedImage>();
+    image->width = 2;
+    image->height = 1;
+    image->rgba8 = {0, 255, 0, 255, 0, 77, 255, 255};
+    scene.textures.push_back({"rough-dielectric-then-metal", nullptr, image});
+    Material& m = scene.materials.at(0);
+    m.type = MaterialType::kMetallicRoughness;
+    m.color = base;
+    m.metallic = 1.0f;
+    m.roughness = 1.0f;
+    m.metallic_roughness_map.texture = 0;
+    m.metallic_roughness_map.wrap_u = m.metallic_roughness_map.wrap_v = TextureWrap::kClampToEdge;
+    auto engine = engine_with(scene);
+    ASSERT_TRUE(engine->render(16).ok());
+    const std::span<const float> rendered = engine->image_linear();
+    const PinholeCamera cam = PinholeCamera::from(scene.camera);
+    double sum = 0, sum_expected = 0, sum_unmapped = 0, worst = 0;
+    const int checked = PlaneUnderPointLight::visit_square_pixels(scene, [&](size_t pixel, int x,
+                                                                             int y, float u) {
+      Vec3f p;
+      ASSERT_TRUE(plane_point(cam, x, y, p));
+      const float t = std::clamp((u - 0.25f) / 0.5f, 0.0f, 1.0f);
+      const float metallic = t, roughness = 1.0f + t * (77.0f / 255.0f - 1.0f);
+      const Vec3f to_light = plane.light - p;
+      const float dist2 = length_squared(to_light);
+      const Vec3f wi = normalize(to_light), wo = normalize(cam.origin - p);
+      const float light = plane.intensity * wi.z / dist2;
+      const double expected = MetallicRoughnessBsdf{base, metallic, roughness}.f(wo, wi).y * light;
+      const double got = rendered[4 * pixel + 1];
+      worst = std::max(worst, std::fabs(got - expected) / expected);
+      sum += got;
+      sum_expected += expected;
+      sum_unmapped += MetallicRoughnessBsdf{base, 1.0f, 1.0f}.f(wo, wi).y * light;
+    });
+    ASSERT_GT(checked, 200);
+    std::printf(
+        "metallic-roughness map, %s: worst pixel %.2f%%, mean %.4f of expected, %.4f "
+        "unmapped\n",
+        settings, 100 * worst, sum / sum_expected, sum_unmapped / sum_expected);
+    // A pixel's samples read the map across its footprint, where the lobe changes fastest.
+    EXPECT_NEAR(sum / sum_expected, 1.0, 0.01);
+    EXPECT_LT(worst, 0.15);
+    EXPECT_GT(std::fabs(sum_unmapped / sum_expected - 1.0), 0.1);  // the map matters
+  }
+}
+
+}  // namespace
+}  // namespace caustica

@@ -109,3 +109,29 @@ TEST(BundledScenes, RingSceneHasAMirrorRingAndAPointLight) {
 
 }  // namespace
 }  // namespace caustica
+
+namespace caustica {
+namespace {
+
+// The DamagedHelmet's one material is glTF's metallic-roughness model of the file's default
+// factors, its base colour, emission and metallic-roughness textures three maps of their own.
+TEST(BundledScenes, TheHelmetIsAMetallicRoughnessMaterialWithItsMaps) {
+  const Scene scene = load("damaged-helmet/scene.json");
+  ASSERT_EQ(scene.materials.size(), 1u);
+  const Material& m = scene.materials[0];
+  EXPECT_EQ(m.type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(m.metallic, 1.0f);
+  EXPECT_EQ(m.roughness, 1.0f);
+  ASSERT_TRUE(m.color_map.used());
+  ASSERT_TRUE(m.emission_map.used());
+  ASSERT_TRUE(m.metallic_roughness_map.used());
+  EXPECT_EQ(scene.textures.at(m.metallic_roughness_map.texture).name.find("metalRoughness") !=
+                std::string::npos,
+            true)
+      << scene.textures.at(m.metallic_roughness_map.texture).name;
+  EXPECT_NE(m.metallic_roughness_map.texture, m.color_map.texture);
+  EXPECT_NE(m.metallic_roughness_map.texture, m.emission_map.texture);
+}
+
+}  // namespace
+}  // namespace caustica

@@ -293,6 +293,31 @@ TEST(ParseScene, MaterialsNameImageFilesAsMaps) {
               HasSubstr("materials.logo.color_map.wrap: unknown wrap 'tile'"));
 }
 
+// A metallic-roughness material names its metalness and roughness map as the others name theirs;
+// another kind has no such key.
+TEST(ParseScene, AMetallicRoughnessMaterialNamesItsMap) {
+  auto scene_with = [](const std::string& material) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"steel": )" +
+                           material + R"(},
+      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+      "shapes": [{"type": "quad", "material": "steel",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
+  };
+  const absl::StatusOr<Scene> scene = scene_with(
+      R"({"type": "metallic_roughness", "metallic_roughness_map": "CesiumLogoFlat.png"})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  ASSERT_EQ(scene->textures.size(), 1u);
+  EXPECT_EQ(scene->materials.at(0).metallic_roughness_map.texture, 0u);
+  const absl::StatusOr<Scene> diffuse = scene_with(
+      R"({"type": "diffuse", "albedo": [1, 1, 1], "metallic_roughness_map": "CesiumLogoFlat.png"})");
+  ASSERT_FALSE(diffuse.ok());
+  EXPECT_THAT(message_of(diffuse.status()), HasSubstr("metallic_roughness_map"));
+}
+
 // A scene whose materials are `materials` (the text of the "materials" object), one quad of the
 // first, lit by a point light.
 absl::StatusOr<Scene> scene_with_materials(const std::string& materials, const std::string& first) {
