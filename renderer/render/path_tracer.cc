@@ -55,9 +55,8 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
                                    Sampler& s) {
   const float g = scene.media.media[medium].g;
   Vec3f sum(0.0f);
-  for (uint32_t i = 0; i < scene.light_count; ++i) {
+  for (uint32_t i = 0; i < delta_light_count(scene); ++i) {
     const DeviceLight& l = scene.lights[i];
-    if (l.type == DeviceLightType::kArea) continue;
     const WayToLight way = way_to_light(l, x, scene_radius);
     if (!(way.scale > 0.0f)) continue;
     if (any_hit(structure, shadow_ray(x, way.light_point, 1e-3f))) continue;

@@ -88,10 +88,16 @@ void render_pass(Backend& backend, const ResidentScene& scene, const PinholeCame
                  const ShadingSettings& settings, const RadianceGather& gather, Film& film,
                  uint32_t* requests = nullptr);
 
+// The point, spot and directional lights: the first of scene.lights, whose area lights (one per
+// emitting triangle, thousands for a model that glows) follow them (ResidentScene::new_lighting).
+CAUSTICA_HDI uint32_t delta_light_count(const ResidentSceneView& scene) {
+  return scene.light_count - scene.area_light_count;
+}
+
 // Shadow rays direct_light_with may ask for at one point: one per point, spot or directional
-// light (slot = the light's index) and one per area sample (slot = light_count + sample).
+// light (slot = the light's index) and one per area sample (slot = delta_light_count + sample).
 CAUSTICA_HDI uint32_t direct_light_slots(const ResidentSceneView& scene, uint32_t area_samples) {
-  return scene.light_count + area_samples;
+  return delta_light_count(scene) + area_samples;
 }
 
 // Sample dimensions direct_light_with draws at one point, whatever its shadow rays find: three
@@ -180,9 +186,8 @@ CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3
     return visible_slot(slot,
                         shadow_ray(offset_origin(p, geometric_normal, wi), light_point, 1e-3f));
   };
-  for (uint32_t i = 0; i < scene.light_count; ++i) {
+  for (uint32_t i = 0; i < delta_light_count(scene); ++i) {
     const DeviceLight& l = scene.lights[i];
-    if (l.type == DeviceLightType::kArea) continue;
     const WayToLight way = way_to_light(l, p, scene_radius);
     const Vec3f f_cos = reflection.delta(way.wi);
     if (is_black(f_cos) || way.scale <= 0.0f) continue;
@@ -198,7 +203,7 @@ CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3
       if (y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
       const Vec3f f_cos = reflection.area(y.wi, y.choice_pdf * y.dist2 / (y.cos_light * l.area));
       if (is_black(f_cos)) continue;
-      if (!visible(scene.light_count + k, y.position, y.wi)) continue;
+      if (!visible(delta_light_count(scene) + k, y.position, y.wi)) continue;
       area_sum += f_cos * y.radiance *
                   transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) *
                   (y.cos_light * l.area / (y.dist2 * y.choice_pdf));

@@ -32,7 +32,7 @@ TEST(GpuGlossy, TheGlossyCornellBoxRendersAlikeOnBothBackends) {
   for (const Case& c : {Case{"knn", Integrator::kPhoton, EstimatorKind::kKnn, 16},
                         Case{"sppm", Integrator::kPhoton, EstimatorKind::kSppm, 16},
                         Case{"vkde", Integrator::kPhoton, EstimatorKind::kVkde, 16},
-                        Case{"path", Integrator::kPath, EstimatorKind::kKnn, 256}}) {
+                        Case{"path", Integrator::kPath, EstimatorKind::kKnn, 1024}}) {
     SCOPED_TRACE(c.name);
     Scene s = *scene;
     s.settings.integrator = c.integrator;
@@ -46,8 +46,10 @@ TEST(GpuGlossy, TheGlossyCornellBoxRendersAlikeOnBothBackends) {
         "glossy Cornell box, %s: relative RMSE GPU vs CPU %.5f, mean %.5f, worst region "
         "%.2f%%\n",
         c.name, e.relative_rmse, e.mean_ratio, 100 * e.worst_region);
+    // The backends' paths part at their first rounding difference: the path tracer's images are
+    // two estimates whose noise the bound allows for, the photon estimators' nearly one.
     EXPECT_NEAR(e.mean_ratio, 1.0, 0.01);
-    EXPECT_LT(e.worst_region, 0.05);
+    EXPECT_LT(e.worst_region, c.integrator == Integrator::kPath ? 0.08 : 0.05);
   }
 }
 

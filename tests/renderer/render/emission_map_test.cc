@@ -208,5 +208,25 @@ TEST(EmissionMap, TheHelmetGlowsOnlyWhereItsEmissiveTextureDoes) {
   EXPECT_LT(white, helmet / 50);
 }
 
+// Every triangle of the helmet's material is an area light (its emission map decides where it
+// glows): 46,000 lights that shadow rays reach by sampling, not one slot each. Final gathering's
+// shadow rays, a slot per light and gather ray, once asked for 82 GB here; every shading point
+// also looped over them all to find the two point lights.
+TEST(EmissionMap, ManyAreaLightsCostNoShadowRaySlotsOfTheirOwn) {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::string(CAUSTICA_SCENES_DIR) + "/damaged-helmet/scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  scene->camera.width = 96;
+  scene->camera.height = 72;
+  scene->settings.photons_per_pass = 50000;
+  scene->settings.final_gather = true;
+  scene->settings.final_gather_rays = 64;
+  auto engine = Engine::create({.memory_budget_bytes = size_t{1} << 30});
+  ASSERT_TRUE(engine.ok()) << engine.status();
+  ASSERT_TRUE((*engine)->load(*scene).ok());
+  const absl::StatusOr<PassReport> rendered = (*engine)->render(2);
+  EXPECT_TRUE(rendered.ok()) << rendered.status();
+}
+
 }  // namespace
 }  // namespace caustica
