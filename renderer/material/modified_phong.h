@@ -82,10 +82,9 @@ struct ModifiedPhongBsdf {
     if (wo.z <= 0.0f || is_black(ks)) return s;
     s.wi = lobe_direction(wo, u0, u1);
     if (s.wi.z <= 0.0f) return BsdfSample{};
-    const float lobe_value = lobe(wo, s.wi);
-    s.pdf = (exponent + 1.0f) * (0.5f * kInvPi) * lobe_value;
+    s.pdf = specular_pdf(wo, s.wi);
     if (!(s.pdf > 0.0f)) return BsdfSample{};
-    s.f = ks * ((exponent + 2.0f) * (0.5f * kInvPi) * lobe_value);
+    s.f = specular_f(wo, s.wi);
     s.flags = kBsdfReflection | kBsdfGlossy;
     return s;
   }

@@ -16,14 +16,6 @@
 namespace caustica {
 namespace {
 
-// The solid-angle pdf with which a shadow ray would have chosen a direction that meets area light
-// `a` at squared distance `dist2` with cosine `cos_light` there.
-CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist2,
-                                  float cos_light) {
-  return area_light_choice_pdf(scene, a) * dist2 /
-         (cos_light * scene.lights[scene.area_lights[a]].area);
-}
-
 // One shadow ray from `p`, inside `medium`, to a point drawn on an area light chosen by power,
 // weighed against the path's own sampling that could have found the same point: `value(wi)` is
 // what the path scatters light from wi by (f |cos| off a surface, the phase function in a medium)

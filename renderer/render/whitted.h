@@ -201,7 +201,8 @@ CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3
       const AreaLightPoint y = draw_area_light_point(scene, p, s);
       const DeviceLight& l = *y.light;
       if (y.cos_light <= 0.0f || y.choice_pdf <= 0.0f) continue;
-      const Vec3f f_cos = reflection.area(y.wi, y.choice_pdf * y.dist2 / (y.cos_light * l.area));
+      const Vec3f f_cos =
+          reflection.area(y.wi, area_light_pdf(scene, y.index, y.dist2, y.cos_light));
       if (is_black(f_cos)) continue;
       if (!visible(delta_light_count(scene) + k, y.position, y.wi)) continue;
       area_sum += f_cos * y.radiance *

@@ -253,6 +253,14 @@ struct SurfaceReflection {
   }
 };
 
+// The solid-angle density with which a shadow ray chooses a direction that meets area light `a`
+// (an index into scene.area_lights) at squared distance `dist2` with cosine `cos_light` there.
+CAUSTICA_HDI float area_light_pdf(const ResidentSceneView& scene, uint32_t a, float dist2,
+                                  float cos_light) {
+  const float choice = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
+  return choice * dist2 / (cos_light * scene.lights[scene.area_lights[a]].area);
+}
+
 // The weight of an area light's emission that a camera path's glossy continuation met, drawn with
 // density `glossy_pdf` (0 for any other way there), against the `light_samples` shadow rays of
 // the hit it left: the other half of SurfaceReflection's power heuristic.
@@ -261,10 +269,8 @@ CAUSTICA_HDI float glossy_emission_weight(const ResidentSceneView& scene, float 
   if (!(glossy_pdf > 0.0f) || !(light_samples > 0.0f)) return 1.0f;
   const uint32_t a = scene.triangle_area_light[hit.triangle];
   if (a == kNoAreaLight) return 1.0f;
-  const float choice = scene.area_light_cdf[a + 1] - scene.area_light_cdf[a];
-  const float light_pdf =
-      choice * hit.t * hit.t / (cos_light * scene.lights[scene.area_lights[a]].area);
-  return power_heuristic(glossy_pdf, light_samples * light_pdf);
+  return power_heuristic(glossy_pdf,
+                         light_samples * area_light_pdf(scene, a, hit.t * hit.t, cos_light));
 }
 
 }  // namespace caustica
