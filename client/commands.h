@@ -63,6 +63,17 @@ struct LightEmitOptions {
 absl::StatusOr<v1::UpdateLightsRequest> emit_request(const LightEmitOptions& options);
 absl::Status run_light_emit(const GlobalOptions& global, const LightEmitOptions& options,
                             std::ostream& out);
+// light environment SCENE: changes the environment's intensity or rotation, keeping the other
+// lights.
+struct LightEnvironmentOptions {
+  std::string scene;
+  std::optional<float> intensity;
+  std::optional<float> rotation;  // degrees about the up axis
+  std::optional<uint64_t> expect_epoch;
+};
+absl::StatusOr<v1::UpdateLightsRequest> environment_request(const LightEnvironmentOptions& options);
+absl::Status run_light_environment(const GlobalOptions& global,
+                                   const LightEnvironmentOptions& options, std::ostream& out);
 
 // view SCENE: the scene (a file is uploaded) in the server's browser viewer; prints the URL and
 // opens it on a desktop. With the embedded server, serves until SIGINT or SIGTERM.

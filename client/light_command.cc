@@ -1,5 +1,6 @@
 // light set SCENE: replaces the scene's lights (UpdateLights) and prints the rebuild report;
-// light emit SCENE MATERIAL changes an area light's emission the same way.
+// light emit SCENE MATERIAL changes an area light's emission and light environment SCENE the
+// environment's intensity or rotation the same way.
 #include <vector>
 
 #include "absl/strings/numbers.h"
@@ -144,6 +145,27 @@ absl::StatusOr<v1::UpdateLightsRequest> emit_request(const LightEmitOptions& opt
 absl::Status run_light_emit(const GlobalOptions& global, const LightEmitOptions& options,
                             std::ostream& out) {
   absl::StatusOr<v1::UpdateLightsRequest> request = emit_request(options);
+  if (!request.ok()) return request.status();
+  return update_lights(global, *request, out);
+}
+
+absl::StatusOr<v1::UpdateLightsRequest> environment_request(
+    const LightEnvironmentOptions& options) {
+  if (!options.intensity && !options.rotation) {
+    return absl::InvalidArgumentError("give --intensity or --rotation: nothing would change");
+  }
+  v1::UpdateLightsRequest request;
+  request.set_scene_id(options.scene);
+  request.set_keep_lights(true);
+  if (options.intensity) request.set_environment_intensity(*options.intensity);
+  if (options.rotation) request.set_environment_rotation_deg(*options.rotation);
+  if (options.expect_epoch) request.set_expected_lights_epoch(*options.expect_epoch);
+  return request;
+}
+
+absl::Status run_light_environment(const GlobalOptions& global,
+                                   const LightEnvironmentOptions& options, std::ostream& out) {
+  absl::StatusOr<v1::UpdateLightsRequest> request = environment_request(options);
   if (!request.ok()) return request.status();
   return update_lights(global, *request, out);
 }

@@ -215,6 +215,19 @@ int main(int argc, char** argv) {
                        "apply only if the scene's lights epoch is still N");
   on(emit_cmd, "light emit", [&] { return run_light_emit(global, emit, std::cout); });
 
+  LightEnvironmentOptions environment;
+  CLI::App* environment_cmd = light->add_subcommand(
+      "environment", "change the environment's intensity or rotation; the other lights stay");
+  environment_cmd->add_option("scene", environment.scene, "scene id")->required();
+  environment_cmd->add_option("--intensity", environment.intensity,
+                              "the factor its map's radiance is scaled by");
+  environment_cmd->add_option("--rotation", environment.rotation,
+                              "degrees its map is turned about the up axis (+y)");
+  environment_cmd->add_option("--expect-epoch", environment.expect_epoch,
+                              "apply only if the scene's lights epoch is still N");
+  on(environment_cmd, "light environment",
+     [&] { return run_light_environment(global, environment, std::cout); });
+
   RenderOptions render;
   CLI::App* render_cmd = app.add_subcommand("render", "render one image");
   add_frame_job(render_cmd, render.job);

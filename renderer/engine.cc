@@ -226,9 +226,10 @@ struct Engine::State {
     for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_structure(structures[i]);
   }
   std::vector<ResidentScene::Lighting> new_lighting(const std::vector<Light>& lights,
-                                                    const std::vector<Material>& materials) {
+                                                    const std::vector<Material>& materials,
+                                                    const Environment& environment) {
     return make_on_every_device<ResidentScene::Lighting>(
-        [&](DeviceSlice& d) { return d.resident->new_lighting(lights, materials); });
+        [&](DeviceSlice& d) { return d.resident->new_lighting(lights, materials, environment); });
   }
   void swap_lighting(std::vector<ResidentScene::Lighting>& lighting) {
     for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_lighting(lighting[i]);
@@ -448,19 +449,32 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& given) {
 }
 
 absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights,
-                                                 const std::vector<EmitterChange>& emitters) {
+                                                 const std::vector<EmitterChange>& emitters,
+                                                 const EnvironmentChange& environment_change) {
   State& st = *state_;
   if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_lights(lights, st.first().resident->view().area_light_count);
+  if (absl::Status s = validate_lights(lights, st.first().resident->view().area_light_count,
+                                       st.scene.environment.present);
       !s.ok())
     return s;
+  if (absl::Status s = validate_environment_change(environment_change); !s.ok()) return s;
+  Environment environment = st.scene.environment;
+  if (environment_change.intensity || environment_change.rotation_deg) {
+    if (!environment.present) {
+      return absl::FailedPreconditionError(
+          "environment: the scene has no environment to change (add one to the scene)");
+    }
+    environment.intensity = environment_change.intensity.value_or(environment.intensity);
+    environment.rotation_deg = environment_change.rotation_deg.value_or(environment.rotation_deg);
+  }
   absl::StatusOr<std::vector<Material>> materials =
       apply_emitter_changes(st.scene.materials, emitters);
   if (!materials.ok()) return materials.status();
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
     st.drop_maps();  // frees the old maps before the new lighting is allocated
-    std::vector<ResidentScene::Lighting> lighting = st.new_lighting(lights, *materials);
+    std::vector<ResidentScene::Lighting> lighting =
+        st.new_lighting(lights, *materials, environment);
     // The photons are traced in the new lighting before the films restart; when that fails, the
     // old lighting goes back.
     st.swap_lighting(lighting);
@@ -474,6 +488,7 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
     st.clear_films();
     st.scene.materials = *std::move(materials);
     st.scene.lights = lights;
+    st.scene.environment = environment;
     ++st.epochs.lights;
     return absl::OkStatus();
   });

@@ -121,11 +121,13 @@ class Engine {
 
   // Replaces the scene: validates it, uploads it and builds the triangle structure.
   absl::StatusOr<RebuildReport> load(const Scene& scene);
-  // Replaces the non-geometry lights and applies `emitters` to the emissive materials (area
-  // lights), then traces the photons of the next pass and builds both photon maps at once (the
+  // Replaces the non-geometry lights, applies `emitters` to the emissive materials (area lights)
+  // and `environment` to the environment (FAILED_PRECONDITION when it changes one the scene does
+  // not have), then traces the photons of the next pass and builds both photon maps at once (the
   // light-change pipeline), so the next render only gathers.
   absl::StatusOr<RebuildReport> set_lights(const std::vector<Light>& lights,
-                                           const std::vector<EmitterChange>& emitters = {});
+                                           const std::vector<EmitterChange>& emitters = {},
+                                           const EnvironmentChange& environment = {});
   // Restarts accumulation; a new resolution reallocates the film.
   absl::StatusOr<RebuildReport> set_camera(const Camera& camera);
   // Restarts accumulation; settings that change the photons re-trace them as set_lights does. A new

@@ -68,6 +68,9 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
 void describe_lights(const Scene& scene, v1::SceneInfo* info) {
   info->clear_light_list();
   for (const Light& light : scene.lights) *info->add_light_list() = wire::encode_light(light);
+  info->clear_environment();
+  if (scene.environment.present)
+    *info->mutable_environment() = wire::encode_environment(scene.environment);
   info->clear_emitters();
   for (const Material& material : scene.materials) {
     if (is_emitter(material)) *info->add_emitters() = wire::encode_emitter(material);

@@ -750,7 +750,12 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
               "changed the lights)",
               engine.epochs().lights, request->expected_lights_epoch()));
         }
-        return engine.set_lights(*lights, *emitters);
+        EnvironmentChange environment;
+        if (request->has_environment_intensity())
+          environment.intensity = request->environment_intensity();
+        if (request->has_environment_rotation_deg())
+          environment.rotation_deg = request->environment_rotation_deg();
+        return engine.set_lights(*lights, *emitters, environment);
       });
 }
 

@@ -170,13 +170,26 @@ std::vector<EmitterChange> emission_of(const std::vector<Material>& materials) {
   return out;
 }
 
-// Lights, emission, camera and settings as a SceneHeader holding only those fields (emission as
-// EMISSIVE materials with their name, radiance and off).
+// The environment's intensity and rotation, as the state keeps them.
+EnvironmentChange environment_of(const Environment& environment) {
+  if (!environment.present) return {};
+  return {environment.intensity, environment.rotation_deg};
+}
+
+// Lights, emission, the environment's intensity and rotation, camera and settings as a
+// SceneHeader holding only those fields (emission as EMISSIVE materials with their name, radiance
+// and off).
 std::string encode_state(const std::vector<Light>& lights,
-                         const std::vector<EmitterChange>& emitters, const Camera& camera,
+                         const std::vector<EmitterChange>& emitters,
+                         const EnvironmentChange& environment, const Camera& camera,
                          const RenderSettings& settings) {
   v1::SceneHeader header;
   for (const Light& light : lights) *header.add_lights() = wire::encode_light(light);
+  if (environment.intensity || environment.rotation_deg) {
+    v1::Environment& e = *header.mutable_environment();
+    if (environment.intensity) e.set_intensity(*environment.intensity);
+    e.set_rotation_deg(environment.rotation_deg.value_or(0.0f));
+  }
   for (const EmitterChange& emitter : emitters) {
     v1::Material& material = *header.add_materials();
     material.set_name(emitter.material);
@@ -210,6 +223,12 @@ absl::Status decode_state(const std::string& bytes, const std::string& id, Store
         wire::decode_vec3(material.radiance(), absl::StrCat("materials[", i, "].radiance"));
     if (!radiance.ok()) return damaged(radiance.status());
     out->emitters.push_back({material.name(), *radiance, material.off()});
+  }
+  out->environment = {};
+  if (header.has_environment()) {
+    if (header.environment().has_intensity())
+      out->environment.intensity = header.environment().intensity();
+    out->environment.rotation_deg = header.environment().rotation_deg();
   }
   out->lights = *std::move(lights);
   out->camera = *camera;
@@ -453,7 +472,8 @@ absl::Status SceneStore::add(const StoredScene& scene) {
   insert.bind_text(2, scene.tenant);
   insert.bind_text(3, scene.name);
   insert.bind_text(4, scene.blob);
-  insert.bind(5, encode_state(scene.lights, scene.emitters, scene.camera, scene.settings));
+  insert.bind(5, encode_state(scene.lights, scene.emitters, scene.environment, scene.camera,
+                              scene.settings));
   insert.bind(6, static_cast<int64_t>(scene.epochs.geometry));
   insert.bind(7, static_cast<int64_t>(scene.epochs.lights));
   insert.bind(8, static_cast<int64_t>(scene.epochs.camera));
@@ -471,8 +491,8 @@ absl::Status SceneStore::update(const std::string& id, const Scene& state, const
                    "UPDATE scenes SET state = ?, epoch_geometry = ?, epoch_lights = ?, "
                    "epoch_camera = ?, epoch_settings = ? WHERE id = ?");
   if (!update.ok()) return update.error("cannot prepare an update");
-  update.bind(
-      1, encode_state(state.lights, emission_of(state.materials), state.camera, state.settings));
+  update.bind(1, encode_state(state.lights, emission_of(state.materials),
+                              environment_of(state.environment), state.camera, state.settings));
   update.bind(2, static_cast<int64_t>(epochs.geometry));
   update.bind(3, static_cast<int64_t>(epochs.lights));
   update.bind(4, static_cast<int64_t>(epochs.camera));
@@ -569,6 +589,11 @@ Scene restored_scene(Scene geometry, const StoredScene& stored) {
       material.radiance = emitter.radiance.value_or(material.radiance);
       material.off = emitter.off.value_or(material.off);
     }
+  }
+  if (geometry.environment.present) {
+    Environment& e = geometry.environment;
+    e.intensity = stored.environment.intensity.value_or(e.intensity);
+    e.rotation_deg = stored.environment.rotation_deg.value_or(e.rotation_deg);
   }
   geometry.camera = stored.camera;
   geometry.settings = stored.settings;

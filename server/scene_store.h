@@ -38,6 +38,7 @@ struct StoredScene {
   // The state that updates change; it overrides what the blob's header says.
   std::vector<Light> lights;
   std::vector<EmitterChange> emitters;  // every emissive material's emission; empty: the blob's
+  EnvironmentChange environment;        // its intensity and rotation; unset: the blob's
   Camera camera;
   RenderSettings settings;
   Epochs epochs;

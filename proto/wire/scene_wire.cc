@@ -357,6 +357,35 @@ v1::Light encode_light(const Light& light) {
   return out;
 }
 
+// Textures by 1 + index, 0 for none, as TextureRef's.
+v1::Environment encode_environment(const Environment& e) {
+  v1::Environment out;
+  out.set_texture(e.texture == kNoTexture ? 0u : e.texture + 1);
+  *out.mutable_color() = encode_vec3(e.color);
+  out.set_intensity(e.intensity);
+  out.set_rotation_deg(e.rotation_deg);
+  return out;
+}
+
+absl::StatusOr<Environment> decode_environment(const v1::Environment& in, size_t textures) {
+  Environment e;
+  e.present = true;
+  if (in.texture() > textures) {
+    return invalid("environment.texture",
+                   absl::StrCat(in.texture(), " names no texture (the scene has ", textures,
+                                " textures; 1 is the first, 0 none)"));
+  }
+  e.texture = in.texture() == 0 ? kNoTexture : in.texture() - 1;
+  if (in.has_color()) {
+    absl::StatusOr<Vec3f> color = decode_vec3(in.color(), "environment.color");
+    if (!color.ok()) return color.status();
+    e.color = *color;
+  }
+  if (in.has_intensity()) e.intensity = in.intensity();
+  e.rotation_deg = in.rotation_deg();
+  return e;
+}
+
 v1::Camera encode_camera(const Camera& camera) {
   v1::Camera out;
   *out.mutable_position() = encode_vec3(camera.position);
@@ -424,6 +453,7 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
   }
   for (const Material& m : scene.materials) *out.add_materials() = encode_material(m);
   for (const Light& l : scene.lights) *out.add_lights() = encode_light(l);
+  if (scene.environment.present) *out.mutable_environment() = encode_environment(scene.environment);
   for (const Medium& m : scene.media) *out.add_media() = encode_medium(m);
   out.set_medium(encode_medium_ref(scene.medium));
   *out.mutable_camera() = encode_camera(scene.camera);
@@ -857,6 +887,12 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
   absl::StatusOr<std::vector<Light>> lights = decode_lights(header.lights(), "lights");
   if (!lights.ok()) return lights.status();
   scene_.lights = *std::move(lights);
+  if (header.has_environment()) {
+    absl::StatusOr<Environment> environment =
+        decode_environment(header.environment(), scene_.textures.size());
+    if (!environment.ok()) return environment.status();
+    scene_.environment = *environment;
+  }
   absl::StatusOr<Camera> camera = decode_camera(header.camera(), "camera");
   if (!camera.ok()) return camera.status();
   scene_.camera = *camera;

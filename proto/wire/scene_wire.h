@@ -38,6 +38,9 @@ absl::StatusOr<std::vector<EmitterChange>> decode_emitters(
     const google::protobuf::RepeatedPtrField<v1::Emitter>& emitters, std::string_view field);
 v1::Light encode_light(const Light& light);
 v1::Camera encode_camera(const Camera& camera);
+v1::Environment encode_environment(const Environment& environment);
+// `textures`: how many the scene has, which the environment's map must be one of.
+absl::StatusOr<Environment> decode_environment(const v1::Environment& environment, size_t textures);
 v1::RenderSettings encode_settings(const RenderSettings& settings);  // every field set
 v1::Structure encode_structure(StructureKind kind);
 v1::Integrator encode_integrator(Integrator integrator);

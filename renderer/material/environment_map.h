@@ -1,7 +1,8 @@
 // Light from an environment: an equirectangular image of radiance around the scene, row 0 the
-// zenith (+y), turned about +y by `rotation` and scaled by `intensity`. Directions are drawn in
-// proportion to the image's luminance over solid angle, so that next-event estimation and photon
-// emission spend their samples where the light is (docs/materials.md, "Environment").
+// zenith (+y), turned about +y by `rotation` and scaled by `scale` (colour times intensity).
+// Directions are drawn in proportion to the image's luminance over solid angle, so that next-event
+// estimation and photon emission spend their samples where the light is (docs/materials.md,
+// "Environment").
 #pragma once
 
 #include <cmath>
@@ -22,7 +23,7 @@ struct EnvironmentSample {
 struct EnvironmentMap {
   TextureView image;  // level 0 read; u wraps, v clamps
   PiecewiseConstant2D distribution;
-  float intensity = 1.0f;
+  Vec3f scale{1.0f};
   float rotation = 0.0f;  // radians about +y
 
   // u = (phi - rotation) / 2 pi with phi measured from -z towards +x, v = theta / pi from +y.
@@ -40,7 +41,7 @@ struct EnvironmentMap {
 
   CAUSTICA_HDI Vec3f radiance(Vec3f d) const {
     const Texel t = image.bilinear(0, uv_of(d));
-    return Vec3f(t.r, t.g, t.b) * intensity;
+    return Vec3f(t.r, t.g, t.b) * scale;
   }
 
   // The density over solid angle of drawing `d`: the image's density over (u, v) over the
@@ -88,6 +89,26 @@ inline PiecewiseConstant2DData environment_distribution(uint32_t width, uint32_t
     }
   }
   return build_piecewise_constant_2d(std::move(f), width, height);
+}
+
+// The mean over the sphere of an environment image's radiance (before its scale): what its power
+// through a disc facing any direction is pi r^2 4 pi times. Each texel weighs by the solid angle
+// of its row.
+inline Vec3f environment_mean(uint32_t width, uint32_t height, const std::vector<Texel>& texels) {
+  double sum[3] = {0.0, 0.0, 0.0}, weight = 0.0;
+  for (uint32_t y = 0; y < height; ++y) {
+    const double w = std::sin(3.14159265358979323846 * (double(y) + 0.5) / double(height));
+    for (uint32_t x = 0; x < width; ++x) {
+      const Texel& t = texels[size_t(y) * width + x];
+      sum[0] += w * t.r;
+      sum[1] += w * t.g;
+      sum[2] += w * t.b;
+    }
+    weight += w * width;
+  }
+  return weight > 0.0
+             ? Vec3f(float(sum[0] / weight), float(sum[1] / weight), float(sum[2] / weight))
+             : Vec3f(0.0f);
 }
 
 }  // namespace caustica

@@ -71,6 +71,20 @@ CAUSTICA_HDI EmittedPhoton emit_from(const ResidentSceneView& scene, const Devic
       e.power = area_light_radiance(scene, l, b) * (kPi * l.area);
       break;
     }
+    case DeviceLightType::kEnvironment: {
+      // A direction towards the environment by its luminance, then as a directional light's
+      // photon from a disk facing it (pbrt-v4's ImageInfiniteLight::SampleLe).
+      const EnvironmentSample from = scene.environment.sample(u0, u1);
+      const Vec3f travel = -from.direction;
+      Vec2f d = sample_uniform_disk(s.next_float(), s.next_float());
+      Frame f = Frame::from_normal(travel);
+      e.ray.origin =
+          scene_center - travel * (1.01f * scene_radius) + (f.s * d.x + f.t * d.y) * scene_radius;
+      e.ray.direction = travel;
+      e.power = from.pdf > 0.0f ? from.radiance * (kPi * scene_radius * scene_radius / from.pdf)
+                                : Vec3f(0.0f);
+      break;
+    }
   }
   return e;
 }
@@ -108,10 +122,12 @@ CAUSTICA_HDI PhotonDifferentials emission_differentials(const DeviceLight& light
       return emitted_from_point(e.ray.direction, Vec3f(0.0f, 0.0f, 1.0f), -1.0f);
     case DeviceLightType::kSpot:
       return emitted_from_point(e.ray.direction, light.direction, light.cos_outer);
-    case DeviceLightType::kDirectional: {
+    case DeviceLightType::kDirectional:
+    case DeviceLightType::kEnvironment: {
       // Parallel photons from a disk of the scene's radius: each stands for its share of the disk,
-      // pi r^2 / (n share) = (4 pi / n) |dz1 x dz2|.
-      const Frame f = Frame::from_normal(light.direction);
+      // pi r^2 / (n share) = (4 pi / n) |dz1 x dz2|. The environment's, from disks facing every
+      // way, are given the same spread.
+      const Frame f = Frame::from_normal(e.ray.direction);
       const float half = 0.5f * scene_radius / sqrtf(choice_pdf);
       return {f.s * half, f.t * half, Vec3f(0.0f), Vec3f(0.0f)};
     }

@@ -37,10 +37,28 @@ CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Struc
          (power_heuristic(light_pdf, pdf(y.wi)) / light_pdf);
 }
 
+// One shadow ray from `p`, inside `medium`, towards a direction drawn from the environment by its
+// luminance, weighed as sample_area_light's against the path's own sampling.
+template <typename Structure, typename Value, typename Pdf, typename ShadowOrigin>
+CAUSTICA_HDI Vec3f sample_environment(const ResidentSceneView& scene, const Structure& structure,
+                                      Vec3f p, uint32_t medium, float scene_radius, Sampler& s,
+                                      Value value, Pdf pdf, ShadowOrigin shadow_origin) {
+  const float u0 = s.next_float();
+  const EnvironmentSample e = scene.environment.sample(u0, s.next_float());
+  if (!(e.pdf > 0.0f)) return Vec3f(0.0f);
+  const Vec3f f = value(e.direction);
+  if (is_black(f)) return Vec3f(0.0f);
+  const float dist = distance_to_outside(scene_radius);
+  if (any_hit(structure, shadow_ray(shadow_origin(e.direction), p + e.direction * dist, 0.0f)))
+    return Vec3f(0.0f);
+  return e.radiance * transmittance_along(scene.media, medium, p, e.direction, dist) * f *
+         (power_heuristic(e.pdf, pdf(e.direction)) / e.pdf);
+}
+
 // The light scattered at `x`, inside `medium`, towards where `travel` came from: one shadow ray
-// to every point, spot and directional light and one to a point on an area light, the latter
-// weighed against the phase function's sampling that could have found the same point. Each is
-// attenuated by the transmittance of its way through the medium.
+// to every point, spot and directional light, one to a point on an area light and one to the
+// environment, the latter two weighed against the phase function's sampling that could have found
+// the same light. Each is attenuated by the transmittance of its way through the medium.
 template <typename Structure>
 CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structure& structure,
                                    Vec3f x, Vec3f travel, uint32_t medium, float scene_radius,
@@ -60,6 +78,12 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
     sum += sample_area_light(
         scene, structure, x, medium, s, [&](Vec3f wi) { return Vec3f(phase(wi)); }, phase,
         [&](Vec3f) { return x; });
+  }
+  if (scene.has_environment) {
+    const auto phase = [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); };
+    sum += sample_environment(
+        scene, structure, x, medium, scene_radius, s, [&](Vec3f wi) { return Vec3f(phase(wi)); },
+        phase, [&](Vec3f) { return x; });
   }
   return sum;
 }
@@ -107,7 +131,16 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         continue;
       }
     }
-    if (!hit.valid()) break;  // black background
+    if (!hit.valid()) {
+      // The environment, weighed against the shadow ray that could have found the same direction.
+      if (scene.has_environment) {
+        const float weight = bounce_pdf > 0.0f
+                                 ? power_heuristic(bounce_pdf, scene.environment.pdf(ray.direction))
+                                 : 1.0f;
+        radiance += throughput * scene.environment.radiance(ray.direction) * weight;
+      }
+      break;
+    }
     const SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     const Vec3f d = ray.direction;
@@ -137,6 +170,15 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
             throughput *
             sample_area_light(
                 scene, structure, sh.position, medium, s,
+                [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
+                [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
+                [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
+      }
+      if (scene.has_environment) {
+        radiance +=
+            throughput *
+            sample_environment(
+                scene, structure, sh.position, medium, scene_radius, s,
                 [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
                 [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
                 [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
@@ -172,6 +214,14 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
           radiance += throughput * color *
                       sample_area_light(
                           scene, structure, sh.position, medium, s,
+                          [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
+                          [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
+        }
+        if (scene.has_environment) {
+          const auto density = [&](Vec3f wi) { return max_f(0.0f, dot(n, wi)) * kInvPi; };
+          radiance += throughput * color *
+                      sample_environment(
+                          scene, structure, sh.position, medium, scene_radius, s,
                           [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
                           [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
         }

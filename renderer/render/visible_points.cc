@@ -35,7 +35,7 @@ CAUSTICA_HDI Chain start_chain(const PinholeCamera& camera, const VisiblePointSe
 }
 
 // The chain's hit `hit` of its current ray: true when the chain goes on (its next ray set), false
-// when it ended, at a light, in the background or at a diffuse surface, which becomes `point`.
+// when it ended, at a light, in the environment or at a diffuse surface, which becomes `point`.
 // `direct(sh, reflection, s)` gives the direct light at a diffuse hit or one on a sampled model
 // (whitted.h's direct_light_by). Maps are read at their finest level: each pass's jittered chains
 // average the pixel, as the passes accumulate.
@@ -43,7 +43,11 @@ template <typename Direct>
 CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
                              const VisiblePointSettings& cfg, Chain& c, VisiblePoint& point,
                              Direct direct) {
-  if (!hit.valid()) return false;  // black background
+  if (!hit.valid()) {
+    c.light += c.throughput * environment_seen(scene, c.ray.direction, c.glossy_pdf,
+                                               float(cfg.area_light_samples));
+    return false;
+  }
   const SurfaceHit sh = surface_at(scene, hit);
   const DeviceMaterial& m = scene.materials[sh.material];
   const Vec3f d = c.ray.direction;

@@ -152,7 +152,11 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
       }
     }
     first = false;
-    if (!hit.valid()) continue;  // black background
+    if (!hit.valid()) {
+      emitted +=
+          pr.throughput * environment_seen(scene, pr.ray.direction, pr.glossy_pdf, light_samples);
+      continue;
+    }
     SurfaceHit sh = surface_at(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = pr.ray.direction;
@@ -470,8 +474,26 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
   parallel_for(backend, "specular_wave_shade", count, [=] CAUSTICA_HD(size_t i) {
     is_leaf[i] = 0;
     const Hit hit = hits[i];
-    if (!hit.valid()) return;  // black background
     const PathRay pr = wave[i];
+    if (!hit.valid()) {
+      // The environment seen, a leaf of its own as an emitter's.
+      if (!in.scene.has_environment) return;
+      leaves[i] = {pr.branch,
+                   pr.pixel,
+                   0u,
+                   pr.throughput,
+                   environment_seen(in.scene, pr.ray.direction, pr.glossy_pdf,
+                                    float(in.cfg.area_light_samples)),
+                   Vec3f(0.0f),
+                   Vec3f(0.0f),
+                   Vec3f(0.0f),
+                   Vec3f(0.0f),
+                   kLambertHit,
+                   Vec3f(0.0f),
+                   Vec2f{0.0f, 0.0f}};
+      is_leaf[i] = 1;
+      return;
+    }
     const SurfaceHit sh = surface_at(in.scene, hit);
     const DeviceMaterial& m = in.scene.materials[sh.material];
     const Vec3f d = pr.ray.direction;

@@ -88,25 +88,33 @@ void render_pass(Backend& backend, const ResidentScene& scene, const PinholeCame
                  const ShadingSettings& settings, const RadianceGather& gather, Film& film,
                  uint32_t* requests = nullptr);
 
-// The point, spot and directional lights: the first of scene.lights, whose area lights (one per
-// emitting triangle, thousands for a model that glows) follow them (ResidentScene::new_lighting).
+// The point, spot and directional lights: the first of scene.lights, whose environment (when
+// there is one) and area lights (one per emitting triangle, thousands for a model that glows)
+// follow them (ResidentScene::new_lighting).
 CAUSTICA_HDI uint32_t delta_light_count(const ResidentSceneView& scene) {
-  return scene.light_count - scene.area_light_count;
+  return scene.light_count - scene.area_light_count - (scene.has_environment ? 1u : 0u);
 }
 
 // Shadow rays direct_light_with may ask for at one point: one per point, spot or directional
-// light (slot = the light's index) and one per area sample (slot = delta_light_count + sample).
+// light (slot = the light's index), one per area sample (slot = delta_light_count + sample) and,
+// with an environment, one per environment sample, as many as area samples (slot =
+// delta_light_count + area_samples + sample).
 CAUSTICA_HDI uint32_t direct_light_slots(const ResidentSceneView& scene, uint32_t area_samples) {
-  return delta_light_count(scene) + area_samples;
+  return delta_light_count(scene) + (scene.has_environment ? 2u : 1u) * area_samples;
 }
 
 // Sample dimensions direct_light_with draws at one point, whatever its shadow rays find: three
-// per area sample when there are area lights. A wavefront that shades a path's diffuse hits out of
-// order starts each one's sampler this far past the previous one's.
+// per area sample when there are area lights, two per environment sample. A wavefront that shades
+// a path's diffuse hits out of order starts each one's sampler this far past the previous one's.
 CAUSTICA_HDI uint32_t direct_light_dimensions(const ResidentSceneView& scene,
                                               uint32_t area_samples) {
-  return scene.area_light_count > 0 && area_samples > 0 ? 3 * area_samples : 0;
+  return (scene.area_light_count > 0 ? 3 * area_samples : 0) +
+         (scene.has_environment ? 2 * area_samples : 0);
 }
+
+// How far a shadow ray to the environment or a directional light goes: out of the scene's
+// bounding sphere from any point inside it.
+CAUSTICA_HDI float distance_to_outside(float scene_radius) { return 4.0f * scene_radius; }
 
 // A point drawn uniformly on an area light chosen by power (three sample dimensions), as a
 // shadow ray from `p` aims at it.
@@ -156,7 +164,7 @@ CAUSTICA_HDI WayToLight way_to_light(const DeviceLight& l, Vec3f p, float scene_
   WayToLight way;
   if (l.type == DeviceLightType::kDirectional) {
     way.wi = -l.direction;
-    way.dist = 4.0f * scene_radius;
+    way.dist = distance_to_outside(scene_radius);
     way.light_point = p + way.wi * way.dist;
     way.scale = 1.0f;
     return way;
@@ -171,8 +179,9 @@ CAUSTICA_HDI WayToLight way_to_light(const DeviceLight& l, Vec3f p, float scene_
 }
 
 // Direct light at a point of a camera path: every point, spot and directional light with one
-// shadow ray each, and `area_samples` shadow rays to area lights chosen by power, each weighed by
-// what `reflection` (LambertReflection, SurfaceReflection) gives for its direction, f |cos|.
+// shadow ray each, `area_samples` shadow rays to area lights chosen by power and as many to the
+// environment's directions drawn by its luminance, each weighed by what `reflection`
+// (LambertReflection, SurfaceReflection) gives for its direction, f |cos|.
 // `visible(slot, ray)` says whether the shadow ray `ray` (slot: direct_light_slots) reaches its
 // light. In `medium`, each light's share is attenuated by the transmittance of the way to it.
 template <typename Reflection, typename Visible>
@@ -210,6 +219,22 @@ CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3
                   (y.cos_light * l.area / (y.dist2 * y.choice_pdf));
     }
     sum += area_sum / float(area_samples);
+  }
+  if (scene.has_environment && area_samples > 0) {
+    Vec3f environment_sum(0.0f);
+    const uint32_t first_slot = delta_light_count(scene) + area_samples;
+    const float dist = distance_to_outside(scene_radius);
+    for (uint32_t k = 0; k < area_samples; ++k) {
+      const float u0 = s.next_float();
+      const EnvironmentSample e = scene.environment.sample(u0, s.next_float());
+      if (!(e.pdf > 0.0f)) continue;
+      const Vec3f f_cos = reflection.area(e.direction, e.pdf);
+      if (is_black(f_cos)) continue;
+      if (!visible(first_slot + k, p + e.direction * dist, e.direction)) continue;
+      environment_sum += f_cos * e.radiance *
+                         transmittance_along(scene.media, medium, p, e.direction, dist) / e.pdf;
+    }
+    sum += environment_sum / float(area_samples);
   }
   return sum;
 }

@@ -275,8 +275,44 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.triangle_medium_.bind(backend);
   r.triangle_medium_.upload(triangle_medium);
   r.structure_ = r.new_structure(scene.settings.structure, scene.settings.build);
-  r.lighting_ = r.new_lighting(scene.lights, scene.materials);  // after the structure: its bounds
+  r.upload_environment(scene);
+  // After the structure, whose bounds weigh the directional lights and the environment.
+  r.lighting_ = r.new_lighting(scene.lights, scene.materials, scene.environment);
   return r;
+}
+
+void ResidentScene::upload_environment(const Scene& scene) {
+  const Environment& e = scene.environment;
+  if (!e.present) return;
+  // A constant sky is a white image that the scale colours, of enough rows that its distribution
+  // follows the sphere's solid angle (environment_distribution).
+  uint32_t width = 32, height = 16;
+  std::vector<Texel> texels(size_t(width) * height, Texel{1.0f, 1.0f, 1.0f, 1.0f});
+  if (e.texture < scene.textures.size()) {
+    const TextureImage& image = scene.textures[e.texture];
+    if (image.decoded != nullptr && image.decoded->width > 0) {
+      width = image.decoded->width;
+      height = image.decoded->height;
+      texels = linear_texels(*image.decoded, /*srgb_encoded=*/true);
+    }
+  }
+  const PiecewiseConstant2DData d = environment_distribution(width, height, texels);
+  EnvironmentImage& out = environment_;
+  out.present = true;
+  for (Buffer<float>* b : {&out.func, &out.row_cdfs, &out.row_integrals, &out.marginal_cdf})
+    b->bind(*backend_);
+  out.texels.bind(*backend_);
+  out.level.bind(*backend_);
+  out.texels.upload(texels);
+  out.level.upload(std::vector<MipLevel>{{0, width, height}});
+  out.func.upload(d.func);
+  out.row_cdfs.upload(d.row_cdfs);
+  out.row_integrals.upload(d.row_integrals);
+  out.marginal_cdf.upload(d.marginal_cdf);
+  out.nu = d.nu;
+  out.nv = d.nv;
+  out.integral = d.integral;
+  out.mean = environment_mean(width, height, texels);
 }
 
 ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene) {
@@ -337,15 +373,24 @@ void ResidentScene::swap_structure(TriangleStructure& structure) noexcept {
 }
 
 ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> lights,
-                                                    std::span<const Material> materials) const {
+                                                    std::span<const Material> materials,
+                                                    const Environment& environment) const {
   std::vector<DeviceLight> all;
-  all.reserve(lights.size() + area_lights_host_.size());
+  all.reserve(lights.size() + 1 + area_lights_host_.size());
   for (const Light& l : lights) all.push_back(to_device_light(l));
+  Lighting lighting;
+  if (environment_.present) {
+    lighting.environment = true;
+    lighting.environment_scale = environment.color * environment.intensity;
+    lighting.environment_rotation = environment.rotation_deg * (kPi / 180.0f);
+    DeviceLight& e = all.emplace_back();
+    e.type = DeviceLightType::kEnvironment;
+    e.color = lighting.environment_scale * environment_.mean;
+  }
   for (size_t i = 0; i < area_lights_host_.size(); ++i) {
     DeviceLight& area = all.emplace_back(area_lights_host_[i]);
     area.color = emitted_radiance(materials[area_light_materials_[i]]);
   }
-  Lighting lighting;
   lighting.materials.bind(*backend_);
   lighting.lights.bind(*backend_);
   lighting.light_cdf.bind(*backend_);
@@ -381,6 +426,17 @@ ResidentSceneView ResidentScene::view() const {
   v.area_light_count = uint32_t(lighting_.area_light_index.size());
   v.total_power = lighting_.total_power;
   v.area_light_power = lighting_.area_light_power;
+  v.has_environment = lighting_.environment && environment_.present;
+  if (v.has_environment) {
+    const EnvironmentImage& e = environment_;
+    v.environment.image = {e.texels.data(), e.level.data(), 1, TextureWrap::kRepeat,
+                           TextureWrap::kClampToEdge};
+    v.environment.distribution = {
+        e.func.data(), e.row_cdfs.data(), e.row_integrals.data(), e.marginal_cdf.data(), e.nu,
+        e.nv,          e.integral};
+    v.environment.scale = lighting_.environment_scale;
+    v.environment.rotation = lighting_.environment_rotation;
+  }
   if (!media_.empty()) {
     v.media.media = media_.data();
     v.media.triangle_medium = triangle_medium_.data();
@@ -397,6 +453,9 @@ size_t ResidentScene::bytes() const {
   for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();
   for (const Buffer<Texel>& t : texels_) grid_bytes += t.bytes();
   for (const Buffer<MipLevel>& l : mip_levels_) grid_bytes += l.bytes();
+  const EnvironmentImage& e = environment_;
+  grid_bytes += e.texels.bytes() + e.level.bytes() + e.func.bytes() + e.row_cdfs.bytes() +
+                e.row_integrals.bytes() + e.marginal_cdf.bytes();
   return triangles_.bytes() + corner_normals_.bytes() + corner_uvs_.bytes() +
          texture_maps_.bytes() + material_ids_.bytes() + triangle_area_light_.bytes() +
          lighting_.bytes() + media_.bytes() + triangle_medium_.bytes() + structure_.stats().bytes +

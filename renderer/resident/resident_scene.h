@@ -9,6 +9,7 @@
 #include "absl/status/statusor.h"
 #include "renderer/accel/structure.h"
 #include "renderer/base/sampling.h"
+#include "renderer/material/environment_map.h"
 #include "renderer/material/texture.h"
 #include "renderer/medium/medium.h"
 #include "renderer/scene/scene.h"
@@ -36,14 +37,24 @@ struct DeviceTextureMap {
   TextureTransform transform;
 };
 
-enum class DeviceLightType : uint32_t { kPoint = 0, kSpot = 1, kDirectional = 2, kArea = 3 };
+enum class DeviceLightType : uint32_t {
+  kPoint = 0,
+  kSpot = 1,
+  kDirectional = 2,
+  kArea = 3,
+  kEnvironment = 4,
+};
 
-// Flat light record. Area lights are one record per emissive triangle (`triangle`, `area`).
+// Flat light record. Area lights are one record per emissive triangle (`triangle`, `area`). The
+// environment's record stands for it in the choice of lights by power; its light comes from
+// ResidentSceneView::environment.
 struct DeviceLight {
   DeviceLightType type;
   Vec3f position;      // point/spot; area: first vertex
   Vec3f direction;     // spot axis / directional travel direction; area: unit geometric normal
-  Vec3f color;         // intensity (point/spot), irradiance (directional) or radiance (area)
+  // Intensity (point/spot), irradiance (directional), radiance (area) or the environment's mean
+  // radiance over the sphere.
+  Vec3f color;
   float cos_inner;     // spot
   float cos_outer;     // spot
   Vec3f edge1, edge2;  // area: triangle edges from `position`
@@ -89,6 +100,9 @@ struct ResidentSceneView {
   const uint32_t* triangle_area_light;
   uint32_t light_count;
   uint32_t area_light_count;
+  // The environment, when has_environment: its record is the last light before the area lights.
+  EnvironmentMap environment;
+  bool has_environment;
   float total_power;  // sum over lights of average-channel power (W)
   float area_light_power;
   MediaView media;  // none when the scene has no participating media
@@ -204,6 +218,8 @@ CAUSTICA_HDI float light_power(const DeviceLight& l, float scene_radius) {
       return c * kPi * scene_radius * scene_radius;
     case DeviceLightType::kArea:
       return c * kPi * l.area;
+    case DeviceLightType::kEnvironment:  // through a disc of the scene's radius, from all around
+      return c * 4.0f * kPi * kPi * scene_radius * scene_radius;
   }
   return 0.0f;
 }
@@ -233,6 +249,10 @@ class ResidentScene {
     Buffer<float> area_light_cdf;
     float total_power = 0;
     float area_light_power = 0;
+    // The environment's scale (colour times intensity) and rotation about +y in radians.
+    bool environment = false;
+    Vec3f environment_scale{1.0f};
+    float environment_rotation = 0;
 
     size_t bytes() const;
   };
@@ -247,8 +267,10 @@ class ResidentScene {
   TriangleStructure new_structure(StructureKind kind, const BuildOptions& options) const;
   void swap_structure(TriangleStructure& structure) noexcept;
   // `lights` (area lights follow the geometry and stay) with the emission of `materials`, the
-  // materials given at upload with their emission changed or not.
-  Lighting new_lighting(std::span<const Light> lights, std::span<const Material> materials) const;
+  // materials given at upload with their emission changed or not, and `environment`, the one
+  // given at upload with its intensity and rotation changed or not.
+  Lighting new_lighting(std::span<const Light> lights, std::span<const Material> materials,
+                        const Environment& environment) const;
   void swap_lighting(Lighting& lighting) noexcept;
 
   ResidentSceneView view() const;
@@ -272,6 +294,8 @@ class ResidentScene {
   // Uploads the mip chain of every image a map reads and sets material_maps_, indices into the
   // maps it returns.
   TextureMaps upload_texture_maps(const Scene& scene);
+  // Uploads the environment's image and the distribution its directions are drawn from.
+  void upload_environment(const Scene& scene);
 
   Backend* backend_ = nullptr;
   // From emitting triangles, fixed with the geometry but for their colour, the emission of their
@@ -287,6 +311,17 @@ class ResidentScene {
   std::vector<Buffer<Texel>> texels_;
   std::vector<Buffer<MipLevel>> mip_levels_;
   Buffer<DeviceTextureMap> texture_maps_;
+  // The environment's image (one level: it is looked up, never filtered over a footprint), the
+  // arrays of its distribution (PiecewiseConstant2D) and its mean radiance over the sphere.
+  struct EnvironmentImage {
+    bool present = false;
+    Buffer<Texel> texels;
+    Buffer<MipLevel> level;
+    Buffer<float> func, row_cdfs, row_integrals, marginal_cdf;
+    uint32_t nu = 0, nv = 0;
+    float integral = 0;
+    Vec3f mean{0.0f};
+  } environment_;
   Buffer<uint32_t> material_ids_;
   Buffer<uint32_t> triangle_area_light_;
   Lighting lighting_;

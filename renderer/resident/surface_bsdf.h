@@ -273,4 +273,16 @@ CAUSTICA_HDI float glossy_emission_weight(const ResidentSceneView& scene, float 
                          light_samples * area_light_pdf(scene, a, hit.t * hit.t, cos_light));
 }
 
+// The environment's radiance along `d`, a camera path's ray that left the scene, weighed like
+// glossy_emission_weight's area lights when a glossy lobe drew it with density `glossy_pdf` (0 for
+// any other way there) against the `light_samples` shadow rays to the environment of the hit it
+// left. Black without an environment.
+CAUSTICA_HDI Vec3f environment_seen(const ResidentSceneView& scene, Vec3f d, float glossy_pdf,
+                                    float light_samples) {
+  if (!scene.has_environment) return Vec3f(0.0f);
+  const Vec3f radiance = scene.environment.radiance(d);
+  if (!(glossy_pdf > 0.0f) || !(light_samples > 0.0f)) return radiance;
+  return radiance * power_heuristic(glossy_pdf, light_samples * scene.environment.pdf(d));
+}
+
 }  // namespace caustica

@@ -189,6 +189,26 @@ struct Light {
   float outer_angle_deg = 45;  // spot: zero outside this half-angle (smoothstep between)
 };
 
+// Light from all around the scene (docs/scene-format.md, "Environment"): radiance `color` times
+// `intensity` from every direction, each multiplied by an equirectangular image of radiance when
+// `texture` names one (an index into Scene::textures, linear for Radiance HDR and OpenEXR, sRGB for
+// 8-bit images), row 0 the zenith (+y), turned by `rotation_deg` about +y. Camera rays that miss
+// see it, shadow rays sample it and photons come from it. Intensity and rotation change with the
+// lights.
+struct Environment {
+  bool present = false;
+  uint32_t texture = kNoTexture;
+  Vec3f color{1, 1, 1};
+  float intensity = 1;
+  float rotation_deg = 0;
+};
+
+// A change to the environment's intensity or rotation (UpdateLights); unset fields keep theirs.
+struct EnvironmentChange {
+  std::optional<float> intensity;
+  std::optional<float> rotation_deg;
+};
+
 struct Camera {
   Vec3f position{0, 0, 1};
   Vec3f look_at{0, 0, 0};
@@ -238,6 +258,7 @@ struct Scene {
   uint32_t medium = kNoMedium;
   std::vector<Mesh> meshes;
   std::vector<Light> lights;
+  Environment environment;
   Camera camera;
   RenderSettings settings;
 

@@ -152,6 +152,8 @@ class SceneReader {
                                return read_material(name, v, std::move(path));
                              }));
     }
+    SCENE_ASSIGN_OR_RETURN(const Json* environment, top.find("environment", kOptional));
+    if (environment != nullptr) SCENE_RETURN_IF_ERROR(read_environment(*environment));
     // Model files' textures, which shapes bring, follow.
     scene_.textures = scene_textures_.take();
     SCENE_ASSIGN_OR_RETURN(const Json* media, top.find("media", kOptional));
@@ -403,6 +405,26 @@ class SceneReader {
     SCENE_ASSIGN_OR_RETURN(const Json* value, shape.find("medium", kOptional));
     if (value == nullptr) return kNoMedium;
     return medium_named(*value, shape.field_path("medium"));
+  }
+
+  // {"map": image file, "color": [r, g, b], "intensity": x, "rotation": degrees}, every key
+  // optional (docs/scene-format.md, "Environment").
+  absl::Status read_environment(const Json& value) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, "environment"));
+    Environment& e = scene_.environment;
+    e.present = true;
+    SCENE_ASSIGN_OR_RETURN(const Json* map, object.find("map", kOptional));
+    if (map != nullptr) {
+      SCENE_ASSIGN_OR_RETURN(const std::string file,
+                             json_to_string(*map, object.field_path("map")));
+      absl::StatusOr<uint32_t> texture = scene_textures_.read(file);
+      if (!texture.ok()) return annotate(texture.status(), object.field_path("map"));
+      e.texture = *texture;
+    }
+    SCENE_RETURN_IF_ERROR(object.read("color", kOptional, &e.color));
+    SCENE_RETURN_IF_ERROR(object.read("intensity", kOptional, &e.intensity));
+    SCENE_RETURN_IF_ERROR(object.read("rotation", kOptional, &e.rotation_deg));
+    return object.finish();
   }
 
   absl::Status read_lights(const Json& value) {

@@ -416,9 +416,33 @@ absl::StatusOr<size_t> validate_mesh(const Mesh& mesh, size_t index,
 
 }  // namespace
 
-absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles) {
+absl::Status validate_environment(const Environment& e, size_t textures) {
+  if (!e.present) return absl::OkStatus();
+  if (e.texture != kNoTexture && e.texture >= textures) {
+    return invalid_field(
+        "environment.map",
+        absl::StrCat("is texture ", e.texture, ", but the scene has ", textures, " textures"));
+  }
+  SCENE_RETURN_IF_ERROR(check_color("environment.color", e.color));
+  return validate_environment_change({e.intensity, e.rotation_deg});
+}
+
+absl::Status validate_environment_change(const EnvironmentChange& change) {
+  if (change.intensity && !(*change.intensity >= 0 && std::isfinite(*change.intensity))) {
+    return invalid_field("environment.intensity",
+                         absl::StrCat(*change.intensity, " is not a finite number >= 0"));
+  }
+  if (change.rotation_deg && !std::isfinite(*change.rotation_deg)) {
+    return invalid_field("environment.rotation",
+                         absl::StrCat(*change.rotation_deg, " is not a finite angle"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles,
+                             bool environment) {
   for (size_t i = 0; i < lights.size(); ++i) SCENE_RETURN_IF_ERROR(validate_light(lights[i], i));
-  if (lights.empty() && emitting_triangles == 0) {
+  if (lights.empty() && emitting_triangles == 0 && !environment) {
     return absl::InvalidArgumentError(
         "lights: the scene would have no light (it has no emissive triangles)");
   }
@@ -458,6 +482,7 @@ absl::Status validate_scene(const Scene& scene) {
   for (size_t i = 0; i < scene.lights.size(); ++i) {
     SCENE_RETURN_IF_ERROR(validate_light(scene.lights[i], i));
   }
+  SCENE_RETURN_IF_ERROR(validate_environment(scene.environment, scene.textures.size()));
   // Before the meshes, whose checks would otherwise walk every one of too many triangles.
   SCENE_RETURN_IF_ERROR(validate_triangle_total(scene.triangle_count()));
   size_t emitting_triangles = 0;
@@ -469,9 +494,10 @@ absl::Status validate_scene(const Scene& scene) {
   if (scene.triangle_count() == 0) {
     return absl::InvalidArgumentError("scene has no triangles (shapes is empty or all meshes are)");
   }
-  if (scene.lights.empty() && emitting_triangles == 0) {
+  if (scene.lights.empty() && emitting_triangles == 0 && !scene.environment.present) {
     return absl::InvalidArgumentError(
-        "scene has no light: add an entry to lights or a shape with an emissive material");
+        "scene has no light: add an entry to lights, an environment or a shape with an emissive "
+        "material");
   }
   return absl::OkStatus();
 }

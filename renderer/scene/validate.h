@@ -21,8 +21,13 @@ absl::Status validate_scene(const Scene& scene);
 // lights or the camera does not copy the meshes to check them again.
 absl::Status validate_camera(const Camera& camera);
 absl::Status validate_settings(const RenderSettings& settings);
-// `emitting_triangles`: the scene's area-light triangles, which count as light too.
-absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles);
+// `emitting_triangles`: the scene's area-light triangles, which count as light too, as does an
+// environment.
+absl::Status validate_lights(const std::vector<Light>& lights, size_t emitting_triangles,
+                             bool environment = false);
+// The environment (its map an index under `textures`), and a change to it.
+absl::Status validate_environment(const Environment& environment, size_t textures);
+absl::Status validate_environment_change(const EnvironmentChange& change);
 // The scene's triangle count, all meshes together, against kMaxSceneTriangles: on its own so that
 // a count can be checked before the triangles exist (and tested without allocating them).
 absl::Status validate_triangle_total(size_t triangles);

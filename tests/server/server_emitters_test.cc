@@ -31,20 +31,6 @@ v1::UpdateLightsRequest emit(const std::string& id, const std::string& material,
   return request;
 }
 
-grpc::Status call(v1::RenderService::Stub& stub, const v1::UpdateLightsRequest& request,
-                  v1::RebuildReport* report) {
-  grpc::ClientContext context;
-  set_deadline(context);
-  return stub.UpdateLights(&context, request, report);
-}
-
-std::vector<float> render(v1::RenderService::Stub& stub, const std::string& id) {
-  v1::Frame frame;
-  const grpc::Status status = render_frame(stub, id, 2, frame_format(v1::RGBA32F_LINEAR), &frame);
-  EXPECT_TRUE(status.ok()) << status.error_message();
-  return frame_floats(frame);
-}
-
 const v1::Emitter* emitter_named(const v1::SceneInfo& info, const std::string& material) {
   for (const v1::Emitter& e : info.emitters())
     if (e.material() == material) return &e;
@@ -63,10 +49,10 @@ TEST_F(EmitterServer, EmittersChangeOverRpcAndKeepTheOtherLights) {
   EXPECT_EQ(info.emitters(0).material(), "light");
   EXPECT_EQ(info.emitters(0).radiance().x(), 17);
   EXPECT_FALSE(info.emitters(0).off());
-  const std::vector<float> both = render(*stub_, id);
+  const std::vector<float> both = render_linear(*stub_, id, 2);
 
   v1::RebuildReport report;
-  ASSERT_TRUE(call(*stub_, emit(id, "light", std::nullopt, true), &report).ok());
+  ASSERT_TRUE(call_update_lights(*stub_, emit(id, "light", std::nullopt, true), &report).ok());
   info = get_scene(*stub_, id);
   EXPECT_TRUE(emitter_named(info, "light")->off());
   EXPECT_EQ(emitter_named(info, "light")->radiance().x(), 17);
@@ -76,15 +62,15 @@ TEST_F(EmitterServer, EmittersChangeOverRpcAndKeepTheOtherLights) {
   EXPECT_EQ(info.light_list(0).position().y(), 400);
   EXPECT_EQ(info.light_list(0).intensity().x(), 1e5f);
   EXPECT_EQ(info.epochs().lights(), report.epochs().lights());
-  const std::vector<float> point_only = render(*stub_, id);
+  const std::vector<float> point_only = render_linear(*stub_, id, 2);
   EXPECT_LT(mean_rgb(point_only), mean_rgb(both));
   EXPECT_GT(mean_rgb(point_only), 0);
 
-  ASSERT_TRUE(call(*stub_, emit(id, "light", 34.0f, false), &report).ok());
+  ASSERT_TRUE(call_update_lights(*stub_, emit(id, "light", 34.0f, false), &report).ok());
   info = get_scene(*stub_, id);
   EXPECT_FALSE(emitter_named(info, "light")->off());
   EXPECT_EQ(emitter_named(info, "light")->radiance().y(), 34);
-  EXPECT_GT(mean_rgb(render(*stub_, id)), mean_rgb(both));
+  EXPECT_GT(mean_rgb(render_linear(*stub_, id, 2)), mean_rgb(both));
 }
 
 TEST_F(EmitterServer, BadChangesNameTheFieldAndLeaveTheServerServing) {
@@ -106,7 +92,7 @@ TEST_F(EmitterServer, BadChangesNameTheFieldAndLeaveTheServerServing) {
   cases.push_back({with_lights, "lights: must be empty with keep_lights"});
   for (const Case& c : cases) {
     v1::RebuildReport report;
-    const grpc::Status status = call(*stub_, c.request, &report);
+    const grpc::Status status = call_update_lights(*stub_, c.request, &report);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.message;
     EXPECT_NE(status.error_message().find(c.message), std::string::npos) << status.error_message();
   }
@@ -133,10 +119,10 @@ TEST(EmitterDurability, AnEmitterChangeSurvivesSigkill) {
   const Scene scene = cornell_box(16, 16, 2000, 16, 3);
   const std::string id = upload_scene(*stub, scene);
   v1::RebuildReport report;
-  ASSERT_TRUE(call(*stub, emit(id, "light", 5.0f, std::nullopt), &report).ok());
-  ASSERT_TRUE(call(*stub, emit(id, "light", std::nullopt, true), &report).ok());
-  ASSERT_TRUE(call(*stub, emit(id, "light", std::nullopt, false), &report).ok());
-  const std::vector<float> before = render(*stub, id);
+  ASSERT_TRUE(call_update_lights(*stub, emit(id, "light", 5.0f, std::nullopt), &report).ok());
+  ASSERT_TRUE(call_update_lights(*stub, emit(id, "light", std::nullopt, true), &report).ok());
+  ASSERT_TRUE(call_update_lights(*stub, emit(id, "light", std::nullopt, false), &report).ok());
+  const std::vector<float> before = render_linear(*stub, id, 2);
   server->kill_now();
 
   server = start();
@@ -147,7 +133,7 @@ TEST(EmitterDurability, AnEmitterChangeSurvivesSigkill) {
   ASSERT_EQ(info.emitters_size(), 1);
   EXPECT_EQ(info.emitters(0).radiance().x(), 5);
   EXPECT_FALSE(info.emitters(0).off());
-  EXPECT_EQ(render(*stub, id), before);
+  EXPECT_EQ(render_linear(*stub, id, 2), before);
   fs::remove_all(data_dir);
 }
 

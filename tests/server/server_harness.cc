@@ -373,6 +373,13 @@ std::vector<v1::SceneInfo> list_scenes(v1::RenderService::Stub& stub) {
   return {response.scenes().begin(), response.scenes().end()};
 }
 
+grpc::Status call_update_lights(v1::RenderService::Stub& stub,
+                                const v1::UpdateLightsRequest& request, v1::RebuildReport* report) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  return stub.UpdateLights(&context, request, report);
+}
+
 v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string& scene_id,
                                 float intensity) {
   grpc::ClientContext context;

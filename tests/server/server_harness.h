@@ -131,6 +131,9 @@ void delete_scene(v1::RenderService::Stub& stub, const std::string& scene_id);
 grpc::Status get_scene_status(v1::RenderService::Stub& stub, const std::string& scene_id);
 // ListScenes, which must succeed.
 std::vector<v1::SceneInfo> list_scenes(v1::RenderService::Stub& stub);
+// UpdateLights with `request`, its status (the report in `report`).
+grpc::Status call_update_lights(v1::RenderService::Stub& stub,
+                                const v1::UpdateLightsRequest& request, v1::RebuildReport* report);
 // UpdateLights to one point_light(intensity), which must succeed; its report.
 v1::RebuildReport update_lights(v1::RenderService::Stub& stub, const std::string& scene_id,
                                 float intensity);

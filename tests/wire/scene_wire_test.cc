@@ -411,6 +411,36 @@ TEST(SceneWire, LightsAndSettingsRoundTrip) {
   EXPECT_EQ(applied->photons_per_pass, current.photons_per_pass);  // unset fields stay
 }
 
+// An environment arrives with its map, colour, intensity and rotation; a scene without one has
+// none; a map that names no texture is refused by name.
+TEST(SceneWire, EnvironmentRoundTrips) {
+  Scene scene = bundled("cornell-box");
+  absl::StatusOr<Scene> back = assemble(encode(scene, 1 << 20));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_FALSE(back->environment.present);
+  scene.environment = {
+      .present = true, .color = {0.5f, 0.25f, 1.0f}, .intensity = 2.5f, .rotation_deg = -30.0f};
+  back = assemble(encode(scene, 1 << 20));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(back->environment.present);
+  EXPECT_EQ(back->environment.texture, kNoTexture);
+  EXPECT_EQ(back->environment.color, scene.environment.color);
+  EXPECT_EQ(back->environment.intensity, 2.5f);
+  EXPECT_EQ(back->environment.rotation_deg, -30.0f);
+
+  v1::Environment wire;
+  wire.set_texture(3);
+  const absl::StatusOr<Environment> refused = decode_environment(wire, 2);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_THAT(std::string(refused.status().message()), HasSubstr("environment.texture"));
+  wire.set_texture(2);
+  const absl::StatusOr<Environment> second = decode_environment(wire, 2);
+  ASSERT_TRUE(second.ok());
+  EXPECT_EQ(second->texture, 1u);
+  EXPECT_EQ(second->intensity, 1.0f);     // unset: 1
+  EXPECT_EQ(second->color, Vec3f(1.0f));  // unset: white
+}
+
 // The metallic-roughness and Phong models and a rough dielectric arrive with every field they
 // carry; a mirror keeps the fields it does not use too.
 TEST(SceneWire, MetallicRoughnessPhongAndRoughGlassRoundTrip) {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "renderer/engine.h"
+#include "renderer/render/image_error.h"
 
 namespace caustica {
 
@@ -25,6 +26,17 @@ inline std::vector<float> render_image(const Scene& scene, DeviceKind device, ui
   if (!rendered.ok()) return {};
   const std::span<const float> image = (*engine)->image_linear();
   return {image.begin(), image.end()};
+}
+
+// `scene` rendered for `passes` on the CPU and on the GPU (4 GiB each) and the GPU's image against
+// the CPU's; a zero error, with the test failed, when either render fails.
+inline ImageError backend_difference(const Scene& scene, uint32_t passes) {
+  const std::vector<float> cpu = render_image(scene, DeviceKind::kCpu, passes, size_t{4} << 30);
+  const std::vector<float> gpu = render_image(scene, DeviceKind::kCuda, passes, size_t{4} << 30);
+  EXPECT_FALSE(cpu.empty());
+  EXPECT_EQ(cpu.size(), gpu.size());
+  if (cpu.empty() || cpu.size() != gpu.size()) return {};
+  return image_error(gpu, cpu, int(scene.camera.width), int(scene.camera.height), 2.0);
 }
 
 }  // namespace caustica

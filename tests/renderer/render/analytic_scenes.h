@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <span>
@@ -13,9 +14,17 @@
 #include "absl/strings/str_format.h"
 #include "renderer/engine.h"
 #include "renderer/render/camera.h"
+#include "renderer/render/image_error.h"
 #include "renderer/scene/load_scene.h"
 
 namespace caustica {
+
+// Prints each region's error of `e` in percent, a row of regions per line.
+inline void print_region_errors(const ImageError& e) {
+  for (int r = 0; r < kErrorRegionsPerSide * kErrorRegionsPerSide; ++r)
+    std::printf("%+6.1f%s", 100 * e.region_errors[r],
+                r % kErrorRegionsPerSide == kErrorRegionsPerSide - 1 ? "\n" : " ");
+}
 
 // `base_dir`: where the scene's files are.
 inline Scene parse_or_die(const std::string& json, const std::filesystem::path& base_dir = ".") {

@@ -183,14 +183,19 @@ TEST(EmissionMap, PathsAndShadowRaysToAMappedLampAgreeWithItsIntegral) {
 }
 
 // The bundled DamagedHelmet's emissive factor is [1, 1, 1] with a texture that lights its lamps
-// and screens: without its point lights, the helmet shows only those, where a factor taken for the
-// whole surface would show a white silhouette.
+// and screens: without other light, the helmet shows only those, where a factor taken for the
+// whole surface would show a white silhouette. Its pixels are those a point light shows, without
+// the sky.
 TEST(EmissionMap, TheHelmetGlowsOnlyWhereItsEmissiveTextureDoes) {
   absl::StatusOr<Scene> scene =
       load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "damaged-helmet" / "scene.json");
   ASSERT_TRUE(scene.ok()) << scene.status();
   scene->camera.width = scene->camera.height = 64;
   scene->settings.photons_per_pass = 20000;
+  scene->environment.present = false;
+  scene->lights = {
+      Light{"key", LightType::kPoint, Vec3f(2.5f, 2.5f, 3.0f), Vec3f(0, -1, 0), Vec3f(40.0f)},
+      Light{"fill", LightType::kPoint, Vec3f(-3.0f, 0.5f, 1.5f), Vec3f(0, -1, 0), Vec3f(12.0f)}};
   const std::vector<float> lit = render(*scene, 1);
   scene->lights.clear();
   const std::vector<float> glow = render(*scene, 1);

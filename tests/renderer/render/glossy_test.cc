@@ -169,9 +169,7 @@ TEST(Glossy, ThePhotonIntegratorsMatchThePathTracerInAGlossyCornellBox) {
     const ImageError e = image_error(image, reference, kSide, kSide, 2.0);
     std::printf("glossy Cornell box, %s against the path tracer: worst region %.2f%%, mean %.4f\n",
                 what, 100 * e.worst_region, e.mean_ratio);
-    for (int r = 0; r < kErrorRegionsPerSide * kErrorRegionsPerSide; ++r)
-      std::printf("%+6.1f%s", 100 * e.region_errors[r],
-                  r % kErrorRegionsPerSide == kErrorRegionsPerSide - 1 ? "\n" : " ");
+    print_region_errors(e);
     // The worst region is where the metal sphere meets the floor: a search there reaches into the
     // sphere, which stores no photons, as both estimators' radii do at every contact.
     EXPECT_NEAR(e.mean_ratio, 1.0, 0.02) << what;

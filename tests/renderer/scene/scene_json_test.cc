@@ -2,6 +2,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "absl/strings/str_cat.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/load_scene.h"
@@ -17,6 +19,7 @@ using ::caustica::testing::message_of;
 using ::caustica::testing::scene_data;
 using ::caustica::testing::triangle_cross;
 using ::caustica::testing::Vec3Near;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 
 class ShapesSceneTest : public ::testing::Test {
@@ -410,6 +413,51 @@ TEST(ParseScene, NewMaterialKeysAreCheckedPerType) {
   EXPECT_THAT(error_of(R"("m": {"type": "plastic"})"),
               HasSubstr("(expected diffuse, mirror, dielectric, emissive, metallic_roughness or "
                         "phong)"));
+}
+
+// An environment with an HDR map is a scene's light enough; its keys are checked and a map that
+// cannot be read is named.
+TEST(ParseScene, AnEnvironmentLightsTheScene) {
+  const auto scene_with = [](const std::string& environment) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+      "environment": )" + environment +
+                           R"(,
+      "shapes": [{"type": "quad", "material": "grey",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       std::filesystem::path(CAUSTICA_SCENES_DIR) / "damaged-helmet",
+                       "inline.json");
+  };
+  const absl::StatusOr<Scene> scene =
+      scene_with(R"({"map": "sunset.hdr", "intensity": 0.5, "rotation": 90})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_TRUE(scene->lights.empty());
+  EXPECT_TRUE(scene->environment.present);
+  ASSERT_EQ(scene->textures.size(), 1u);
+  EXPECT_EQ(scene->textures[0].name, "sunset.hdr");
+  EXPECT_EQ(scene->environment.texture, 0u);
+  EXPECT_EQ(scene->environment.intensity, 0.5f);
+  EXPECT_EQ(scene->environment.rotation_deg, 90.0f);
+  EXPECT_EQ(scene->environment.color, Vec3f(1.0f));
+  const absl::StatusOr<Scene> sky = scene_with(R"({"color": [0.2, 0.3, 0.5]})");
+  ASSERT_TRUE(sky.ok()) << sky.status();
+  EXPECT_EQ(sky->environment.texture, kNoTexture);
+  EXPECT_EQ(sky->environment.color, Vec3f(0.2f, 0.3f, 0.5f));
+
+  const auto error_of = [&](const std::string& environment) {
+    const absl::StatusOr<Scene> refused = scene_with(environment);
+    EXPECT_FALSE(refused.ok()) << environment;
+    return refused.ok() ? std::string() : message_of(refused.status());
+  };
+  EXPECT_THAT(error_of(R"({"map": "sunset.hdr", "strength": 2})"),
+              HasSubstr("environment.strength: unknown key"));
+  EXPECT_THAT(error_of(R"({"intensity": -1})"), HasSubstr("environment.intensity"));
+  EXPECT_THAT(error_of(R"({"color": [1, -1, 1]})"), HasSubstr("environment.color"));
+  EXPECT_THAT(error_of(R"({"map": "no-such-sky.hdr"})"),
+              AllOf(HasSubstr("environment.map"), HasSubstr("no-such-sky.hdr")));
+  EXPECT_THAT(error_of(R"({"map": 7})"), HasSubstr("environment.map"));
 }
 
 }  // namespace
