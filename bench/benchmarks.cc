@@ -496,8 +496,10 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     // engine's own stage times of each call, as the server reports them to update_to_frame.
     std::vector<Light> lights = scene->lights;
     std::vector<double> trace_ms, map_ms, render_ms;
+    int step = 0;
     Measurement change = measure(o, (*engine)->backend(), [&] {
-      const absl::StatusOr<RebuildReport> rebuilt = (*engine)->set_lights(lights);
+      const absl::StatusOr<RebuildReport> rebuilt =
+          (*engine)->set_lights(lights, {}, turned_environment(*scene, step++));
       const absl::StatusOr<PassReport> pass = (*engine)->render(1);
       if (!rebuilt.ok() || !pass.ok()) return;
       trace_ms.push_back(rebuilt->timings.photon_trace_ms + pass->timings.photon_trace_ms);
@@ -619,6 +621,11 @@ std::vector<Light> moved_lights(const Scene& scene, int i) {
   std::vector<Light> lights = scene.lights;
   for (Light& light : lights) light.position.x += (i % 2 == 0) ? 10.0f : -10.0f;
   return lights;
+}
+
+EnvironmentChange turned_environment(const Scene& scene, int i) {
+  if (!scene.environment.present) return {};
+  return {std::nullopt, scene.environment.rotation_deg + ((i % 2 == 0) ? 10.0f : -10.0f)};
 }
 
 void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings) {

@@ -62,6 +62,9 @@ std::string photon_scene_label(const BenchOptions& options);
 // The scene's lights at step i of a light animation: moved 10 units along x and back, so that
 // every step is a real change.
 std::vector<Light> moved_lights(const Scene& scene, int i);
+// The scene's environment, where it has one, at step i of the same animation: turned 10 degrees
+// and back.
+EnvironmentChange turned_environment(const Scene& scene, int i);
 
 // --final-gather-rays and --final-gather-seeds, where given, over the scene's settings.
 void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings);

@@ -137,6 +137,16 @@ void add_moved_lights(const Scene& scene, int i,
   for (const Light& light : moved_lights(scene, i)) *lights.Add() = wire::encode_light(light);
 }
 
+// An update to the lights of step i: moved_lights, and the environment turned_environment.
+v1::UpdateLightsRequest moved_lights_update(const Scene& scene, const std::string& id, int i) {
+  v1::UpdateLightsRequest update;
+  update.set_scene_id(id);
+  add_moved_lights(scene, i, *update.mutable_lights());
+  const EnvironmentChange environment = turned_environment(scene, i);
+  if (environment.rotation_deg) update.set_environment_rotation_deg(*environment.rotation_deg);
+  return update;
+}
+
 // The benchmark's photon scene at its size, photons and k, uploaded.
 absl::StatusOr<std::pair<Scene, std::string>> upload_photon_scene(const BenchOptions& o,
                                                                   client::Connection& connection,
@@ -221,9 +231,7 @@ absl::Status update_to_frame_benchmark(const BenchOptions& o, client::Connection
   const auto& [scene, id] = *uploaded;
   std::vector<double> total, rebuild, render, encode, transport, update_call, frame_call, bytes;
   for (int i = 0; i < o.warmup + o.runs; ++i) {
-    v1::UpdateLightsRequest update;
-    update.set_scene_id(id);
-    add_moved_lights(scene, i, *update.mutable_lights());
+    const v1::UpdateLightsRequest update = moved_lights_update(scene, id, i);
     v1::RenderFrameRequest render_request;
     render_request.set_scene_id(id);
     render_request.set_target_passes(1);

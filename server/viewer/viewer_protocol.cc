@@ -33,6 +33,7 @@ constexpr FieldRules kRules[] = {
     {"move_light", RequestType::kMoveLight, {"light", "u", "v"}},
     {"set_intensity", RequestType::kSetIntensity, {"light", "intensity"}},
     {"set_emitter", RequestType::kSetEmitter, {"emitter", "on", "radiance"}},
+    {"set_environment", RequestType::kSetEnvironment, {"intensity", "rotation"}},
     {"orbit", RequestType::kOrbit, {"dx", "dy"}},
     {"zoom", RequestType::kZoom, {"steps"}},
 };
@@ -258,6 +259,21 @@ absl::StatusOr<ViewerRequest> parse_request(std::string_view text) {
             "set_emitter: says nothing to change (give \"on\", \"radiance\" or both)");
       }
       break;
+    case RequestType::kSetEnvironment:
+      if (message.contains("intensity")) {
+        ASSIGN_OR_RETURN_FIELD(request.environment_intensity,
+                               number_field(message, type, "intensity", 0, 1e15));
+      }
+      if (message.contains("rotation")) {
+        ASSIGN_OR_RETURN_FIELD(request.rotation,
+                               number_field(message, type, "rotation", -3600, 3600));
+      }
+      if (!request.environment_intensity && !request.rotation) {
+        return absl::InvalidArgumentError(
+            "set_environment: says nothing to change (give \"intensity\", \"rotation\" or "
+            "both)");
+      }
+      break;
     case RequestType::kOrbit:
       ASSIGN_OR_RETURN_FIELD(request.dx, number_field(message, type, "dx", -10, 10));
       ASSIGN_OR_RETURN_FIELD(request.dy, number_field(message, type, "dy", -10, 10));
@@ -277,6 +293,7 @@ SceneLights scene_lights(const v1::SceneInfo& info, const v1::Light& viewer_ligh
   SceneLights scene;
   scene.lights.assign(info.light_list().begin(), info.light_list().end());
   scene.emitters.assign(info.emitters().begin(), info.emitters().end());
+  if (info.has_environment()) scene.environment = info.environment();
   scene.epoch = info.epochs().lights();
   if (std::none_of(scene.lights.begin(), scene.lights.end(), is_draggable)) {
     scene.viewer_light = viewer_light;
@@ -305,6 +322,17 @@ absl::StatusOr<v1::UpdateLightsRequest> light_update(const ViewerRequest& reques
     if (request.radiance)
       *change.mutable_radiance() = with_brightest(current.radiance(), *request.radiance);
     if (request.on) change.set_off(!*request.on);
+    return update;
+  }
+  if (request.type == RequestType::kSetEnvironment) {
+    if (!scene.environment) {
+      return absl::FailedPreconditionError(
+          "set_environment: the scene has no environment to change");
+    }
+    update.set_keep_lights(true);
+    if (request.environment_intensity)
+      update.set_environment_intensity(float(*request.environment_intensity));
+    if (request.rotation) update.set_environment_rotation_deg(float(*request.rotation));
     return update;
   }
   const char* type = request.type == RequestType::kMoveLight ? "move_light" : "set_intensity";
@@ -346,6 +374,12 @@ void apply_light_update(SceneLights& scene, const v1::UpdateLightsRequest& updat
       scene.viewer_light.reset();
     }
   }
+  if (scene.environment) {
+    if (update.has_environment_intensity())
+      scene.environment->set_intensity(update.environment_intensity());
+    if (update.has_environment_rotation_deg())
+      scene.environment->set_rotation_deg(update.environment_rotation_deg());
+  }
   for (const v1::Emitter& change : update.emitters()) {
     for (v1::Emitter& emitter : scene.emitters) {
       if (emitter.material() != change.material()) continue;
@@ -377,6 +411,12 @@ json emitters_json(const SceneLights& scene) {
                         {"on", !emitter.off()}});
   }
   return emitters;
+}
+
+json environment_json(const SceneLights& scene) {
+  if (!scene.environment) return nullptr;
+  return {{"intensity", scene.environment->intensity()},
+          {"rotation", scene.environment->rotation_deg()}};
 }
 
 std::string error_message(const absl::Status& status, std::optional<int64_t> id) {

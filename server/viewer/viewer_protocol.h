@@ -25,6 +25,7 @@ enum class RequestType {
   kMoveLight,
   kSetIntensity,
   kSetEmitter,
+  kSetEnvironment,
   kOrbit,
   kZoom
 };
@@ -43,6 +44,8 @@ struct ViewerRequest {
   uint32_t emitter = 0;       // set_emitter: index into the scene message's emitters
   std::optional<bool> on;     // set_emitter: switch the emitter on or off
   std::optional<double> radiance;  // set_emitter: the brightest channel of its radiance
+  std::optional<double> environment_intensity;  // set_environment
+  std::optional<double> rotation;               // set_environment: degrees about +y
   double dx = 0, dy = 0;           // orbit: fractions of the image width and height
   double steps = 0;                // zoom: wheel steps, positive towards the scene
 };
@@ -61,6 +64,7 @@ std::optional<int64_t> refused_request_id(std::string_view text);
 struct SceneLights {
   std::vector<v1::Light> lights;
   std::vector<v1::Emitter> emitters;
+  std::optional<v1::Environment> environment;
   std::optional<v1::Light> viewer_light;
   uint64_t epoch = 0;
 };
@@ -71,10 +75,12 @@ bool is_draggable(const v1::Light& light);
 // GetScene's lights; `viewer_light` is kept only when none of them can be dragged.
 SceneLights scene_lights(const v1::SceneInfo& info, const v1::Light& viewer_light);
 
-// The UpdateLights that `request` (move_light, set_intensity or set_emitter) asks for, expecting
-// `scene.epoch`: the complete light list with only the named light changed, or keep_lights with
-// the one emitter. INVALID_ARGUMENT naming the field for an unknown light or emitter, or a light
-// that cannot be dragged. Moves keep the light's depth (see move_in_image_plane).
+// The UpdateLights that `request` (move_light, set_intensity, set_emitter or set_environment)
+// asks for, expecting `scene.epoch`: the complete light list with only the named light changed,
+// or keep_lights with the one emitter or the environment's intensity and rotation.
+// INVALID_ARGUMENT naming the field for an unknown light or emitter, a light that cannot be
+// dragged or a scene without an environment. Moves keep the light's depth (see
+// move_in_image_plane).
 absl::StatusOr<v1::UpdateLightsRequest> light_update(const ViewerRequest& request,
                                                      const SceneLights& scene,
                                                      const v1::Camera& camera,
@@ -89,6 +95,8 @@ void apply_light_update(SceneLights& scene, const v1::UpdateLightsRequest& updat
 nlohmann::json lights_json(const SceneLights& scene, const v1::Camera& camera);
 // {"index","material","radiance","brightness","on"} per emissive material.
 nlohmann::json emitters_json(const SceneLights& scene);
+// {"intensity","rotation"} of the environment, or null when the scene has none.
+nlohmann::json environment_json(const SceneLights& scene);
 
 // {"type":"error","code":"UNAUTHENTICATED","message":...}, with "id" when the request had one.
 std::string error_message(const absl::Status& status, std::optional<int64_t> id = std::nullopt);

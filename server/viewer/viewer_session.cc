@@ -89,6 +89,7 @@ absl::Status ViewerSession::handle(const ViewerRequest& request) {
     case RequestType::kMoveLight:
     case RequestType::kSetIntensity:
     case RequestType::kSetEmitter:
+    case RequestType::kSetEnvironment:
       return change_lights(request);
     case RequestType::kOrbit:
     case RequestType::kZoom:
@@ -191,7 +192,8 @@ absl::Status ViewerSession::open(const ViewerRequest& request) {
                   {"passes", passes},
                   {"encoding", encoding_name(options_.encoding)},
                   {"lights", lights_json(lights_, camera_)},
-                  {"emitters", emitters_json(lights_)}};
+                  {"emitters", emitters_json(lights_)},
+                  {"environment", environment_json(lights_)}};
   if (request.id) message["id"] = *request.id;
   send(message);
   start_stream(scene_id_, passes, strips);
@@ -222,7 +224,8 @@ void ViewerSession::send_updated(const char* what, const v1::RebuildReport& repo
                   {"epochs", epochs_json(report.epochs())},
                   {"timings", timings_json(report.timings())},
                   {"lights", lights_json(lights_, camera_)},
-                  {"emitters", emitters_json(lights_)}};
+                  {"emitters", emitters_json(lights_)},
+                  {"environment", environment_json(lights_)}};
   if (request.id) message["id"] = *request.id;
   send(message);
 }
@@ -237,7 +240,8 @@ void ViewerSession::reload_lights() {
   send({{"type", "lights"},
         {"epochs", epochs_json(info.epochs())},
         {"lights", lights_json(lights_, camera_)},
-        {"emitters", emitters_json(lights_)}});
+        {"emitters", emitters_json(lights_)},
+        {"environment", environment_json(lights_)}});
 }
 
 absl::Status ViewerSession::change_camera(const ViewerRequest& request) {

@@ -358,6 +358,42 @@ TEST(ViewerLights, AnEmitterChangeKeepsTheLightsAndNamesOneMaterial) {
   EXPECT_FALSE(emitters[1]["on"]);
 }
 
+// The environment's sliders send its intensity and rotation with keep_lights; a scene without one
+// refuses them, and a message that changes nothing or goes out of range is refused by name.
+TEST(ViewerLights, AnEnvironmentChangeKeepsTheLightsAndSetsIntensityAndRotation) {
+  const v1::Light viewer_light = light("viewer light", v1::Light::POINT, vec(0, 1, 0), 1);
+  SceneLights without = scene_lights(lit_scene(), viewer_light);
+  EXPECT_TRUE(environment_json(without).is_null());
+  const ViewerRequest turn = request_of(R"({"type":"set_environment","rotation":45})");
+  absl::StatusOr<v1::UpdateLightsRequest> refused = light_update(turn, without, ring_camera(), 800);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition);
+
+  v1::SceneInfo info = lit_scene();
+  info.mutable_environment()->set_intensity(2);
+  info.mutable_environment()->set_rotation_deg(10);
+  SceneLights scene = scene_lights(info, viewer_light);
+  EXPECT_EQ(environment_json(scene)["intensity"], 2.0);
+  absl::StatusOr<v1::UpdateLightsRequest> update = light_update(turn, scene, ring_camera(), 800);
+  ASSERT_TRUE(update.ok()) << update.status();
+  EXPECT_TRUE(update->keep_lights());
+  EXPECT_EQ(update->lights_size(), 0);
+  EXPECT_EQ(update->expected_lights_epoch(), 7u);
+  EXPECT_FALSE(update->has_environment_intensity());
+  EXPECT_EQ(update->environment_rotation_deg(), 45.0f);
+  apply_light_update(scene, *update, 8);
+  EXPECT_EQ(environment_json(scene)["rotation"], 45.0);
+  EXPECT_EQ(environment_json(scene)["intensity"], 2.0);
+
+  for (const auto& [text, message] :
+       {std::pair{R"({"type":"set_environment"})", "set_environment: says nothing to change"},
+        {R"({"type":"set_environment","intensity":-1})", "set_environment.intensity: must be in"},
+        {R"({"type":"set_environment","rotation":"east"})", "set_environment.rotation"}}) {
+    const absl::StatusOr<ViewerRequest> bad = parse_request(text);
+    ASSERT_FALSE(bad.ok()) << text;
+    EXPECT_THAT(std::string(bad.status().message()), HasSubstr(message)) << text;
+  }
+}
+
 TEST(ViewerLights, TheViewerLightIsOfferedOnlyWithoutADraggableLightAndIsAdded) {
   v1::SceneInfo info = lit_scene();
   info.clear_light_list();

@@ -4,7 +4,9 @@
 //                                        the lights epoch and the picture; the drag-to-frame
 //                                        latency is measured; in an area-lit scene the viewer
 //                                        light is added and switching the area light off darkens
-//                                        the picture; the page's drag bench (?bench=drag) logs its line
+//                                        the picture; under a sky, the environment's intensity
+//                                        slider brightens it; the page's drag bench
+//                                        (?bench=drag) logs its line
 //   node viewer_browser_test.mjs tokens   with --tokens: no token shows the refusal; a token
 //                                        lists only its tenant's scenes
 // Exits 77 (skipped) when chromium or node_modules are missing. CAUSTICA_SERVER_BIN,
@@ -279,6 +281,28 @@ async function framesTest() {
     const pixelsOff = await canvasPixels(page);
     const darkening = mean(pixelsOff) / mean(pixelsOn);
     check(darkening < 0.9, `the picture did not darken (mean ${mean(pixelsOn).toFixed(1)} -> ${mean(pixelsOff).toFixed(1)})`);
+    check(page.pageErrors.length === 0, `page errors: ${page.pageErrors.join('; ')}`);
+
+    // The same box under a sky: the environment panel shows, and its intensity slider, two stops
+    // up, sets the environment four times as bright and brightens the picture.
+    const skyScene = JSON.parse(readFileSync(smallScene('cornell-box', 128, 128), 'utf8'));
+    skyScene.environment = { color: [0.4, 0.5, 0.7] };
+    const skyFile = path.join(dir, 'cornell-box-sky.json');
+    writeFileSync(skyFile, JSON.stringify(skyScene));
+    const skyId = await upload(server, 'box-sky', undefined, skyFile);
+    await page.goto(`${server.url}?scene=${skyId}&passes=${PASSES}`);
+    await page.waitForFunction(() => window.causticaViewer.idle && window.causticaViewer.framesDrawn >= 1,
+      null, { timeout: 120000 });
+    const skyLit = await page.evaluate(() => window.causticaViewer);
+    check(skyLit.environment && skyLit.environment.intensity === 1, `environment: ${JSON.stringify(skyLit.environment)}`);
+    check(await page.locator('#environment-panel').isVisible(), 'the environment panel is hidden');
+    const pixelsSky = await canvasPixels(page);
+    await page.locator('#environment-intensity').fill('2');
+    await waitForLightsAfter(page, skyLit.lastFrame.epochs.lights);
+    const brighter = await page.evaluate(() => window.causticaViewer);
+    check(brighter.errors.length === 0, `errors after the sky change: ${JSON.stringify(brighter.errors)}`);
+    check(Math.abs(brighter.environment.intensity - 4) < 1e-3, `environment: ${JSON.stringify(brighter.environment)}`);
+    check(mean(await canvasPixels(page)) > 1.05 * mean(pixelsSky), 'the brighter sky did not brighten the picture');
     check(page.pageErrors.length === 0, `page errors: ${page.pageErrors.join('; ')}`);
 
     // The drag bench (scripts/viewer-latency's page mode): a few moves of the ring's light, and

@@ -28,6 +28,7 @@
     scene: null,        // the open scene's message
     lights: [],         // the scene's lights, then the offered viewer light if any
     emitters: [],       // the scene's emitting materials
+    environment: null,  // the scene's environment: its intensity and rotation, or null
     selected: null,     // index of the light the intensity slider scales
     framesDrawn: 0,
     lastFrame: null,    // header of the last frame drawn
@@ -83,6 +84,7 @@
         // Another client changed the lights: the page starts again from the scene's new ones.
         showLights(message.lights);
         showEmitters(message.emitters, true);
+        showEnvironment(message.environment, true);
         return selectLight(defaultSelection());
       case 'idle':
         // The stream's last frames may still be decoding: idle shows once they are drawn.
@@ -144,6 +146,7 @@
     $('stage').hidden = $('controls').hidden = false;
     showLights(message.lights);
     showEmitters(message.emitters, true);
+    showEnvironment(message.environment, true);
     selectLight(defaultSelection());
   }
 
@@ -276,6 +279,31 @@
     }
   }
 
+  // --- the environment: an intensity slider in stops around the scene's and a rotation ---
+  let environmentBase = 1;  // the intensity the slider is centred on
+  function showEnvironment(environment, rebuild) {
+    viewer.environment = environment;
+    $('environment-panel').hidden = !environment;
+    if (!environment) return;
+    if (rebuild) {
+      environmentBase = environment.intensity > 0 ? environment.intensity : 1;
+      $('environment-intensity').value = 0;
+      $('environment-rotation').value = ((environment.rotation + 180) % 360 + 360) % 360 - 180;
+    }
+    $('environment-intensity-value').textContent = environment.intensity.toPrecision(3);
+    $('environment-rotation-value').textContent = `${environment.rotation.toFixed(0)}°`;
+  }
+  $('environment-intensity').addEventListener('input', () => {
+    const intensity = environmentBase * 2 ** Number($('environment-intensity').value);
+    $('environment-intensity-value').textContent = intensity.toPrecision(3);
+    change({ type: 'set_environment', intensity });
+  });
+  $('environment-rotation').addEventListener('input', () => {
+    const rotation = Number($('environment-rotation').value);
+    $('environment-rotation-value').textContent = `${rotation.toFixed(0)}°`;
+    change({ type: 'set_environment', rotation });
+  });
+
   // Lights outside the picture get their handle at its edge, towards where they are, so that
   // every light in front of the camera can be picked up.
   const edge = 0.015;
@@ -296,7 +324,7 @@
   const pendingLatency = new Map();  // request id -> {sentAt, epoch}
   const firstDrawn = new Map();      // lights epoch -> its first frame drawn: when, and its timings
   let latencyListener = null;        // the bench's, told of each latency measured
-  const lightChanges = new Set(['move_light', 'set_intensity', 'set_emitter']);
+  const lightChanges = new Set(['move_light', 'set_intensity', 'set_emitter', 'set_environment']);
 
   function change(message) {
     if (inFlight) {
@@ -336,6 +364,7 @@
     if (!dragging) showLights(message.lights);
     else viewer.lights = message.lights;
     showEmitters(message.emitters, false);
+    showEnvironment(message.environment, false);
     idleReceived = false;
     viewer.idle = false;
     const pending = pendingLatency.get(message.id);
