@@ -91,6 +91,15 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
                          s.triangles(), s.vertices(), s.meshes(), s.materials());
   out << absl::StrFormat("lights       %d lights, %d emissive triangles\n", s.lights(),
                          s.area_lights());
+  if (s.has_environment()) {
+    const v1::Environment& e = s.environment();
+    const std::string map =
+        e.texture() == 0 || int(e.texture()) > s.textures_size()
+            ? std::string("a constant sky")
+            : absl::StrFormat("map %s", s.textures(int(e.texture()) - 1).name());
+    out << absl::StrFormat("environment  %s, colour %s, intensity %g, rotation %g degrees\n", map,
+                           vec3_text(e.color()), e.intensity(), e.rotation_deg());
+  }
   for (const v1::TextureInfo& t : s.textures()) {
     out << absl::StrFormat("texture      %s: %dx%d, %s, %s\n", t.name(), t.width(), t.height(),
                            t.is_float() ? "float" : "8-bit", mib_text(t.decoded_bytes()));

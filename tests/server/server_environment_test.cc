@@ -2,7 +2,8 @@
 // included) and SceneInfo shows it; UpdateLights' environment_intensity and _rotation_deg change
 // it as a light change, and the image follows; a scene without one refuses the change with
 // FAILED_PRECONDITION and bad values get INVALID_ARGUMENT naming the field, the server unharmed;
-// the change survives a SIGKILL with --data-dir; `caustica light environment` sends it.
+// the change survives a SIGKILL with --data-dir; `caustica light environment` sends it and
+// `caustica scene info` shows it.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -116,6 +117,13 @@ TEST_F(EnvironmentServer, TheCliTurnsTheEnvironment) {
   run = run_command(cli);
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("give --intensity or --rotation"), std::string::npos) << run.output;
+  run = run_command(std::string("'") + CAUSTICA_CLIENT_BIN + "' --server " + server_->address() +
+                    " scene info " + id);
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("environment  map sunset.hdr, colour (1, 1, 1), intensity 3, rotation "
+                            "30 degrees"),
+            std::string::npos)
+      << run.output;
 }
 
 }  // namespace
