@@ -35,6 +35,13 @@ struct EmittedPhoton {
   Vec3f power;  // before division by the light's choice probability and the photon count
 };
 
+// Where a photon travelling along `travel` starts on a disk of the scene's radius facing it, just
+// outside the scene's bounding sphere: `d` is the point on the unit disk.
+CAUSTICA_HDI Vec3f from_disk_facing(Vec3f travel, Vec2f d, Vec3f scene_center, float scene_radius) {
+  const Frame f = Frame::from_normal(travel);
+  return scene_center - travel * (1.01f * scene_radius) + (f.s * d.x + f.t * d.y) * scene_radius;
+}
+
 CAUSTICA_HDI EmittedPhoton emit_from(const ResidentSceneView& scene, const DeviceLight& l,
                                      Sampler& s, Vec3f scene_center, float scene_radius) {
   EmittedPhoton e;
@@ -54,10 +61,8 @@ CAUSTICA_HDI EmittedPhoton emit_from(const ResidentSceneView& scene, const Devic
     }
     case DeviceLightType::kDirectional: {
       // A disk perpendicular to the light, covering the scene's bounding sphere from outside.
-      Vec2f d = sample_uniform_disk(u0, u1);
-      Frame f = Frame::from_normal(l.direction);
-      e.ray.origin = scene_center - l.direction * (1.01f * scene_radius) +
-                     (f.s * d.x + f.t * d.y) * scene_radius;
+      e.ray.origin =
+          from_disk_facing(l.direction, sample_uniform_disk(u0, u1), scene_center, scene_radius);
       e.ray.direction = l.direction;
       e.power = l.color * (kPi * scene_radius * scene_radius);
       break;
@@ -76,10 +81,11 @@ CAUSTICA_HDI EmittedPhoton emit_from(const ResidentSceneView& scene, const Devic
       // photon from a disk facing it (pbrt-v4's ImageInfiniteLight::SampleLe).
       const EnvironmentSample from = scene.environment.sample(u0, u1);
       const Vec3f travel = -from.direction;
-      Vec2f d = sample_uniform_disk(s.next_float(), s.next_float());
-      Frame f = Frame::from_normal(travel);
+      // Drawn in named order: a function's arguments are evaluated in whatever order the
+      // compiler picks, and the backends' compilers need not pick alike.
+      const float v0 = s.next_float(), v1 = s.next_float();
       e.ray.origin =
-          scene_center - travel * (1.01f * scene_radius) + (f.s * d.x + f.t * d.y) * scene_radius;
+          from_disk_facing(travel, sample_uniform_disk(v0, v1), scene_center, scene_radius);
       e.ray.direction = travel;
       e.power = from.pdf > 0.0f ? from.radiance * (kPi * scene_radius * scene_radius / from.pdf)
                                 : Vec3f(0.0f);

@@ -55,6 +55,21 @@ CAUSTICA_HDI Vec3f sample_environment(const ResidentSceneView& scene, const Stru
          (power_heuristic(e.pdf, pdf(e.direction)) / e.pdf);
 }
 
+// One shadow ray to an area light and one to the environment, where the scene has them, from
+// `p` as sample_area_light's and sample_environment's.
+template <typename Structure, typename Value, typename Pdf, typename ShadowOrigin>
+CAUSTICA_HDI Vec3f sample_lights(const ResidentSceneView& scene, const Structure& structure,
+                                 Vec3f p, uint32_t medium, float scene_radius, Sampler& s,
+                                 Value value, Pdf pdf, ShadowOrigin shadow_origin) {
+  Vec3f sum(0.0f);
+  if (scene.area_light_count > 0)
+    sum += sample_area_light(scene, structure, p, medium, s, value, pdf, shadow_origin);
+  if (scene.has_environment)
+    sum +=
+        sample_environment(scene, structure, p, medium, scene_radius, s, value, pdf, shadow_origin);
+  return sum;
+}
+
 // The light scattered at `x`, inside `medium`, towards where `travel` came from: one shadow ray
 // to every point, spot and directional light, one to a point on an area light and one to the
 // environment, the latter two weighed against the phase function's sampling that could have found
@@ -73,19 +88,10 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
     sum += l.color * transmittance_along(scene.media, medium, x, way.wi, way.dist) *
            (henyey_greenstein(dot(way.wi, travel), g) * way.scale);
   }
-  if (scene.area_light_count > 0) {
-    const auto phase = [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); };
-    sum += sample_area_light(
-        scene, structure, x, medium, s, [&](Vec3f wi) { return Vec3f(phase(wi)); }, phase,
-        [&](Vec3f) { return x; });
-  }
-  if (scene.has_environment) {
-    const auto phase = [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); };
-    sum += sample_environment(
-        scene, structure, x, medium, scene_radius, s, [&](Vec3f wi) { return Vec3f(phase(wi)); },
-        phase, [&](Vec3f) { return x; });
-  }
-  return sum;
+  const auto phase = [&](Vec3f wi) { return henyey_greenstein(dot(wi, travel), g); };
+  return sum + sample_lights(
+                   scene, structure, x, medium, scene_radius, s,
+                   [&](Vec3f wi) { return Vec3f(phase(wi)); }, phase, [&](Vec3f) { return x; });
 }
 
 // Russian roulette after bounce `bounce`: whether the path goes on, its throughput rescaled.
@@ -133,12 +139,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
     }
     if (!hit.valid()) {
       // The environment, weighed against the shadow ray that could have found the same direction.
-      if (scene.has_environment) {
-        const float weight = bounce_pdf > 0.0f
-                                 ? power_heuristic(bounce_pdf, scene.environment.pdf(ray.direction))
-                                 : 1.0f;
-        radiance += throughput * scene.environment.radiance(ray.direction) * weight;
-      }
+      radiance += throughput * environment_seen(scene, ray.direction, bounce_pdf, 1.0f);
       break;
     }
     const SurfaceHit sh = surface_at(scene, hit);
@@ -165,24 +166,13 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
       radiance += throughput * direct_light_traced(
                                    scene, structure, sh.position, sh.geometric_normal,
                                    SurfaceReflection{bsdf, wo, 0.0f}, 0, scene_radius, s, medium);
-      if (scene.area_light_count > 0) {
-        radiance +=
-            throughput *
-            sample_area_light(
-                scene, structure, sh.position, medium, s,
-                [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
-                [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
-                [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
-      }
-      if (scene.has_environment) {
-        radiance +=
-            throughput *
-            sample_environment(
-                scene, structure, sh.position, medium, scene_radius, s,
-                [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
-                [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
-                [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
-      }
+      radiance +=
+          throughput *
+          sample_lights(
+              scene, structure, sh.position, medium, scene_radius, s,
+              [&](Vec3f wi) { return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi)); },
+              [&](Vec3f wi) { return bsdf.pdf(wo, wi); },
+              [&](Vec3f wi) { return offset_origin(sh.position, sh.geometric_normal, wi); });
       const float uc = s.next_float(), u0 = s.next_float();
       const SurfaceSample b = bsdf.sample(wo, uc, u0, s.next_float());
       if (!b.valid()) break;
@@ -209,22 +199,13 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
         // Point, spot and directional lights: a shadow ray each (no area samples here).
         radiance += throughput * direct_light(scene, structure, sh.position, n, ng, color, 0,
                                               scene_radius, s, medium);
-        if (scene.area_light_count > 0) {
-          const auto density = [&](Vec3f wi) { return dot(n, wi) * kInvPi; };
-          radiance += throughput * color *
-                      sample_area_light(
-                          scene, structure, sh.position, medium, s,
-                          [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
-                          [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
-        }
-        if (scene.has_environment) {
-          const auto density = [&](Vec3f wi) { return max_f(0.0f, dot(n, wi)) * kInvPi; };
-          radiance += throughput * color *
-                      sample_environment(
-                          scene, structure, sh.position, medium, scene_radius, s,
-                          [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
-                          [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
-        }
+        // The cosine density, none below the shading normal's horizon: a light there gives none.
+        const auto density = [&](Vec3f wi) { return max_f(0.0f, dot(n, wi)) * kInvPi; };
+        radiance += throughput * color *
+                    sample_lights(
+                        scene, structure, sh.position, medium, scene_radius, s,
+                        [&](Vec3f wi) { return Vec3f(density(wi)); }, density,
+                        [&](Vec3f wi) { return offset_origin(sh.position, ng, wi); });
         const Vec3f local = sample_cosine_hemisphere(s.next_float(), s.next_float());
         const Vec3f wi = Frame::from_normal(n).to_world(local);
         // A direction under the surface itself (a shading normal tilted from the geometric one)

@@ -124,8 +124,9 @@ CAUSTICA_HDI void glossy_branch(const SurfaceBsdf& bsdf, const SurfaceHit& sh, V
 // medium, whose beam estimate the caller owes the path, and each branch is attenuated by the media
 // it crosses. `light_samples`: the shadow rays each diffuse or glossy hit sends to area lights
 // (SurfaceReflection's). Without kMedia the scene has none, and the walk compiles to what it was
-// before media, registers and all.
-template <bool kMedia, typename Structure, typename OnDiffuse, typename OnBeam>
+// before media, registers and all; without kEnvironment, likewise for a scene without an
+// environment.
+template <bool kMedia, bool kEnvironment, typename Structure, typename OnDiffuse, typename OnBeam>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
                                       uint32_t max_depth, float pixel_spread, float light_samples,
@@ -153,8 +154,9 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
     }
     first = false;
     if (!hit.valid()) {
-      emitted +=
-          pr.throughput * environment_seen(scene, pr.ray.direction, pr.glossy_pdf, light_samples);
+      if constexpr (kEnvironment)
+        emitted +=
+            pr.throughput * environment_seen(scene, pr.ray.direction, pr.glossy_pdf, light_samples);
       continue;
     }
     SurfaceHit sh = surface_at(scene, hit);
@@ -338,8 +340,9 @@ void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* req
 // request knows its pixel and its place in the pixel's path order. A pixel makes about one
 // request (1.1 in cornell-caustics); when a pass needs more room than it was given, the walks run
 // again with exactly enough (nothing they compute depends on what they wrote before). kMedia: the
-// scene has participating media (its own launch, so that scenes without keep their registers).
-template <bool kMedia, typename Structure>
+// scene has participating media, kEnvironment: an environment (launches of their own, so that
+// scenes without keep their registers).
+template <bool kMedia, bool kEnvironment, typename Structure>
 SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                   const PassInputs& in, const Hit* primary) {
   SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
@@ -371,7 +374,7 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           Sampler s(in.cfg.seed, in.camera.stream(pixel), in.cfg.pass);
           Vec3f direct(0.0f);
           uint32_t made = 0, beams_made = 0;
-          Vec3f emitted = walk_specular_tree<kMedia>(
+          Vec3f emitted = walk_specular_tree<kMedia, kEnvironment>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
               in.pixel_spread, float(in.cfg.area_light_samples),
               BranchRoulette(in.cfg, in.camera.stream(pixel)),
@@ -379,16 +382,16 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                   const SurfaceBsdf* bsdf, Vec3f wo) {
                 Vec3f weight = color;
                 if (bsdf == nullptr) {
-                  direct += throughput * direct_light(in.scene, structure, sh.position, n,
-                                                      sh.geometric_normal, color,
-                                                      in.cfg.area_light_samples, in.scene_radius, s,
-                                                      medium);
+                  direct += throughput * direct_light<kEnvironment>(
+                                             in.scene, structure, sh.position, n,
+                                             sh.geometric_normal, color, in.cfg.area_light_samples,
+                                             in.scene_radius, s, medium);
                 } else {
                   const SurfaceReflection r{*bsdf, wo, float(in.cfg.area_light_samples)};
-                  direct += throughput * direct_light_traced(in.scene, structure, sh.position,
-                                                             sh.geometric_normal, r,
-                                                             in.cfg.area_light_samples,
-                                                             in.scene_radius, s, medium);
+                  direct +=
+                      throughput * direct_light_traced<kEnvironment>(
+                                       in.scene, structure, sh.position, sh.geometric_normal, r,
+                                       in.cfg.area_light_samples, in.scene_radius, s, medium);
                   weight = bsdf->base_albedo(wo);
                 }
                 const uint32_t slot = atomic_fetch_add(next_request, 1u);
@@ -467,7 +470,8 @@ struct PathLeaf {
 };
 
 // One wave's shading: leaves where the branch ends on a light or a diffuse surface, new branches
-// appended to `next` for mirrors and dielectrics.
+// appended to `next` for mirrors and dielectrics. kEnvironment: as walk_specular_paths'.
+template <bool kEnvironment>
 void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, const Hit* hits,
                 size_t count, PathLeaf* leaves, uint8_t* is_leaf, PathRay* next,
                 uint32_t* next_count) {
@@ -477,7 +481,7 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
     const PathRay pr = wave[i];
     if (!hit.valid()) {
       // The environment seen, a leaf of its own as an emitter's.
-      if (!in.scene.has_environment) return;
+      if (!kEnvironment || !in.scene.has_environment) return;
       leaves[i] = {pr.branch,
                    pr.pixel,
                    0u,
@@ -579,8 +583,10 @@ Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structu
     is_leaf.resize_discard(count);
     next.resize_discard(2 * count);
     backend.fill_bytes(next_counter.data(), 0, sizeof(uint32_t));
-    shade_wave(backend, in, wave.data(), wave_hits, count, leaves.data(), is_leaf.data(),
-               next.data(), next_counter.data());
+    (in.scene.has_environment ? shade_wave<true>
+                              : shade_wave<false>)(backend, in, wave.data(), wave_hits, count,
+                                                   leaves.data(), is_leaf.data(), next.data(),
+                                                   next_counter.data());
     leaf_index.resize_discard(count);
     const size_t made = backend.select_flagged(nullptr, is_leaf.data(), count, leaf_index.data());
     Buffer<PathLeaf> kept(backend, made);
@@ -644,6 +650,65 @@ CAUSTICA_HDI Sampler diffuse_hit_sampler(const ShadingSettings& cfg, uint32_t st
   return s;
 }
 
+// A wave's diffuse leaves as their shadow rays read them: request r is leaf[diffuse_at[r]], its
+// pixel's requests start at pixel_offset[pixel], and each has `slots` shadow rays
+// (direct_light_slots) and draws `dimensions` sample dimensions (direct_light_dimensions).
+struct DiffuseLeaves {
+  PathLeaf* leaf;
+  const uint32_t* diffuse_at;
+  const uint32_t* pixel_offset;
+  uint32_t slots, dimensions;
+
+  CAUSTICA_HDI Sampler sampler(const PassInputs& in, uint32_t r, const PathLeaf& l) const {
+    return diffuse_hit_sampler(in.cfg, in.camera.stream(l.pixel), r - pixel_offset[l.pixel],
+                               dimensions);
+  }
+};
+
+// Every slot of each request's shadow rays: the ray direct_light_by asks for, or an empty one.
+template <bool kEnvironment>
+void queue_shadow_rays(Backend& backend, const PassInputs& in, const DiffuseLeaves& diffuse,
+                       uint32_t requests, Ray* shadow) {
+  parallel_for(backend, "shadow_ray_queue", requests, [=] CAUSTICA_HD(size_t r) {
+    const PathLeaf l = diffuse.leaf[diffuse.diffuse_at[r]];
+    Ray* mine = shadow + r * diffuse.slots;
+    for (uint32_t k = 0; k < diffuse.slots; ++k)
+      mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
+    Sampler s = diffuse.sampler(in, uint32_t(r), l);
+    Vec3f weight;
+    (void)l.reflected(
+        in.scene, float(in.cfg.area_light_samples), weight, [&](const auto& reflection) {
+          return direct_light_by<kEnvironment>(in.scene, l.position, l.geometric_normal, reflection,
+                                               in.cfg.area_light_samples, in.scene_radius, s,
+                                               [&](uint32_t slot, const Ray& ray) {
+                                                 mine[slot] = ray;
+                                                 return false;
+                                               });
+        });
+  });
+}
+
+// Each request's direct light from its shadow rays' answers, added to its leaf's value, and its
+// gather request.
+template <bool kEnvironment>
+void shade_shadow_rays(Backend& backend, const PassInputs& in, const DiffuseLeaves& diffuse,
+                       uint32_t requests, const uint8_t* is_blocked, GatherRequest* request) {
+  parallel_for(backend, "shadow_ray_shade", requests, [=] CAUSTICA_HD(size_t r) {
+    PathLeaf& l = diffuse.leaf[diffuse.diffuse_at[r]];
+    const uint8_t* mine = is_blocked + r * diffuse.slots;
+    Sampler s = diffuse.sampler(in, uint32_t(r), l);
+    Vec3f weight;
+    l.value += l.reflected(
+        in.scene, float(in.cfg.area_light_samples), weight, [&](const auto& reflection) {
+          return direct_light_by<kEnvironment>(
+              in.scene, l.position, l.geometric_normal, reflection, in.cfg.area_light_samples,
+              in.scene_radius, s, [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
+        });
+    request[r] = {l.position, l.normal, weight, l.pixel,
+                  uint32_t(r) - diffuse.pixel_offset[l.pixel]};
+  });
+}
+
 // Stage 2 through ray queues: what walk_specular_paths computes, for any BatchStructureView.
 template <typename Structure>
 SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
@@ -686,43 +751,14 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
   Buffer<Ray> shadow_rays(backend, shadow_count);
   Buffer<uint8_t> blocked(backend, shadow_count);
   Ray* shadow = shadow_rays.data();
-  const uint32_t* pixel_offset = out.offsets.data();
-  const PassInputs inputs = in;
-  parallel_for(backend, "shadow_ray_queue", requests, [=] CAUSTICA_HD(size_t r) {
-    const PathLeaf l = leaf[diffuse_at[r]];
-    Ray* mine = shadow + r * slots;
-    for (uint32_t k = 0; k < slots; ++k) mine[k] = Ray{l.position, Vec3f(0, 0, 1), 0.0f, 0.0f};
-    Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
-                                    uint32_t(r) - pixel_offset[l.pixel], dimensions);
-    Vec3f weight;
-    (void)l.reflected(
-        inputs.scene, float(inputs.cfg.area_light_samples), weight, [&](const auto& reflection) {
-          return direct_light_by(inputs.scene, l.position, l.geometric_normal, reflection,
-                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
-                                 [&](uint32_t slot, const Ray& ray) {
-                                   mine[slot] = ray;
-                                   return false;
-                                 });
-        });
-  });
+  const DiffuseLeaves diffuse{leaf, diffuse_at, out.offsets.data(), slots, dimensions};
+  (in.scene.has_environment ? queue_shadow_rays<true>
+                            : queue_shadow_rays<false>)(backend, in, diffuse, requests, shadow);
   trace_any(backend, structure, shadow_rays.data(), shadow_count, blocked.data());
   out.requests.resize_discard(requests);
-  GatherRequest* request = out.requests.data();
-  const uint8_t* is_blocked = blocked.data();
-  parallel_for(backend, "shadow_ray_shade", requests, [=] CAUSTICA_HD(size_t r) {
-    PathLeaf& l = leaf[diffuse_at[r]];
-    const uint8_t* mine = is_blocked + r * slots;
-    Sampler s = diffuse_hit_sampler(inputs.cfg, inputs.camera.stream(l.pixel),
-                                    uint32_t(r) - pixel_offset[l.pixel], dimensions);
-    Vec3f weight;
-    l.value += l.reflected(
-        inputs.scene, float(inputs.cfg.area_light_samples), weight, [&](const auto& reflection) {
-          return direct_light_by(inputs.scene, l.position, l.geometric_normal, reflection,
-                                 inputs.cfg.area_light_samples, inputs.scene_radius, s,
-                                 [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
-        });
-    request[r] = {l.position, l.normal, weight, l.pixel, uint32_t(r) - pixel_offset[l.pixel]};
-  });
+  (in.scene.has_environment ? shade_shadow_rays<true>
+                            : shade_shadow_rays<false>)(backend, in, diffuse, requests,
+                                                        blocked.data(), out.requests.data());
   // Each pixel's emitted and direct light summed in its walk's order.
   Vec3f* direct_out = out.direct.data();
   const uint32_t* first_leaf = leaf_offsets.data();
@@ -803,9 +839,12 @@ void render_pass_through(const Structure& structure, Backend& backend,
       if (settings.ray_queues) {
         paths = walk_specular_queues(backend, structure, in, primary.data());
       } else {
+        // Media bring the environment's code along: few scenes have them, fewer lack a sky then.
         paths = resident.has_media()
-                    ? walk_specular_paths<true>(backend, structure, in, primary.data())
-                    : walk_specular_paths<false>(backend, structure, in, primary.data());
+                    ? walk_specular_paths<true, true>(backend, structure, in, primary.data())
+                : in.scene.has_environment
+                    ? walk_specular_paths<false, true>(backend, structure, in, primary.data())
+                    : walk_specular_paths<false, false>(backend, structure, in, primary.data());
       }
     } else {
       paths = walk_specular_queues(backend, structure, in, primary.data());

@@ -184,7 +184,10 @@ CAUSTICA_HDI WayToLight way_to_light(const DeviceLight& l, Vec3f p, float scene_
 // (LambertReflection, SurfaceReflection) gives for its direction, f |cos|.
 // `visible(slot, ray)` says whether the shadow ray `ray` (slot: direct_light_slots) reaches its
 // light. In `medium`, each light's share is attenuated by the transmittance of the way to it.
-template <typename Reflection, typename Visible>
+// kEnvironment false compiles the environment's samples out, for launches over scenes without
+// one (docs/performance.md, "Launches by what the scene has"); the slots and sample dimensions
+// stay those of the scene, which has none to draw.
+template <bool kEnvironment = true, typename Reflection, typename Visible>
 CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3f geometric_normal,
                                    const Reflection& reflection, uint32_t area_samples,
                                    float scene_radius, Sampler& s, Visible visible_slot,
@@ -220,7 +223,7 @@ CAUSTICA_HDI Vec3f direct_light_by(const ResidentSceneView& scene, Vec3f p, Vec3
     }
     sum += area_sum / float(area_samples);
   }
-  if (scene.has_environment && area_samples > 0) {
+  if (kEnvironment && scene.has_environment && area_samples > 0) {
     Vec3f environment_sum(0.0f);
     const uint32_t first_slot = delta_light_count(scene) + area_samples;
     const float dist = distance_to_outside(scene_radius);
@@ -273,25 +276,25 @@ CAUSTICA_HDI Vec3f reflected_at(const ResidentSceneView& scene, uint32_t sampled
 }
 
 // direct_light_by, each shadow ray traced on the spot through `structure` (a StructureView).
-template <typename Structure, typename Reflection>
+template <bool kEnvironment = true, typename Structure, typename Reflection>
 CAUSTICA_HDI Vec3f direct_light_traced(const ResidentSceneView& scene, const Structure& structure,
                                        Vec3f p, Vec3f geometric_normal,
                                        const Reflection& reflection, uint32_t area_samples,
                                        float scene_radius, Sampler& s, uint32_t medium = kVacuum) {
-  return direct_light_by(
+  return direct_light_by<kEnvironment>(
       scene, p, geometric_normal, reflection, area_samples, scene_radius, s,
       [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); }, medium);
 }
 
 // direct_light_with, each shadow ray traced on the spot through `structure` (a StructureView).
-template <typename Structure>
+template <bool kEnvironment = true, typename Structure>
 CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
                                 Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
                                 uint32_t area_samples, float scene_radius, Sampler& s,
                                 uint32_t medium = kVacuum) {
-  return direct_light_traced(scene, structure, p, geometric_normal,
-                             LambertReflection{albedo * kInvPi, normal}, area_samples, scene_radius,
-                             s, medium);
+  return direct_light_traced<kEnvironment>(scene, structure, p, geometric_normal,
+                                           LambertReflection{albedo * kInvPi, normal}, area_samples,
+                                           scene_radius, s, medium);
 }
 
 }  // namespace caustica
