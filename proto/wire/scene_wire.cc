@@ -281,6 +281,8 @@ v1::Material encode_material(const Material& m) {
   if (m.emission_map.used()) *out.mutable_emission_map() = encode_texture_ref(m.emission_map);
   if (m.metallic_roughness_map.used())
     *out.mutable_metallic_roughness_map() = encode_texture_ref(m.metallic_roughness_map);
+  if (m.normal_map.used()) *out.mutable_normal_map() = encode_texture_ref(m.normal_map);
+  if (m.normal_scale != 1.0f) out.set_normal_scale(m.normal_scale);
   return out;
 }
 
@@ -834,6 +836,7 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.roughness = in.roughness();
     m.specular = *specular;
     m.exponent = in.exponent();
+    if (in.has_normal_scale()) m.normal_scale = in.normal_scale();
     for (const auto& [map, name, has, get] :
          {std::tuple{&m.color_map, "color_map", &v1::Material::has_color_map,
                      &v1::Material::color_map},
@@ -841,7 +844,9 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
                      &v1::Material::emission_map},
           std::tuple{&m.metallic_roughness_map, "metallic_roughness_map",
                      &v1::Material::has_metallic_roughness_map,
-                     &v1::Material::metallic_roughness_map}}) {
+                     &v1::Material::metallic_roughness_map},
+          std::tuple{&m.normal_map, "normal_map", &v1::Material::has_normal_map,
+                     &v1::Material::normal_map}}) {
       if (!(in.*has)()) continue;
       absl::StatusOr<TextureRef> ref =
           decode_texture_ref((in.*get)(), join_field(field, name), scene_.textures.size());

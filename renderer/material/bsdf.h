@@ -36,7 +36,8 @@ struct BsdfSample {
   float pdf = 0.0f;
   uint32_t flags = kBsdfNone;
 
-  CAUSTICA_HDI bool valid() const { return pdf > 0.0f; }
+  // A density that overflowed says nothing of the direction: such a sample is dropped.
+  CAUSTICA_HDI bool valid() const { return pdf > 0.0f && isfinite(pdf); }
   // The estimator's weight f |cos| / pdf of the sampled direction.
   CAUSTICA_HDI Vec3f weight() const { return f * (abs_cos_theta(wi) / pdf); }
 };

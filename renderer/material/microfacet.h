@@ -18,11 +18,14 @@ struct TrowbridgeReitz {
 
   // Microfacet normals per unit solid angle per unit macro-surface area: the integral of
   // D(wm) cos(wm) over the hemisphere is one.
+  // The denominator's cos^2 a^2 + sin^2 (cos^2 (1 + tan^2 / a^2) a^2) is summed as two positive
+  // terms: written cos^2 (a^2 - 1) + 1 it cancels to 0 near the normal for a small alpha, and D
+  // became infinite (a path's weight then NaN) on the smoothest metal of a roughness map.
   CAUSTICA_HDI float D(Vec3f wm) const {
     const float cos2 = wm.z * wm.z;
     if (!(cos2 > 0.0f)) return 0.0f;
     const float a2 = alpha * alpha;
-    const float t = cos2 * (a2 - 1.0f) + 1.0f;  // cos^2 (1 + tan^2 / a^2) a^2 / a^2
+    const float t = cos2 * a2 + max_f(0.0f, 1.0f - cos2);
     return a2 / (kPi * t * t);
   }
 

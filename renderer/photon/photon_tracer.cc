@@ -277,8 +277,8 @@ struct PhotonPathInputs {
   }
 
   // The path's hit `hit` of its current ray: stores a photon at a diffuse surface and moves the
-  // path on; false when the path ends there.
-  template <bool kDifferentials>
+  // path on; false when the path ends there. kNormalMaps: surface_at's.
+  template <bool kDifferentials, bool kNormalMaps = true>
   CAUSTICA_HDI bool bounce(PhotonPathState<kDifferentials>& p, const Hit& hit) const {
     // Nothing to carry: a photon from where an emission map is black, or filtered out by colours.
     if (is_black(p.power)) return false;
@@ -330,7 +330,7 @@ struct PhotonPathInputs {
       }
     }
     if (!hit.valid()) return false;
-    SurfaceHit sh = surface_at(scene, hit);
+    SurfaceHit sh = surface_at<kNormalMaps>(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = p.ray.direction;
     Vec3f next_dir;
@@ -508,7 +508,8 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
 }
 
 // The paths one per thread (per worker on a GPU), each hit traced through the per-ray view.
-template <bool kDifferentials, typename Structure>
+// kNormalMaps: surface_at's, since this kernel's registers are bounded for its occupancy.
+template <bool kDifferentials, bool kNormalMaps, typename Structure>
 void trace_photons_per_thread(Backend& backend, const Structure& structure,
                               const PhotonPathInputs& in, uint32_t count, bool regenerate,
                               uint32_t workers, uint32_t* next) {
@@ -519,7 +520,8 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
     // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
     // end do not wait at the inner loop's exit for the others.
     while (true) {
-      if (in.bounce(p, closest_hit(structure, p.ray))) continue;
+      if (in.template bounce<kDifferentials, kNormalMaps>(p, closest_hit(structure, p.ray)))
+        continue;
       if (!regenerate) return;
       const uint32_t path = atomic_fetch_add(next, 1u);
       if (path >= count) return;
@@ -627,8 +629,9 @@ PhotonPathInputs path_inputs(const ResidentSceneView& scene, const ResidentScene
 }
 
 // Traces every path once, with `workers` workers that take a new path as theirs ends when
-// `regenerate`, from the index in `next` on. The differentials' two instantiations: a path state
-// without them keeps the common trace's registers, which its occupancy depends on.
+// `regenerate`, from the index in `next` on. The differentials' two instantiations, and the
+// per-thread trace's two for normal maps: a trace without them keeps the common trace's
+// registers, which its occupancy depends on.
 template <typename Structure>
 void trace_paths(Backend& backend, const Structure& structure, const PhotonPathInputs& in,
                  const PhotonTraceSettings& settings, bool regenerate, uint32_t workers,
@@ -640,8 +643,13 @@ void trace_paths(Backend& backend, const Structure& structure, const PhotonPathI
       if (settings.ray_queues) {
         trace_photon_waves<kDifferentials>(backend, structure, in, count);
       } else {
-        trace_photons_per_thread<kDifferentials>(backend, structure, in, count, regenerate, workers,
-                                                 next);
+        if (in.scene.has_normal_maps) {
+          trace_photons_per_thread<kDifferentials, true>(backend, structure, in, count, regenerate,
+                                                         workers, next);
+        } else {
+          trace_photons_per_thread<kDifferentials, false>(backend, structure, in, count,
+                                                          regenerate, workers, next);
+        }
       }
     } else {
       trace_photon_waves<kDifferentials>(backend, structure, in, count);

@@ -76,7 +76,8 @@ std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materi
     const ResidentScene::MaterialMaps mine =
         i < maps.size() ? maps[i] : ResidentScene::MaterialMaps{};
     out.push_back({m.type, m.color, m.ior, emitted_radiance(m), mine.color, mine.emission,
-                   m.metallic, m.roughness, m.specular, m.exponent, mine.metallic_roughness});
+                   m.metallic, m.roughness, m.specular, m.exponent, mine.metallic_roughness,
+                   mine.normal, m.normal_scale});
   }
   return out;
 }
@@ -193,6 +194,14 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   for (const Mesh& m : scene.meshes) any_uvs |= !m.uvs.empty();
   any_uvs = any_uvs && !maps.device.empty();
   if (any_uvs) corner_uvs.reserve(3 * n);
+  // Tangents only for a scene with a normal map to read and a mesh that brings them; the other
+  // meshes' corners are zero, which says to derive the frame from the coordinates.
+  std::vector<Vec4f> corner_tangents;
+  bool any_tangents = false;
+  if (any_uvs && r.has_normal_maps()) {
+    for (const Mesh& m : scene.meshes) any_tangents |= !m.tangents.empty();
+  }
+  if (any_tangents) corner_tangents.reserve(3 * n);
 
   for (const Mesh& m : scene.meshes) {
     for (size_t t = 0; t < m.triangle_count(); ++t) {
@@ -238,6 +247,11 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
         for (int c = 0; c < 3; ++c)
           corner_uvs.push_back(m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]]);
       }
+      if (any_tangents) {
+        for (int c = 0; c < 3; ++c)
+          corner_tangents.push_back(m.tangents.empty() ? Vec4f{0.0f, 0.0f, 0.0f, 0.0f}
+                                                       : m.tangents[idx[c]]);
+      }
     }
   }
   std::vector<DeviceMedium> media;
@@ -268,6 +282,8 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.corner_normals_.upload(corner_normals);
   r.corner_uvs_.bind(backend);
   r.corner_uvs_.upload(corner_uvs);
+  r.corner_tangents_.bind(backend);
+  r.corner_tangents_.upload(corner_tangents);
   r.texture_maps_.bind(backend);
   r.texture_maps_.upload(maps.device);
   r.media_.bind(backend);
@@ -351,6 +367,7 @@ ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene
     material_maps_[i].emission = add_map(m.emission_map, true);
     if (m.type == MaterialType::kMetallicRoughness)
       material_maps_[i].metallic_roughness = add_map(m.metallic_roughness_map, false);
+    material_maps_[i].normal = add_map(m.normal_map, false);
   }
   // The same maps over the host's copies, now that the chains no longer move.
   for (size_t i = 0; i < maps.device.size(); ++i) {
@@ -427,6 +444,8 @@ ResidentSceneView ResidentScene::view() const {
   v.total_power = lighting_.total_power;
   v.area_light_power = lighting_.area_light_power;
   v.has_environment = lighting_.environment && environment_.present;
+  v.corner_tangents = corner_tangents_.empty() ? nullptr : corner_tangents_.data();
+  v.has_normal_maps = !corner_uvs_.empty() && has_normal_maps();
   if (v.has_environment) {
     const EnvironmentImage& e = environment_;
     v.environment.image = {e.texels.data(), e.level.data(), 1, TextureWrap::kRepeat,
@@ -457,9 +476,9 @@ size_t ResidentScene::bytes() const {
   grid_bytes += e.texels.bytes() + e.level.bytes() + e.func.bytes() + e.row_cdfs.bytes() +
                 e.row_integrals.bytes() + e.marginal_cdf.bytes();
   return triangles_.bytes() + corner_normals_.bytes() + corner_uvs_.bytes() +
-         texture_maps_.bytes() + material_ids_.bytes() + triangle_area_light_.bytes() +
-         lighting_.bytes() + media_.bytes() + triangle_medium_.bytes() + structure_.stats().bytes +
-         grid_bytes;
+         corner_tangents_.bytes() + texture_maps_.bytes() + material_ids_.bytes() +
+         triangle_area_light_.bytes() + lighting_.bytes() + media_.bytes() +
+         triangle_medium_.bytes() + structure_.stats().bytes + grid_bytes;
 }
 
 }  // namespace caustica

@@ -3,6 +3,7 @@
 // alone when only they change (the engine's epochs decide which).
 #pragma once
 
+#include <algorithm>
 #include <deque>
 #include <span>
 
@@ -28,6 +29,8 @@ struct DeviceMaterial {
   float exponent;
   // A metallic-roughness material's map (linear): green multiplies roughness, blue metallic.
   uint32_t metallic_roughness_map;
+  uint32_t normal_map;  // a tangent-space normal map (linear), or kNoTexture
+  float normal_scale;
 };
 
 // A material's colour or emission map as kernels read it: the image's mip chain with the map's
@@ -88,6 +91,9 @@ struct ResidentSceneView {
   const Vec3f* corner_normals;        // 3 per triangle, or nullptr when no mesh has normals
   // 3 per triangle (v down the image), or nullptr when no material has a map to read with them.
   const Vec2f* corner_uvs;
+  // 3 per triangle, xyz and the bitangent's sign w as Mesh::tangents (zero where a mesh has none),
+  // or nullptr unless a mesh with tangents may be normal-mapped.
+  const Vec4f* corner_tangents;
   const DeviceTextureMap* texture_maps;  // what materials' and area lights' map indices name
   const uint32_t* material_ids;       // per triangle
   const DeviceMaterial* materials;
@@ -103,6 +109,9 @@ struct ResidentSceneView {
   // The environment, when has_environment: its record is the last light before the area lights.
   EnvironmentMap environment;
   bool has_environment;
+  // Whether a material has a normal map that a triangle's texture coordinates can read: only then
+  // does surface_at look for one.
+  bool has_normal_maps;
   float total_power;  // sum over lights of average-channel power (W)
   float area_light_power;
   MediaView media;  // none when the scene has no participating media
@@ -128,25 +137,6 @@ struct SurfaceHit {
   Vec3f shading_normal;    // unit, same side as geometric_normal
   uint32_t material;
 };
-
-CAUSTICA_HDI SurfaceHit surface_at(const ResidentSceneView& scene, const Hit& hit) {
-  const TriangleVertices& t = scene.triangles[hit.triangle];
-  float w = 1.0f - hit.u - hit.v;
-  SurfaceHit s;
-  s.position = t.p0 * w + t.p1 * hit.u + t.p2 * hit.v;
-  s.geometric_normal = normalize(geometric_normal(t));
-  s.shading_normal = s.geometric_normal;
-  if (scene.corner_normals != nullptr) {
-    const Vec3f* n = scene.corner_normals + 3 * size_t(hit.triangle);
-    Vec3f ns = n[0] * w + n[1] * hit.u + n[2] * hit.v;
-    if (length_squared(ns) > 0.0f) {
-      ns = normalize(ns);
-      s.shading_normal = dot(ns, s.geometric_normal) < 0.0f ? -ns : ns;
-    }
-  }
-  s.material = scene.material_ids[hit.triangle];
-  return s;
-}
 
 // Texture coordinates at barycentrics (u, v) of `triangle`; the scene must have them.
 CAUSTICA_HDI Vec2f uv_at(const ResidentSceneView& scene, uint32_t triangle, float u, float v) {
@@ -178,6 +168,84 @@ CAUSTICA_HDI Vec3f map_at_hit(const ResidentSceneView& scene, uint32_t map_index
   const Texel c =
       map.view.trilinear(map.transform.apply(uv_at(scene, hit.triangle, hit.u, hit.v)), width);
   return Vec3f(c.r, c.g, c.b);
+}
+
+// Shading normal `n` (unit, on the side of the unit geometric normal `ng`) at `hit` bent by
+// material `m`'s normal map, read at its finest level: the texel c gives (2 c - 1) with x and y
+// times the map's scale, in the frame of the tangent, the bitangent and n. The tangent is the
+// mesh's (glTF's TANGENT, the bitangent w cross(n, tangent)) where it has one, else the
+// triangle's direction of growing u after the map's transform, the bitangent then up the image
+// (against v, which runs down it; mirrored coordinates flip it), as MikkTSpace's would be for the
+// triangle alone. Unbent where the coordinates are degenerate or the bent normal would face away
+// from ng (docs/materials.md, "Normal maps").
+CAUSTICA_HDI Vec3f normal_mapped(const ResidentSceneView& scene, const DeviceMaterial& m,
+                                 const Hit& hit, Vec3f n, Vec3f ng) {
+  const DeviceTextureMap& map = scene.texture_maps[m.normal_map];
+  Vec3f along_u(0.0f), bitangent_side(0.0f);
+  float handedness = 1.0f;
+  if (scene.corner_tangents != nullptr) {
+    const Vec4f* tangent = scene.corner_tangents + 3 * size_t(hit.triangle);
+    const float w = 1.0f - hit.u - hit.v;
+    const Vec4f t = {tangent[0].x * w + tangent[1].x * hit.u + tangent[2].x * hit.v,
+                     tangent[0].y * w + tangent[1].y * hit.u + tangent[2].y * hit.v,
+                     tangent[0].z * w + tangent[1].z * hit.u + tangent[2].z * hit.v, tangent[0].w};
+    along_u = Vec3f(t.x, t.y, t.z);
+    handedness = t.w < 0.0f ? -1.0f : 1.0f;
+  }
+  if (!(length_squared(along_u) > 0.0f)) {
+    // No tangents: the triangle's own, dp/du, and the bitangent's side from dp/dv.
+    const TriangleVertices& t = scene.triangles[hit.triangle];
+    const Vec2f* corner = scene.corner_uvs + 3 * size_t(hit.triangle);
+    const Vec2f uv0 = map.transform.apply(corner[0]), uv1 = map.transform.apply(corner[1]),
+                uv2 = map.transform.apply(corner[2]);
+    const float du1 = uv1.x - uv0.x, dv1 = uv1.y - uv0.y;
+    const float du2 = uv2.x - uv0.x, dv2 = uv2.y - uv0.y;
+    const float det = du1 * dv2 - du2 * dv1;
+    if (!(fabsf(det) > 0.0f)) return n;
+    const Vec3f dp1 = t.p1 - t.p0, dp2 = t.p2 - t.p0;
+    along_u = (dp1 * dv2 - dp2 * dv1) / det;
+    bitangent_side = (dp2 * du1 - dp1 * du2) / det;  // dp/dv: down the image
+  }
+  const Vec3f in_plane = along_u - n * dot(n, along_u);
+  if (!(length_squared(in_plane) > 0.0f)) return n;
+  const Vec3f tangent = normalize(in_plane);
+  Vec3f bitangent = cross(n, tangent) * handedness;
+  if (dot(bitangent, bitangent_side) > 0.0f) bitangent = -bitangent;
+  const Texel c =
+      map.view.trilinear(map.transform.apply(uv_at(scene, hit.triangle, hit.u, hit.v)), 0.0f);
+  const Vec3f bent = tangent * ((2.0f * c.r - 1.0f) * m.normal_scale) +
+                     bitangent * ((2.0f * c.g - 1.0f) * m.normal_scale) + n * (2.0f * c.b - 1.0f);
+  if (!(length_squared(bent) > 0.0f)) return n;
+  const Vec3f bent_unit = normalize(bent);
+  return dot(bent_unit, ng) > 0.0f ? bent_unit : n;
+}
+
+// kNormalMaps false compiles the normal maps out, for launches whose registers are held to a
+// bound that scenes without them should not pay for (docs/performance.md, "Launches by what the
+// scene has"); it must then be chosen only for scenes without normal maps.
+template <bool kNormalMaps = true>
+CAUSTICA_HDI SurfaceHit surface_at(const ResidentSceneView& scene, const Hit& hit) {
+  const TriangleVertices& t = scene.triangles[hit.triangle];
+  float w = 1.0f - hit.u - hit.v;
+  SurfaceHit s;
+  s.position = t.p0 * w + t.p1 * hit.u + t.p2 * hit.v;
+  s.geometric_normal = normalize(geometric_normal(t));
+  s.shading_normal = s.geometric_normal;
+  if (scene.corner_normals != nullptr) {
+    const Vec3f* n = scene.corner_normals + 3 * size_t(hit.triangle);
+    Vec3f ns = n[0] * w + n[1] * hit.u + n[2] * hit.v;
+    if (length_squared(ns) > 0.0f) {
+      ns = normalize(ns);
+      s.shading_normal = dot(ns, s.geometric_normal) < 0.0f ? -ns : ns;
+    }
+  }
+  s.material = scene.material_ids[hit.triangle];
+  if (kNormalMaps && scene.has_normal_maps) {
+    const DeviceMaterial& m = scene.materials[s.material];
+    if (m.normal_map != kNoTexture)
+      s.shading_normal = normal_mapped(scene, m, hit, s.shading_normal, s.geometric_normal);
+  }
+  return s;
 }
 
 // The colour a material shows at `hit`: its colour times its colour map there (map_at_hit).
@@ -237,7 +305,8 @@ class ResidentScene {
  public:
   // A material's maps: indices into texture_maps_, or kNoTexture.
   struct MaterialMaps {
-    uint32_t color = kNoTexture, emission = kNoTexture, metallic_roughness = kNoTexture;
+    uint32_t color = kNoTexture, emission = kNoTexture, metallic_roughness = kNoTexture,
+             normal = kNoTexture;
   };
 
   // The materials and every light as kernels read them: what a light change replaces as a whole.
@@ -296,6 +365,11 @@ class ResidentScene {
   TextureMaps upload_texture_maps(const Scene& scene);
   // Uploads the environment's image and the distribution its directions are drawn from.
   void upload_environment(const Scene& scene);
+  // Whether a material reads a normal map (after upload_texture_maps).
+  bool has_normal_maps() const {
+    return std::any_of(material_maps_.begin(), material_maps_.end(),
+                       [](const MaterialMaps& m) { return m.normal != kNoTexture; });
+  }
 
   Backend* backend_ = nullptr;
   // From emitting triangles, fixed with the geometry but for their colour, the emission of their
@@ -307,6 +381,7 @@ class ResidentScene {
   Buffer<TriangleVertices> triangles_;
   Buffer<Vec3f> corner_normals_;
   Buffer<Vec2f> corner_uvs_;
+  Buffer<Vec4f> corner_tangents_;
   // One mip chain per image a map reads, and the maps, which point into them.
   std::vector<Buffer<Texel>> texels_;
   std::vector<Buffer<MipLevel>> mip_levels_;

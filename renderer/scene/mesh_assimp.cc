@@ -204,6 +204,7 @@ class AssimpReader {
                                 {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE});
       m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
                                    {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
+      m.normal_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_NORMALS});
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();
@@ -474,8 +475,8 @@ class AssimpReader {
   }
 
   // The first texture of `types` Assimp reports for a material (base colour or diffuse, emission
-  // colour or emissive): a file beside the model, or one the model embeds in a file format's bytes.
-  // Embedded raw texels are left out with a warning.
+  // colour or emissive, normals): a file beside the model, or one the model embeds in a file
+  // format's bytes. Embedded raw texels are left out with a warning.
   TextureRef texture_map(const aiMaterial& material, const std::string& name,
                          std::initializer_list<aiTextureType> types) {
     TextureRef ref;

@@ -321,6 +321,9 @@ class GltfReader {
         const tinygltf::TextureInfo& mr = gltf.pbrMetallicRoughness.metallicRoughnessTexture;
         m.metallic_roughness_map = texture_ref(mr.index, mr.texCoord, mr.extensions, m.name);
       }
+      m.normal_map = texture_ref(gltf.normalTexture.index, gltf.normalTexture.texCoord,
+                                 gltf.normalTexture.extensions, m.name);
+      if (m.normal_map.used()) m.normal_scale = float(gltf.normalTexture.scale);
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();

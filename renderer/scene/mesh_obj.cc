@@ -288,6 +288,9 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
                               file.warnings);
     m.emission_map = convert_map(materials[i].emissive_texname, materials[i].emissive_texopt,
                                  textures, file.warnings);
+    // `norm` names a tangent-space normal map; `bump`, a height map, is not read.
+    m.normal_map = convert_map(materials[i].normal_texname, materials[i].normal_texopt, textures,
+                               file.warnings);
     file.materials.push_back(std::move(m));
   }
   file.textures = textures.take();

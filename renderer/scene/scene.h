@@ -88,17 +88,24 @@ struct Material {
   // glTF's metallicRoughnessTexture, linear: its green channel multiplies `roughness`, its blue
   // `metallic` (metallic-roughness materials only).
   TextureRef metallic_roughness_map;
+  // A tangent-space normal map (glTF's normalTexture, MTL's norm), linear, any type: its texel c
+  // bends the shading normal to (2 c - 1) with x and y times `normal_scale`, x along the texture's
+  // u and y up its image (docs/materials.md, "Normal maps").
+  TextureRef normal_map;
+  float normal_scale = 1.0f;
 
   // Every map with its field's name, for what treats them alike.
-  std::array<std::pair<TextureRef*, const char*>, 3> maps() {
+  std::array<std::pair<TextureRef*, const char*>, 4> maps() {
     return {{{&color_map, "color_map"},
              {&emission_map, "emission_map"},
-             {&metallic_roughness_map, "metallic_roughness_map"}}};
+             {&metallic_roughness_map, "metallic_roughness_map"},
+             {&normal_map, "normal_map"}}};
   }
-  std::array<std::pair<const TextureRef*, const char*>, 3> maps() const {
+  std::array<std::pair<const TextureRef*, const char*>, 4> maps() const {
     return {{{&color_map, "color_map"},
              {&emission_map, "emission_map"},
-             {&metallic_roughness_map, "metallic_roughness_map"}}};
+             {&metallic_roughness_map, "metallic_roughness_map"},
+             {&normal_map, "normal_map"}}};
   }
 };
 

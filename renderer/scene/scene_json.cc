@@ -354,6 +354,8 @@ class SceneReader {
       SCENE_RETURN_IF_ERROR(object.read("radiance", kOptional, &material.radiance));
     SCENE_ASSIGN_OR_RETURN(material.color_map, read_map(object, "color_map"));
     SCENE_ASSIGN_OR_RETURN(material.emission_map, read_map(object, "emission_map"));
+    SCENE_ASSIGN_OR_RETURN(material.normal_map, read_map(object, "normal_map"));
+    SCENE_RETURN_IF_ERROR(object.read("normal_scale", kOptional, &material.normal_scale));
     SCENE_RETURN_IF_ERROR(object.finish());
     material_ids_[name] = static_cast<uint32_t>(scene_.materials.size());
     scene_.materials.push_back(std::move(material));

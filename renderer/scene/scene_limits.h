@@ -20,6 +20,9 @@ inline constexpr uint32_t kMaxFinalGatherRays = 4096;
 inline constexpr uint32_t kMaxFinalGatherSeeds = 1 << 20;
 // A Phong lobe this narrow is a mirror to within float precision; larger exponents are typos.
 inline constexpr float kMaxPhongExponent = 1e6f;
+// A normal map's x and y scaled beyond this bend every normal to the tangent plane; larger scales
+// are typos.
+inline constexpr float kMaxNormalScale = 100.0f;
 #ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
 // The fuzz preset (fuzz/): a few bytes of scene may legally ask for a 100M-triangle sphere, which
 // would exceed a fuzzer's memory and time per input and be reported as a finding. Meshes a fuzzer

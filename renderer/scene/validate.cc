@@ -163,6 +163,11 @@ absl::Status validate_material(const Material& m, size_t textures) {
           absl::StrCat("is texture ", map->texture, ", but the scene has ", textures, " textures"));
     }
   }
+  if (!(std::isfinite(m.normal_scale) && std::fabs(m.normal_scale) <= kMaxNormalScale)) {
+    return invalid_field(absl::StrCat(field, ".normal_scale"),
+                         absl::StrCat(m.normal_scale, " is not a number in [-", kMaxNormalScale,
+                                      ", ", kMaxNormalScale, "]"));
+  }
   // Any kind may emit; an emissive material only emits.
   SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".radiance"), m.radiance));
   switch (m.type) {

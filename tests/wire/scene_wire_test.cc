@@ -767,6 +767,8 @@ Scene with_textures() {
   red.type = MaterialType::kMetallicRoughness;
   red.metallic_roughness_map.texture = 1;
   red.metallic_roughness_map.wrap_u = TextureWrap::kClampToEdge;
+  red.normal_map.texture = 0;
+  red.normal_scale = 0.5f;
   return scene;
 }
 
@@ -801,6 +803,10 @@ TEST(SceneWire, TexturesArriveByteForByteWithTheirMaps) {
   EXPECT_EQ(back->materials.at(2).metallic_roughness_map.texture, 1u);
   EXPECT_EQ(back->materials.at(2).metallic_roughness_map.wrap_u, TextureWrap::kClampToEdge);
   EXPECT_FALSE(back->materials.at(0).metallic_roughness_map.used());
+  EXPECT_EQ(back->materials.at(2).normal_map.texture, 0u);
+  EXPECT_EQ(back->materials.at(2).normal_scale, 0.5f);
+  EXPECT_FALSE(back->materials.at(0).normal_map.used());
+  EXPECT_EQ(back->materials.at(0).normal_scale, 1.0f);
   EXPECT_TRUE(validate_scene(*back).ok());
 }
 

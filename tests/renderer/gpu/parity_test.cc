@@ -1108,7 +1108,9 @@ TEST(GpuParity, KernelMapsAreTheSame) {
 
 // Photon differentials on both backends, every bundled scene: the same photons until a float
 // rounds differently and a path goes elsewhere, so the stored photons' counts and their
-// footprints' median area agree within 3% (1.5% and 1.6% at most when this was written).
+// footprints' median area agree within 3% (1.5% and 1.6% at most when this was written). A scene
+// whose photons all leave after their first hit stores none on either (the DamagedHelmet alone
+// under its sky: the first hit's light is the shadow rays'), and has nothing more to compare.
 TEST(GpuParity, BundledScenesPhotonFootprintsAlike) {
   if (!cuda_device_available()) GTEST_SKIP() << "no CUDA device: GPU tests skipped";
   BothBackends both;
@@ -1130,12 +1132,17 @@ TEST(GpuParity, BundledScenesPhotonFootprintsAlike) {
       }
       EXPECT_EQ(traced.caustic_footprints.size(), traced.caustic.size());
       EXPECT_EQ(traced.global_footprints.size(), traced.global.size());
-      ASSERT_FALSE(areas.empty());
       photons[b] = double(areas.size());
+      if (areas.empty()) continue;
       std::nth_element(areas.begin(), areas.begin() + areas.size() / 2, areas.end());
       covered[b] = areas[areas.size() / 2];
     }
+    if (photons[0] == 0.0 && photons[1] == 0.0) {
+      std::printf("%s: no photons stored on either backend\n", name.c_str());
+      continue;
+    }
     ASSERT_GT(photons[0], 0.0);
+    ASSERT_GT(photons[1], 0.0);
     EXPECT_NEAR(photons[1] / photons[0], 1.0, 0.03);
     EXPECT_NEAR(covered[1] / covered[0], 1.0, 0.03);
     std::printf("%s: footprints, GPU / CPU photons %.4f, median area %.4f\n", name.c_str(),

@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstddef>
 #include <span>
 #include <vector>
@@ -11,6 +12,20 @@
 #include "renderer/render/image_error.h"
 
 namespace caustica {
+
+// Fails the test when `image` (linear RGBA, `width` pixels a row) has a value that is not finite,
+// naming `device`, how many and the first one's pixel: a comparison with such an image says only
+// "nan", whichever backend made it.
+inline void expect_finite(std::span<const float> image, uint32_t width, const char* device) {
+  size_t bad = 0, first = 0;
+  for (size_t i = 0; i < image.size(); ++i) {
+    if (std::isfinite(image[i])) continue;
+    if (bad++ == 0) first = i;
+  }
+  EXPECT_EQ(bad, 0u) << device << ": " << bad << " values not finite, the first " << image[first]
+                     << " in channel " << first % 4 << " of pixel (" << first / 4 % width << ", "
+                     << first / 4 / width << ")";
+}
 
 // `scene` loaded into a fresh engine on `device` with `budget` bytes and rendered for `passes`:
 // its linear RGBA image, or empty (with the test failed) when any step fails.
@@ -25,6 +40,7 @@ inline std::vector<float> render_image(const Scene& scene, DeviceKind device, ui
   EXPECT_TRUE(rendered.ok()) << rendered.status();
   if (!rendered.ok()) return {};
   const std::span<const float> image = (*engine)->image_linear();
+  expect_finite(image, scene.camera.width, device == DeviceKind::kCpu ? "CPU" : "GPU");
   return {image.begin(), image.end()};
 }
 

@@ -14,6 +14,7 @@
 #include "renderer/engine.h"
 #include "renderer/parallel/cuda/cuda_backend.h"
 #include "renderer/scene/load_scene.h"
+#include "tests/renderer/gpu/render_image.h"
 
 namespace caustica {
 namespace {
@@ -29,6 +30,7 @@ std::vector<float> render_on(DeviceKind kind, const Scene& scene, uint32_t passe
   EXPECT_TRUE(loaded.ok()) << loaded.status();
   if (!loaded.ok() || !(*engine)->render(passes).ok()) return {};
   const std::span<const float> image = (*engine)->image_linear();
+  expect_finite(image, scene.camera.width, kind == DeviceKind::kCpu ? "CPU" : "GPU");
   return {image.begin(), image.end()};
 }
 

@@ -121,6 +121,30 @@ TEST(TrowbridgeReitz, DistributionAndVisibleNormalsAreNormalised) {
   }
 }
 
+// At the smallest alpha the models use, the distribution's peak is 1 / (pi alpha^2) and a metal's
+// samples have finite densities and weights: its denominator once cancelled to zero there, and a
+// roughness map's smoothest texels made NaN paths.
+TEST(TrowbridgeReitz, StaysFiniteAtTheSmallestAlpha) {
+  const TrowbridgeReitz d{kMinMicrofacetAlpha};
+  const double peak = 1.0 / (kPiD * double(kMinMicrofacetAlpha) * kMinMicrofacetAlpha);
+  EXPECT_NEAR(d.D(Vec3f(0.0f, 0.0f, 1.0f)) / peak, 1.0, 1e-5);
+  const MetallicRoughnessBsdf metal{Vec3f(0.9f), 1.0f, 0.0f};
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  int finite = 0;
+  for (double theta : {0.0, 30.0, 60.0}) {
+    const Vec3f wo = direction_at(theta);
+    for (int i = 0; i < 10000; ++i) {
+      const BsdfSample b = metal.sample(wo, u(rng), u(rng), u(rng));
+      if (!b.valid()) continue;
+      ASSERT_TRUE(std::isfinite(b.pdf)) << "theta " << theta;
+      ASSERT_TRUE(is_finite(b.weight())) << "theta " << theta;
+      ++finite;
+    }
+  }
+  EXPECT_GT(finite, 29000);
+}
+
 // The white furnace: a metal of base colour 1 has Fresnel 1, so it reflects what GGX's single
 // scattering keeps, which f's quadrature gives; every sample's weight is at most 1 (it is
 // G(wo, wi) / G1(wo) for visible normals), and the mean of the weights is the quadrature. The

@@ -114,7 +114,8 @@ namespace caustica {
 namespace {
 
 // The DamagedHelmet's one material is glTF's metallic-roughness model of the file's default
-// factors, its base colour, emission and metallic-roughness textures three maps of their own.
+// factors, its base colour, emission, metallic-roughness and normal textures four maps of their
+// own, the normal map at glTF's default scale.
 TEST(BundledScenes, TheHelmetIsAMetallicRoughnessMaterialWithItsMaps) {
   const Scene scene = load("damaged-helmet/scene.json");
   ASSERT_EQ(scene.materials.size(), 1u);
@@ -131,6 +132,10 @@ TEST(BundledScenes, TheHelmetIsAMetallicRoughnessMaterialWithItsMaps) {
       << scene.textures.at(m.metallic_roughness_map.texture).name;
   EXPECT_NE(m.metallic_roughness_map.texture, m.color_map.texture);
   EXPECT_NE(m.metallic_roughness_map.texture, m.emission_map.texture);
+  ASSERT_TRUE(m.normal_map.used());
+  EXPECT_NE(scene.textures.at(m.normal_map.texture).name.find("normal"), std::string::npos)
+      << scene.textures.at(m.normal_map.texture).name;
+  EXPECT_EQ(m.normal_scale, 1.0f);
 }
 
 }  // namespace

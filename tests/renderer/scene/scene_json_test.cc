@@ -321,6 +321,33 @@ TEST(ParseScene, AMetallicRoughnessMaterialNamesItsMap) {
   EXPECT_THAT(message_of(diffuse.status()), HasSubstr("metallic_roughness_map"));
 }
 
+// Any material names a normal map and its scale; a scale that is no number of reason is refused
+// by name.
+TEST(ParseScene, AnyMaterialNamesANormalMap) {
+  auto scene_with = [](const std::string& material) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"bumpy": )" +
+                           material + R"(},
+      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+      "shapes": [{"type": "quad", "material": "bumpy",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
+  };
+  const absl::StatusOr<Scene> scene = scene_with(
+      R"({"type": "diffuse", "albedo": [1, 1, 1], "normal_map": "CesiumLogoFlat.png",
+          "normal_scale": 0.5})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ(scene->materials.at(0).normal_map.texture, 0u);
+  EXPECT_EQ(scene->materials.at(0).normal_scale, 0.5f);
+  const absl::StatusOr<Scene> huge = scene_with(
+      R"({"type": "diffuse", "albedo": [1, 1, 1], "normal_map": "CesiumLogoFlat.png",
+          "normal_scale": 1e9})");
+  ASSERT_FALSE(huge.ok());
+  EXPECT_THAT(message_of(huge.status()), HasSubstr("materials.bumpy.normal_scale"));
+}
+
 // A scene whose materials are `materials` (the text of the "materials" object), one quad of the
 // first, lit by a point light.
 absl::StatusOr<Scene> scene_with_materials(const std::string& materials, const std::string& first) {
