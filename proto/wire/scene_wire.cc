@@ -283,6 +283,12 @@ v1::Material encode_material(const Material& m) {
     *out.mutable_metallic_roughness_map() = encode_texture_ref(m.metallic_roughness_map);
   if (m.normal_map.used()) *out.mutable_normal_map() = encode_texture_ref(m.normal_map);
   if (m.normal_scale != 1.0f) out.set_normal_scale(m.normal_scale);
+  static_assert(kLastAlphaMode == AlphaMode::kBlend,
+                "encode_material and the assembler's decoding know every alpha mode");
+  out.set_alpha_mode(static_cast<v1::Material::AlphaMode>(m.alpha_mode));
+  if (m.opacity != 1.0f) out.set_opacity(m.opacity);
+  if (m.alpha_cutoff != 0.5f) out.set_alpha_cutoff(m.alpha_cutoff);
+  if (m.opacity_map.used()) *out.mutable_opacity_map() = encode_texture_ref(m.opacity_map);
   return out;
 }
 
@@ -837,6 +843,14 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.specular = *specular;
     m.exponent = in.exponent();
     if (in.has_normal_scale()) m.normal_scale = in.normal_scale();
+    if (!v1::Material::AlphaMode_IsValid(in.alpha_mode())) {
+      return invalid(
+          join_field(field, "alpha_mode"),
+          absl::StrCat(in.alpha_mode(), " is not an alpha mode (OPAQUE, MASK or BLEND)"));
+    }
+    m.alpha_mode = static_cast<AlphaMode>(in.alpha_mode());
+    if (in.has_opacity()) m.opacity = in.opacity();
+    if (in.has_alpha_cutoff()) m.alpha_cutoff = in.alpha_cutoff();
     for (const auto& [map, name, has, get] :
          {std::tuple{&m.color_map, "color_map", &v1::Material::has_color_map,
                      &v1::Material::color_map},
@@ -846,7 +860,9 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
                      &v1::Material::has_metallic_roughness_map,
                      &v1::Material::metallic_roughness_map},
           std::tuple{&m.normal_map, "normal_map", &v1::Material::has_normal_map,
-                     &v1::Material::normal_map}}) {
+                     &v1::Material::normal_map},
+          std::tuple{&m.opacity_map, "opacity_map", &v1::Material::has_opacity_map,
+                     &v1::Material::opacity_map}}) {
       if (!(in.*has)()) continue;
       absl::StatusOr<TextureRef> ref =
           decode_texture_ref((in.*get)(), join_field(field, name), scene_.textures.size());

@@ -16,6 +16,7 @@
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/knn_estimate.h"
 #include "renderer/render/adaptive_seeds.h"
+#include "renderer/resident/cutouts.h"
 
 namespace caustica {
 namespace {
@@ -111,7 +112,7 @@ Buffer<GatherHit> trace_gather_rays(const Structure& structure, Backend& backend
       // A finished ray's segment is empty, so the structure answers it at once.
       ray[i] = alive[i] ? path[i].ray : Ray{path[i].ray.origin, path[i].ray.direction, 1.0f, 0.0f};
     });
-    trace_closest(backend, structure, ray, m, hit);
+    trace_closest_surfaces(backend, structure, scene, ray, m, hit);
     parallel_for(backend, "gather_ray_hits", m, [=] CAUSTICA_HD(size_t i) {
       if (!alive[i]) return;
       alive[i] = 0;
@@ -217,7 +218,7 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
                                  });
         });
   });
-  trace_any(backend, structure, shadow, m * slots, blocked.data());
+  trace_any_surfaces(backend, structure, scene, shadow, m * slots, blocked.data());
   Buffer<Vec3f> radiance(backend, m);
   Vec3f* out = radiance.data();
   const uint8_t* is_blocked = blocked.data();

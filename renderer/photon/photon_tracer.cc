@@ -13,6 +13,7 @@
 #include "renderer/medium/medium.h"
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/photon/differentials.h"
+#include "renderer/resident/cutouts.h"
 #include "renderer/resident/surface_bsdf.h"
 #include "renderer/scene/scene_limits.h"
 
@@ -488,7 +489,7 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
     const PhotonPathState* current = wave.data();
     parallel_for(backend, "photon_wave_rays", live,
                  [=] CAUSTICA_HD(size_t i) { ray[i] = current[i].ray; });
-    trace_closest(backend, structure, rays.data(), live, hits.data());
+    trace_closest_surfaces(backend, structure, in.scene, rays.data(), live, hits.data());
     PhotonPathState* state = wave.data();
     const Hit* hit = hits.data();
     uint8_t* on = goes_on.data();
@@ -508,8 +509,9 @@ void trace_photon_waves(Backend& backend, const Structure& structure,
 }
 
 // The paths one per thread (per worker on a GPU), each hit traced through the per-ray view.
-// kNormalMaps: surface_at's, since this kernel's registers are bounded for its occupancy.
-template <bool kDifferentials, bool kNormalMaps, typename Structure>
+// kSurfaceMaps: whether the scene has normal maps or cut-outs (surface_at's kNormalMaps and
+// closest_surface_hit's kCutouts), since this kernel's registers are bounded for its occupancy.
+template <bool kDifferentials, bool kSurfaceMaps, typename Structure>
 void trace_photons_per_thread(Backend& backend, const Structure& structure,
                               const PhotonPathInputs& in, uint32_t count, bool regenerate,
                               uint32_t workers, uint32_t* next) {
@@ -520,8 +522,8 @@ void trace_photons_per_thread(Backend& backend, const Structure& structure,
     // One loop over hits, not a loop over paths around a loop over hits, so that lanes whose paths
     // end do not wait at the inner loop's exit for the others.
     while (true) {
-      if (in.template bounce<kDifferentials, kNormalMaps>(p, closest_hit(structure, p.ray)))
-        continue;
+      const Hit hit = closest_surface_hit<kSurfaceMaps>(structure, in.scene, p.ray);
+      if (in.template bounce<kDifferentials, kSurfaceMaps>(p, hit)) continue;
       if (!regenerate) return;
       const uint32_t path = atomic_fetch_add(next, 1u);
       if (path >= count) return;
@@ -643,7 +645,7 @@ void trace_paths(Backend& backend, const Structure& structure, const PhotonPathI
       if (settings.ray_queues) {
         trace_photon_waves<kDifferentials>(backend, structure, in, count);
       } else {
-        if (in.scene.has_normal_maps) {
+        if (in.scene.has_normal_maps || in.scene.has_cutouts) {
           trace_photons_per_thread<kDifferentials, true>(backend, structure, in, count, regenerate,
                                                          workers, next);
         } else {

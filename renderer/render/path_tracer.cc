@@ -12,6 +12,7 @@
 #include "renderer/parallel/parallel_for.h"
 #include "renderer/render/visible_points.h"
 #include "renderer/render/whitted.h"
+#include "renderer/resident/cutouts.h"
 
 namespace caustica {
 namespace {
@@ -32,7 +33,8 @@ CAUSTICA_HDI Vec3f sample_area_light(const ResidentSceneView& scene, const Struc
   if (is_black(f)) return Vec3f(0.0f);
   const float light_pdf = area_light_pdf(scene, y.index, y.dist2, y.cos_light);
   if (!(light_pdf > 0.0f)) return Vec3f(0.0f);
-  if (any_hit(structure, shadow_ray(shadow_origin(y.wi), y.position, 1e-3f))) return Vec3f(0.0f);
+  if (surface_blocks(structure, scene, shadow_ray(shadow_origin(y.wi), y.position, 1e-3f)))
+    return Vec3f(0.0f);
   return y.radiance * transmittance_along(scene.media, medium, p, y.wi, sqrtf(y.dist2)) * f *
          (power_heuristic(light_pdf, pdf(y.wi)) / light_pdf);
 }
@@ -49,7 +51,8 @@ CAUSTICA_HDI Vec3f sample_environment(const ResidentSceneView& scene, const Stru
   const Vec3f f = value(e.direction);
   if (is_black(f)) return Vec3f(0.0f);
   const float dist = distance_to_outside(scene_radius);
-  if (any_hit(structure, shadow_ray(shadow_origin(e.direction), p + e.direction * dist, 0.0f)))
+  if (surface_blocks(structure, scene,
+                     shadow_ray(shadow_origin(e.direction), p + e.direction * dist, 0.0f)))
     return Vec3f(0.0f);
   return e.radiance * transmittance_along(scene.media, medium, p, e.direction, dist) * f *
          (power_heuristic(e.pdf, pdf(e.direction)) / e.pdf);
@@ -84,7 +87,7 @@ CAUSTICA_HDI Vec3f scattered_light(const ResidentSceneView& scene, const Structu
     const DeviceLight& l = scene.lights[i];
     const WayToLight way = way_to_light(l, x, scene_radius);
     if (!(way.scale > 0.0f)) continue;
-    if (any_hit(structure, shadow_ray(x, way.light_point, 1e-3f))) continue;
+    if (surface_blocks(structure, scene, shadow_ray(x, way.light_point, 1e-3f))) continue;
     sum += l.color * transmittance_along(scene.media, medium, x, way.wi, way.dist) *
            (henyey_greenstein(dot(way.wi, travel), g) * way.scale);
   }
@@ -114,7 +117,7 @@ CAUSTICA_HDI Vec3f trace_path(const ResidentSceneView& scene, const Structure& s
   // The camera stands outside every shape: in the scene-wide medium, where there is one.
   uint32_t medium = scene.media.scene_medium;
   for (uint32_t bounce = 0; bounce < kPathSafetyBounces; ++bounce) {
-    const Hit hit = closest_hit(structure, ray);
+    const Hit hit = closest_surface_hit(structure, scene, ray);
     if (medium != kVacuum) {
       // A collision before the surface scatters the path there instead.
       const DeviceMedium& md = scene.media.media[medium];

@@ -145,7 +145,7 @@ void trace_chains_through(const Structure& structure, Backend& backend,
       return direct_light_traced(scene, structure, sh.position, sh.geometric_normal, reflection,
                                  cfg.area_light_samples, scene_radius, s);
     };
-    while (chain_step(scene, closest_hit(structure, c.ray), cfg, c, point, direct)) {
+    while (chain_step(scene, closest_surface_hit(structure, scene, c.ray), cfg, c, point, direct)) {
     }
     points[pixel] = point;
     light[pixel] += c.light;
@@ -184,7 +184,7 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
     Ray* ray = rays.data();
     parallel_for(backend, "visible_point_rays", count,
                  [=] CAUSTICA_HD(size_t i) { ray[i] = chain[index[i]].ray; });
-    trace_closest(backend, structure, rays.data(), count, hits.data());
+    trace_closest_surfaces(backend, structure, scene, rays.data(), count, hits.data());
     shadow.resize_discard(count * slots);
     blocked.resize_discard(count * slots);
     const Hit* hit = hits.data();
@@ -204,7 +204,7 @@ void trace_chain_queues(const Structure& structure, Backend& backend,
                                                 });
                        });
     });
-    trace_any(backend, structure, shadow.data(), count * slots, blocked.data());
+    trace_any_surfaces(backend, structure, scene, shadow.data(), count * slots, blocked.data());
     const uint8_t* is_blocked = blocked.data();
     parallel_for(backend, "visible_point_step", count, [=] CAUSTICA_HD(size_t i) {
       const uint32_t pixel = index[i];

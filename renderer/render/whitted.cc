@@ -125,8 +125,9 @@ CAUSTICA_HDI void glossy_branch(const SurfaceBsdf& bsdf, const SurfaceHit& sh, V
 // it crosses. `light_samples`: the shadow rays each diffuse or glossy hit sends to area lights
 // (SurfaceReflection's). Without kMedia the scene has none, and the walk compiles to what it was
 // before media, registers and all; without kEnvironment, likewise for a scene without an
-// environment.
-template <bool kMedia, bool kEnvironment, typename Structure, typename OnDiffuse, typename OnBeam>
+// environment, and without kSurfaceMaps for a scene without normal maps and cut-outs.
+template <bool kMedia, bool kEnvironment, bool kSurfaceMaps, typename Structure, typename OnDiffuse,
+          typename OnBeam>
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
                                       uint32_t max_depth, float pixel_spread, float light_samples,
@@ -142,7 +143,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
   Vec3f emitted(0.0f);
   while (top > 0) {
     PendingRay pr = stack[--top];
-    Hit hit = first ? first_hit : closest_hit(structure, pr.ray);
+    Hit hit = first ? first_hit : closest_surface_hit<kSurfaceMaps>(structure, scene, pr.ray);
     if (kMedia && pr.medium != kVacuum) {
       const MediumSpan span =
           medium_span(scene.media, pr.medium, pr.ray.origin, pr.ray.direction, hit.t);
@@ -159,7 +160,7 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
             pr.throughput * environment_seen(scene, pr.ray.direction, pr.glossy_pdf, light_samples);
       continue;
     }
-    SurfaceHit sh = surface_at(scene, hit);
+    SurfaceHit sh = surface_at<kSurfaceMaps>(scene, hit);
     const DeviceMaterial& m = scene.materials[sh.material];
     Vec3f d = pr.ray.direction;
     auto spawn = [&](Vec3f dir, Vec3f throughput, uint64_t choice, float glossy_pdf) {
@@ -265,6 +266,16 @@ Buffer<Hit> trace_camera_rays(Backend& backend, const Structure& structure, cons
         return in.camera_ray(pixel, s).direction;
       },
       hits.data());
+  if (in.scene.has_cutouts) {
+    // The tiles' packets see every triangle; the rays that met a cut-out go on from there.
+    Buffer<Ray> rays(backend, in.pixels);
+    Ray* ray = rays.data();
+    parallel_for(backend, "cutout_camera_rays", in.pixels, [=] CAUSTICA_HD(size_t pixel) {
+      Sampler s(seed, in.camera.stream(pixel), pass);
+      ray[pixel] = in.camera_ray(pixel, s);
+    });
+    continue_through_cutouts(backend, structure, in.scene, rays.data(), in.pixels, hits.data());
+  }
   return hits;
 }
 
@@ -340,9 +351,9 @@ void gather_beams(Backend& backend, const PassInputs& in, const BeamRequest* req
 // request knows its pixel and its place in the pixel's path order. A pixel makes about one
 // request (1.1 in cornell-caustics); when a pass needs more room than it was given, the walks run
 // again with exactly enough (nothing they compute depends on what they wrote before). kMedia: the
-// scene has participating media, kEnvironment: an environment (launches of their own, so that
-// scenes without keep their registers).
-template <bool kMedia, bool kEnvironment, typename Structure>
+// scene has participating media, kEnvironment: an environment, kSurfaceMaps: normal maps or
+// cut-outs (launches of their own, so that scenes without keep their registers).
+template <bool kMedia, bool kEnvironment, bool kSurfaceMaps, typename Structure>
 SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                   const PassInputs& in, const Hit* primary) {
   SpecularPaths out = SpecularPaths::for_pixels(backend, in.pixels);
@@ -374,7 +385,7 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           Sampler s(in.cfg.seed, in.camera.stream(pixel), in.cfg.pass);
           Vec3f direct(0.0f);
           uint32_t made = 0, beams_made = 0;
-          Vec3f emitted = walk_specular_tree<kMedia, kEnvironment>(
+          Vec3f emitted = walk_specular_tree<kMedia, kEnvironment, kSurfaceMaps>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
               in.pixel_spread, float(in.cfg.area_light_samples),
               BranchRoulette(in.cfg, in.camera.stream(pixel)),
@@ -382,14 +393,14 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                   const SurfaceBsdf* bsdf, Vec3f wo) {
                 Vec3f weight = color;
                 if (bsdf == nullptr) {
-                  direct += throughput * direct_light<kEnvironment>(
+                  direct += throughput * direct_light<kEnvironment, kSurfaceMaps>(
                                              in.scene, structure, sh.position, n,
                                              sh.geometric_normal, color, in.cfg.area_light_samples,
                                              in.scene_radius, s, medium);
                 } else {
                   const SurfaceReflection r{*bsdf, wo, float(in.cfg.area_light_samples)};
                   direct +=
-                      throughput * direct_light_traced<kEnvironment>(
+                      throughput * direct_light_traced<kEnvironment, kSurfaceMaps>(
                                        in.scene, structure, sh.position, sh.geometric_normal, r,
                                        in.cfg.area_light_samples, in.scene_radius, s, medium);
                   weight = bsdf->base_albedo(wo);
@@ -606,7 +617,7 @@ Buffer<PathLeaf> trace_specular_waves(Backend& backend, const Structure& structu
     const PathRay* queued = wave.data();
     parallel_for(backend, "specular_wave_rays", count,
                  [=] CAUSTICA_HD(size_t i) { ray[i] = queued[i].ray; });
-    trace_closest(backend, structure, rays.data(), count, hits.data());
+    trace_closest_surfaces(backend, structure, in.scene, rays.data(), count, hits.data());
     wave_hits = hits.data();
   }
   Buffer<PathLeaf> all(backend, total_leaves);
@@ -754,7 +765,8 @@ SpecularPaths walk_specular_queues(Backend& backend, const Structure& structure,
   const DiffuseLeaves diffuse{leaf, diffuse_at, out.offsets.data(), slots, dimensions};
   (in.scene.has_environment ? queue_shadow_rays<true>
                             : queue_shadow_rays<false>)(backend, in, diffuse, requests, shadow);
-  trace_any(backend, structure, shadow_rays.data(), shadow_count, blocked.data());
+  trace_any_surfaces(backend, structure, in.scene, shadow_rays.data(), shadow_count,
+                     blocked.data());
   out.requests.resize_discard(requests);
   (in.scene.has_environment ? shade_shadow_rays<true>
                             : shade_shadow_rays<false>)(backend, in, diffuse, requests,
@@ -839,12 +851,17 @@ void render_pass_through(const Structure& structure, Backend& backend,
       if (settings.ray_queues) {
         paths = walk_specular_queues(backend, structure, in, primary.data());
       } else {
-        // Media bring the environment's code along: few scenes have them, fewer lack a sky then.
+        // Media bring the environment's and the surface maps' code along, and surface maps the
+        // environment's: few scenes have them, fewer lack a sky then.
+        const bool surface_maps = in.scene.has_normal_maps || in.scene.has_cutouts;
         paths = resident.has_media()
-                    ? walk_specular_paths<true, true>(backend, structure, in, primary.data())
+                    ? walk_specular_paths<true, true, true>(backend, structure, in, primary.data())
+                : surface_maps
+                    ? walk_specular_paths<false, true, true>(backend, structure, in, primary.data())
                 : in.scene.has_environment
-                    ? walk_specular_paths<false, true>(backend, structure, in, primary.data())
-                    : walk_specular_paths<false, false>(backend, structure, in, primary.data());
+                    ? walk_specular_paths<false, true, false>(backend, structure, in, primary.data())
+                    : walk_specular_paths<false, false, false>(backend, structure, in,
+                                                               primary.data());
       }
     } else {
       paths = walk_specular_queues(backend, structure, in, primary.data());

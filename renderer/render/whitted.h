@@ -10,6 +10,7 @@
 #include "renderer/photon/volume_map.h"
 #include "renderer/render/camera.h"
 #include "renderer/render/film.h"
+#include "renderer/resident/cutouts.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/resident/surface_bsdf.h"
 
@@ -276,23 +277,27 @@ CAUSTICA_HDI Vec3f reflected_at(const ResidentSceneView& scene, uint32_t sampled
 }
 
 // direct_light_by, each shadow ray traced on the spot through `structure` (a StructureView).
-template <bool kEnvironment = true, typename Structure, typename Reflection>
+// kCutouts: surface_blocks'.
+template <bool kEnvironment = true, bool kCutouts = true, typename Structure, typename Reflection>
 CAUSTICA_HDI Vec3f direct_light_traced(const ResidentSceneView& scene, const Structure& structure,
                                        Vec3f p, Vec3f geometric_normal,
                                        const Reflection& reflection, uint32_t area_samples,
                                        float scene_radius, Sampler& s, uint32_t medium = kVacuum) {
   return direct_light_by<kEnvironment>(
       scene, p, geometric_normal, reflection, area_samples, scene_radius, s,
-      [&](uint32_t, const Ray& shadow) { return !any_hit(structure, shadow); }, medium);
+      [&](uint32_t, const Ray& shadow) {
+        return !surface_blocks<kCutouts>(structure, scene, shadow);
+      },
+      medium);
 }
 
 // direct_light_with, each shadow ray traced on the spot through `structure` (a StructureView).
-template <bool kEnvironment = true, typename Structure>
+template <bool kEnvironment = true, bool kCutouts = true, typename Structure>
 CAUSTICA_HDI Vec3f direct_light(const ResidentSceneView& scene, const Structure& structure, Vec3f p,
                                 Vec3f normal, Vec3f geometric_normal, Vec3f albedo,
                                 uint32_t area_samples, float scene_radius, Sampler& s,
                                 uint32_t medium = kVacuum) {
-  return direct_light_traced<kEnvironment>(scene, structure, p, geometric_normal,
+  return direct_light_traced<kEnvironment, kCutouts>(scene, structure, p, geometric_normal,
                                            LambertReflection{albedo * kInvPi, normal}, area_samples,
                                            scene_radius, s, medium);
 }

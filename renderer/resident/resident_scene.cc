@@ -77,7 +77,8 @@ std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materi
         i < maps.size() ? maps[i] : ResidentScene::MaterialMaps{};
     out.push_back({m.type, m.color, m.ior, emitted_radiance(m), mine.color, mine.emission,
                    m.metallic, m.roughness, m.specular, m.exponent, mine.metallic_roughness,
-                   mine.normal, m.normal_scale});
+                   mine.normal, m.normal_scale, m.alpha_mode, m.opacity, m.alpha_cutoff,
+                   mine.opacity, mine.opacity_channel});
   }
   return out;
 }
@@ -194,6 +195,11 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   for (const Mesh& m : scene.meshes) any_uvs |= !m.uvs.empty();
   any_uvs = any_uvs && !maps.device.empty();
   if (any_uvs) corner_uvs.reserve(3 * n);
+  for (size_t i = 0; i < scene.materials.size(); ++i) {
+    const Material& m = scene.materials[i];
+    r.has_cutouts_ |= m.alpha_mode != AlphaMode::kOpaque &&
+                      (m.opacity < 1.0f || (any_uvs && r.material_maps_[i].opacity != kNoTexture));
+  }
   // Tangents only for a scene with a normal map to read and a mesh that brings them; the other
   // meshes' corners are zero, which says to derive the frame from the coordinates.
   std::vector<Vec4f> corner_tangents;
@@ -368,6 +374,15 @@ ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene
     if (m.type == MaterialType::kMetallicRoughness)
       material_maps_[i].metallic_roughness = add_map(m.metallic_roughness_map, false);
     material_maps_[i].normal = add_map(m.normal_map, false);
+    if (m.alpha_mode != AlphaMode::kOpaque && m.opacity_map.used() &&
+        m.opacity_map.texture < scene.textures.size()) {
+      // Alpha is linear in every chain, so an alpha map shares its image's colour chain (glTF's
+      // opacity is the base colour texture's alpha); a grey map is read linear.
+      const TextureImage& image = scene.textures[m.opacity_map.texture];
+      const bool alpha = image.decoded != nullptr && image.decoded->has_alpha;
+      material_maps_[i].opacity = add_map(m.opacity_map, alpha);
+      material_maps_[i].opacity_channel = alpha ? 3 : 0;
+    }
   }
   // The same maps over the host's copies, now that the chains no longer move.
   for (size_t i = 0; i < maps.device.size(); ++i) {
@@ -446,6 +461,7 @@ ResidentSceneView ResidentScene::view() const {
   v.has_environment = lighting_.environment && environment_.present;
   v.corner_tangents = corner_tangents_.empty() ? nullptr : corner_tangents_.data();
   v.has_normal_maps = !corner_uvs_.empty() && has_normal_maps();
+  v.has_cutouts = has_cutouts_;
   if (v.has_environment) {
     const EnvironmentImage& e = environment_;
     v.environment.image = {e.texels.data(), e.level.data(), 1, TextureWrap::kRepeat,

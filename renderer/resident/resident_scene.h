@@ -31,6 +31,12 @@ struct DeviceMaterial {
   uint32_t metallic_roughness_map;
   uint32_t normal_map;  // a tangent-space normal map (linear), or kNoTexture
   float normal_scale;
+  // Material's; opacity_channel is the map texel's channel that multiplies opacity: 3 (alpha)
+  // where the map's image has an alpha channel, else 0.
+  AlphaMode alpha_mode;
+  float opacity, alpha_cutoff;
+  uint32_t opacity_map;
+  uint32_t opacity_channel;
 };
 
 // A material's colour or emission map as kernels read it: the image's mip chain with the map's
@@ -112,6 +118,9 @@ struct ResidentSceneView {
   // Whether a material has a normal map that a triangle's texture coordinates can read: only then
   // does surface_at look for one.
   bool has_normal_maps;
+  // Whether a material lets rays through some of its surface (Material::has_cutouts): only then
+  // do the traces of cutouts.h look at what they hit.
+  bool has_cutouts;
   float total_power;  // sum over lights of average-channel power (W)
   float area_light_power;
   MediaView media;  // none when the scene has no participating media
@@ -306,7 +315,8 @@ class ResidentScene {
   // A material's maps: indices into texture_maps_, or kNoTexture.
   struct MaterialMaps {
     uint32_t color = kNoTexture, emission = kNoTexture, metallic_roughness = kNoTexture,
-             normal = kNoTexture;
+             normal = kNoTexture, opacity = kNoTexture;
+    uint32_t opacity_channel = 0;  // DeviceMaterial's
   };
 
   // The materials and every light as kernels read them: what a light change replaces as a whole.
@@ -370,6 +380,8 @@ class ResidentScene {
     return std::any_of(material_maps_.begin(), material_maps_.end(),
                        [](const MaterialMaps& m) { return m.normal != kNoTexture; });
   }
+  // Whether a material lets rays through (set by upload).
+  bool has_cutouts_ = false;
 
   Backend* backend_ = nullptr;
   // From emitting triangles, fixed with the geometry but for their colour, the emission of their

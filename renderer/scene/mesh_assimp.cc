@@ -205,6 +205,8 @@ class AssimpReader {
       m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
                                    {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
       m.normal_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_NORMALS});
+      m.opacity_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_OPACITY});
+      if (m.opacity_map.used()) m.alpha_mode = AlphaMode::kBlend;
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();

@@ -324,6 +324,22 @@ class GltfReader {
       m.normal_map = texture_ref(gltf.normalTexture.index, gltf.normalTexture.texCoord,
                                  gltf.normalTexture.extensions, m.name);
       if (m.normal_map.used()) m.normal_scale = float(gltf.normalTexture.scale);
+      // The base colour's alpha: its factor's fourth number times the texture's alpha channel.
+      if (gltf.alphaMode == "MASK") {
+        m.alpha_mode = AlphaMode::kMask;
+      } else if (gltf.alphaMode == "BLEND") {
+        m.alpha_mode = AlphaMode::kBlend;
+      } else if (gltf.alphaMode != "OPAQUE" && !gltf.alphaMode.empty()) {
+        return absl::InvalidArgumentError(absl::StrCat("material '", m.name, "': alphaMode '",
+                                                       gltf.alphaMode,
+                                                       "' is not OPAQUE, MASK or BLEND"));
+      }
+      if (m.alpha_mode != AlphaMode::kOpaque) {
+        const std::vector<double>& factor = gltf.pbrMetallicRoughness.baseColorFactor;
+        m.opacity = factor.size() >= 4 ? static_cast<float>(factor[3]) : 1.0f;
+        m.alpha_cutoff = static_cast<float>(gltf.alphaCutoff);
+        m.opacity_map = m.color_map;
+      }
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();

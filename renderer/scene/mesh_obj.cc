@@ -291,6 +291,10 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
     // `norm` names a tangent-space normal map; `bump`, a height map, is not read.
     m.normal_map = convert_map(materials[i].normal_texname, materials[i].normal_texopt, textures,
                                file.warnings);
+    // `map_d` dissolves the surface where it is dark: the chance that a ray stops there.
+    m.opacity_map =
+        convert_map(materials[i].alpha_texname, materials[i].alpha_texopt, textures, file.warnings);
+    if (m.opacity_map.used()) m.alpha_mode = AlphaMode::kBlend;
     file.materials.push_back(std::move(m));
   }
   file.textures = textures.take();

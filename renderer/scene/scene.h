@@ -31,6 +31,16 @@ enum class MaterialType : uint32_t {
 };
 inline constexpr MaterialType kLastMaterialType = MaterialType::kPhong;
 
+// How a surface's opacity applies (glTF's alphaMode): not at all, as a cut-out where it falls
+// below the material's cutoff, or as the chance that a ray stops there (stochastic
+// transparency, docs/materials.md, "Cut-outs and transparency").
+enum class AlphaMode : uint32_t {
+  kOpaque = 0,
+  kMask = 1,
+  kBlend = 2,
+};
+inline constexpr AlphaMode kLastAlphaMode = AlphaMode::kBlend;
+
 // No texture: a TextureRef's `texture` when the material's factor stands alone.
 inline constexpr uint32_t kNoTexture = 0xffffffffu;
 
@@ -40,6 +50,7 @@ struct DecodedImage {
   uint32_t width = 0, height = 0;
   std::vector<uint8_t> rgba8;
   std::vector<float> rgba32f;
+  bool has_alpha = false;  // whether the file stored an alpha channel (else alpha is 1)
   bool is_float() const { return !rgba32f.empty(); }
   size_t bytes() const { return rgba8.size() + rgba32f.size() * sizeof(float); }
 };
@@ -93,19 +104,32 @@ struct Material {
   // u and y up its image (docs/materials.md, "Normal maps").
   TextureRef normal_map;
   float normal_scale = 1.0f;
+  // Opacity in [0, 1] (glTF's base colour alpha, MTL's map_d), times its map's alpha channel
+  // where the map's image has one, else its first (a grey dissolve map), applied as
+  // `alpha_mode` says; a mask cuts out where it is below `alpha_cutoff`. Any type may have it.
+  AlphaMode alpha_mode = AlphaMode::kOpaque;
+  float opacity = 1.0f;
+  float alpha_cutoff = 0.5f;
+  TextureRef opacity_map;
 
   // Every map with its field's name, for what treats them alike.
-  std::array<std::pair<TextureRef*, const char*>, 4> maps() {
+  std::array<std::pair<TextureRef*, const char*>, 5> maps() {
     return {{{&color_map, "color_map"},
              {&emission_map, "emission_map"},
              {&metallic_roughness_map, "metallic_roughness_map"},
-             {&normal_map, "normal_map"}}};
+             {&normal_map, "normal_map"},
+             {&opacity_map, "opacity_map"}}};
   }
-  std::array<std::pair<const TextureRef*, const char*>, 4> maps() const {
+  std::array<std::pair<const TextureRef*, const char*>, 5> maps() const {
     return {{{&color_map, "color_map"},
              {&emission_map, "emission_map"},
              {&metallic_roughness_map, "metallic_roughness_map"},
-             {&normal_map, "normal_map"}}};
+             {&normal_map, "normal_map"},
+             {&opacity_map, "opacity_map"}}};
+  }
+  // Whether a ray may pass through some of the surface.
+  bool has_cutouts() const {
+    return alpha_mode != AlphaMode::kOpaque && (opacity < 1.0f || opacity_map.used());
   }
 };
 

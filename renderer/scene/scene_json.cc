@@ -356,6 +356,16 @@ class SceneReader {
     SCENE_ASSIGN_OR_RETURN(material.emission_map, read_map(object, "emission_map"));
     SCENE_ASSIGN_OR_RETURN(material.normal_map, read_map(object, "normal_map"));
     SCENE_RETURN_IF_ERROR(object.read("normal_scale", kOptional, &material.normal_scale));
+    if (object.has("alpha_mode")) {
+      SCENE_RETURN_IF_ERROR(read_choice(object, "alpha_mode", "alpha mode",
+                                        {std::pair{"opaque", AlphaMode::kOpaque},
+                                         {"mask", AlphaMode::kMask},
+                                         {"blend", AlphaMode::kBlend}},
+                                        &material.alpha_mode));
+    }
+    SCENE_RETURN_IF_ERROR(object.read("opacity", kOptional, &material.opacity));
+    SCENE_RETURN_IF_ERROR(object.read("alpha_cutoff", kOptional, &material.alpha_cutoff));
+    SCENE_ASSIGN_OR_RETURN(material.opacity_map, read_map(object, "opacity_map"));
     SCENE_RETURN_IF_ERROR(object.finish());
     material_ids_[name] = static_cast<uint32_t>(scene_.materials.size());
     scene_.materials.push_back(std::move(material));

@@ -60,8 +60,9 @@ absl::StatusOr<DecodedImage> decode_png(absl::string_view bytes, absl::string_vi
     png_image_free(&image);
     return ok;
   }
-  image.format = PNG_FORMAT_RGBA;
   DecodedImage out;
+  out.has_alpha = (image.format & PNG_FORMAT_FLAG_ALPHA) != 0;
+  image.format = PNG_FORMAT_RGBA;
   out.width = image.width;
   out.height = image.height;
   out.rgba8.resize(PNG_IMAGE_SIZE(image));
@@ -164,6 +165,7 @@ absl::StatusOr<DecodedImage> decode_exr(absl::string_view bytes, absl::string_vi
     DecodedImage out;
     out.width = uint32_t(width);
     out.height = uint32_t(height);
+    out.has_alpha = (file.channels() & Imf::WRITE_A) != 0;
     out.rgba32f.resize(pixels.size() * 4);
     for (size_t i = 0; i < pixels.size(); ++i) {
       out.rgba32f[4 * i + 0] = float(pixels[i].r);
@@ -203,6 +205,7 @@ absl::StatusOr<DecodedImage> decode_stb(absl::string_view bytes, absl::string_vi
   }
   out.width = uint32_t(width);
   out.height = uint32_t(height);
+  out.has_alpha = channels == 2 || channels == 4;
   return out;
 }
 

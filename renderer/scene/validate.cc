@@ -168,6 +168,17 @@ absl::Status validate_material(const Material& m, size_t textures) {
                          absl::StrCat(m.normal_scale, " is not a number in [-", kMaxNormalScale,
                                       ", ", kMaxNormalScale, "]"));
   }
+  if (m.alpha_mode > kLastAlphaMode) {
+    return invalid_field(
+        absl::StrCat(field, ".alpha_mode"),
+        absl::StrCat(static_cast<uint32_t>(m.alpha_mode), " is not opaque, mask or blend"));
+  }
+  SCENE_RETURN_IF_ERROR(check_unit_interval(absl::StrCat(field, ".opacity"), m.opacity));
+  // glTF bounds the cutoff below only: above 1 cuts the whole surface out.
+  if (!(std::isfinite(m.alpha_cutoff) && m.alpha_cutoff >= 0)) {
+    return invalid_field(absl::StrCat(field, ".alpha_cutoff"),
+                         absl::StrCat(m.alpha_cutoff, " is not a number >= 0"));
+  }
   // Any kind may emit; an emissive material only emits.
   SCENE_RETURN_IF_ERROR(check_color(absl::StrCat(field, ".radiance"), m.radiance));
   switch (m.type) {

@@ -769,6 +769,11 @@ Scene with_textures() {
   red.metallic_roughness_map.wrap_u = TextureWrap::kClampToEdge;
   red.normal_map.texture = 0;
   red.normal_scale = 0.5f;
+  Material& fourth = scene.materials.at(3);
+  fourth.alpha_mode = AlphaMode::kMask;
+  fourth.alpha_cutoff = 0.25f;
+  fourth.opacity = 0.75f;
+  fourth.opacity_map.texture = 1;
   return scene;
 }
 
@@ -807,6 +812,15 @@ TEST(SceneWire, TexturesArriveByteForByteWithTheirMaps) {
   EXPECT_EQ(back->materials.at(2).normal_scale, 0.5f);
   EXPECT_FALSE(back->materials.at(0).normal_map.used());
   EXPECT_EQ(back->materials.at(0).normal_scale, 1.0f);
+  const Material& fourth = back->materials.at(3);
+  EXPECT_EQ(fourth.alpha_mode, AlphaMode::kMask);
+  EXPECT_EQ(fourth.alpha_cutoff, 0.25f);
+  EXPECT_EQ(fourth.opacity, 0.75f);
+  EXPECT_EQ(fourth.opacity_map.texture, 1u);
+  EXPECT_EQ(back->materials.at(0).alpha_mode, AlphaMode::kOpaque);
+  EXPECT_EQ(back->materials.at(0).opacity, 1.0f);
+  EXPECT_EQ(back->materials.at(0).alpha_cutoff, 0.5f);
+  EXPECT_FALSE(back->materials.at(0).opacity_map.used());
   EXPECT_TRUE(validate_scene(*back).ok());
 }
 
@@ -841,6 +855,17 @@ TEST(SceneWire, BadTexturesAreRefusedNamingTheirField) {
             static_cast<v1::TextureRef::Wrap>(7));
       },
       "materials[0].color_map.wrap_u: 7 is not a wrap mode");
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_materials(3)->set_alpha_mode(
+            static_cast<v1::Material::AlphaMode>(5));
+      },
+      "materials[3].alpha_mode: 5 is not an alpha mode");
+  fails_with(
+      [&](auto& c) {
+        c[0].mutable_header()->mutable_materials(3)->mutable_opacity_map()->set_texture(9);
+      },
+      "materials[3].opacity_map.texture: 9 names no texture");
   fails_with(
       [&](auto& c) {
         c[0].mutable_header()->mutable_materials(1)->mutable_emission_map()->set_scale_v(

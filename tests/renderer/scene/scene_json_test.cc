@@ -348,6 +348,54 @@ TEST(ParseScene, AnyMaterialNamesANormalMap) {
   EXPECT_THAT(message_of(huge.status()), HasSubstr("materials.bumpy.normal_scale"));
 }
 
+TEST(ParseScene, AnyMaterialMayBeCutOutOrBlended) {
+  auto scene_with = [](const std::string& material) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"leaf": )" +
+                           material + R"(},
+      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+      "shapes": [{"type": "quad", "material": "leaf",
+                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+    })",
+                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
+  };
+  const absl::StatusOr<Scene> masked = scene_with(
+      R"({"type": "diffuse", "albedo": [1, 1, 1], "alpha_mode": "mask", "alpha_cutoff": 0.25,
+          "opacity_map": "CesiumLogoFlat.png"})");
+  ASSERT_TRUE(masked.ok()) << masked.status();
+  const Material& m = masked->materials.at(0);
+  EXPECT_EQ(m.alpha_mode, AlphaMode::kMask);
+  EXPECT_EQ(m.alpha_cutoff, 0.25f);
+  EXPECT_EQ(m.opacity, 1.0f);
+  EXPECT_EQ(m.opacity_map.texture, 0u);
+  EXPECT_TRUE(m.has_cutouts());
+  const absl::StatusOr<Scene> blended =
+      scene_with(R"({"type": "mirror", "reflectance": [1, 1, 1], "alpha_mode": "blend",
+                     "opacity": 0.3})");
+  ASSERT_TRUE(blended.ok()) << blended.status();
+  EXPECT_EQ(blended->materials.at(0).alpha_mode, AlphaMode::kBlend);
+  EXPECT_EQ(blended->materials.at(0).opacity, 0.3f);
+  // Opacity without a mode that applies it cuts nothing out.
+  const absl::StatusOr<Scene> opaque =
+      scene_with(R"({"type": "diffuse", "albedo": [1, 1, 1], "opacity": 0.3})");
+  ASSERT_TRUE(opaque.ok()) << opaque.status();
+  EXPECT_FALSE(opaque->materials.at(0).has_cutouts());
+  for (const auto& [material, field] :
+       {std::pair{R"({"type": "diffuse", "albedo": [1, 1, 1], "alpha_mode": "dither"})",
+                  "materials.leaf.alpha_mode"},
+        {R"({"type": "diffuse", "albedo": [1, 1, 1], "alpha_mode": "blend", "opacity": 1.5})",
+         "materials.leaf.opacity"},
+        {R"({"type": "diffuse", "albedo": [1, 1, 1], "alpha_mode": "mask", "alpha_cutoff": -1})",
+         "materials.leaf.alpha_cutoff"},
+        {R"({"type": "diffuse", "albedo": [1, 1, 1], "opacity_map": "missing.png"})",
+         "materials.leaf.opacity_map"}}) {
+    const absl::StatusOr<Scene> bad = scene_with(material);
+    ASSERT_FALSE(bad.ok()) << material;
+    EXPECT_THAT(message_of(bad.status()), HasSubstr(field));
+  }
+}
+
 // A scene whose materials are `materials` (the text of the "materials" object), one quad of the
 // first, lit by a point light.
 absl::StatusOr<Scene> scene_with_materials(const std::string& materials, const std::string& first) {

@@ -68,6 +68,29 @@ TEST(TextureDecode, ThePngOfTheGltfSampleMatchesStbImage) {
   ASSERT_EQ(reference.size(), image->rgba8.size());
   EXPECT_EQ(image->rgba8, reference);
   for (size_t i = 3; i < image->rgba8.size(); i += 4) ASSERT_EQ(image->rgba8[i], 255);
+  EXPECT_FALSE(image->has_alpha);
+}
+
+TEST(TextureDecode, APngWithAlphaSaysSoAndKeepsItsAlphaAsStbImageReadsIt) {
+  // ClearCoatTest's PartialCoating_Alpha.png: IHDR colour type 6 (RGBA), coverage in alpha; its
+  // PartialCoating.png beside it is type 2 (RGB).
+  const std::string png = thirdparty("gltf2/ClearCoat/PartialCoating_Alpha.png");
+  const absl::StatusOr<DecodedImage> image = decode_image(png, "PartialCoating_Alpha.png");
+  ASSERT_TRUE(image.ok()) << image.status();
+  EXPECT_TRUE(image->has_alpha);
+  int width = 0, height = 0;
+  EXPECT_EQ(image->rgba8, stb_rgba(png, &width, &height));
+  size_t clear = 0, covered = 0;
+  for (size_t i = 3; i < image->rgba8.size(); i += 4) {
+    clear += image->rgba8[i] < 128;
+    covered += image->rgba8[i] >= 128;
+  }
+  EXPECT_GT(clear, 0u);
+  EXPECT_GT(covered, 0u);
+  const absl::StatusOr<DecodedImage> rgb =
+      decode_image(thirdparty("gltf2/ClearCoat/PartialCoating.png"), "PartialCoating.png");
+  ASSERT_TRUE(rgb.ok()) << rgb.status();
+  EXPECT_FALSE(rgb->has_alpha);
 }
 
 TEST(TextureDecode, TheJpegsOfAnObjModelMatchStbImageWithinRounding) {

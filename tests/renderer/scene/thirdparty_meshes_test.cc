@@ -254,6 +254,32 @@ TEST(ThirdPartyGltf, CesiumBoxCarriesItsBaseColourTextureAndSampler) {
   EXPECT_EQ(file->meshes[0].uvs.size(), file->meshes[0].positions.size());
 }
 
+TEST(ThirdPartyGltf, ClearCoatTestsPartialCoatingBlendsByItsBaseColoursAlpha) {
+  // ClearCoatTest's "Partial_Coating": "alphaMode": "BLEND", no alphaCutoff and no
+  // baseColorFactor, its baseColorTexture texture 1, image PartialCoating_Alpha.png. Every other
+  // material names no alphaMode.
+  const absl::StatusOr<MeshFile> file = load("gltf2/ClearCoat/ClearCoatTest.gltf");
+  ASSERT_TRUE(file.ok()) << file.status();
+  int blended = 0;
+  for (const Material& m : file->materials) {
+    SCOPED_TRACE(m.name);
+    if (m.name != "Partial_Coating") {
+      EXPECT_EQ(m.alpha_mode, AlphaMode::kOpaque);
+      EXPECT_FALSE(m.has_cutouts());
+      continue;
+    }
+    ++blended;
+    EXPECT_EQ(m.alpha_mode, AlphaMode::kBlend);
+    EXPECT_EQ(m.opacity, 1.0f);
+    EXPECT_EQ(m.alpha_cutoff, 0.5f);
+    ASSERT_TRUE(m.opacity_map.used());
+    EXPECT_EQ(m.opacity_map.texture, m.color_map.texture);
+    EXPECT_EQ(file->textures.at(m.opacity_map.texture).name, "PartialCoating_Alpha.png");
+    EXPECT_TRUE(m.has_cutouts());
+  }
+  EXPECT_EQ(blended, 1);
+}
+
 TEST(ThirdPartyGltf, UnityCubeMaterialKeepsItsFactors) {
   // "baseColorFactor": [0.6038274, 0.6038274, 0.6038274, 1.0], "metallicFactor": 0.0,
   // "roughnessFactor": 0.5.
