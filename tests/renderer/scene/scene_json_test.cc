@@ -296,20 +296,23 @@ TEST(ParseScene, MaterialsNameImageFilesAsMaps) {
               HasSubstr("materials.logo.color_map.wrap: unknown wrap 'tile'"));
 }
 
+// A scene of one quad of material `name`, whose JSON is `material`, beside the Cesium box's
+// texture (CesiumLogoFlat.png), lit by a point light.
+absl::StatusOr<Scene> scene_beside_logo(const std::string& name, const std::string& material) {
+  return parse_scene(R"({
+    "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
+    "materials": {")" + name + R"(": )" + material + R"(},
+    "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
+    "shapes": [{"type": "quad", "material": ")" + name + R"(",
+                "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
+  })",
+                     scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
+}
+
 // A metallic-roughness material names its metalness and roughness map as the others name theirs;
 // another kind has no such key.
 TEST(ParseScene, AMetallicRoughnessMaterialNamesItsMap) {
-  auto scene_with = [](const std::string& material) {
-    return parse_scene(R"({
-      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
-      "materials": {"steel": )" +
-                           material + R"(},
-      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
-      "shapes": [{"type": "quad", "material": "steel",
-                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
-    })",
-                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
-  };
+  auto scene_with = [](const std::string& material) { return scene_beside_logo("steel", material); };
   const absl::StatusOr<Scene> scene = scene_with(
       R"({"type": "metallic_roughness", "metallic_roughness_map": "CesiumLogoFlat.png"})");
   ASSERT_TRUE(scene.ok()) << scene.status();
@@ -324,17 +327,7 @@ TEST(ParseScene, AMetallicRoughnessMaterialNamesItsMap) {
 // Any material names a normal map and its scale; a scale that is no number of reason is refused
 // by name.
 TEST(ParseScene, AnyMaterialNamesANormalMap) {
-  auto scene_with = [](const std::string& material) {
-    return parse_scene(R"({
-      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
-      "materials": {"bumpy": )" +
-                           material + R"(},
-      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
-      "shapes": [{"type": "quad", "material": "bumpy",
-                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
-    })",
-                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
-  };
+  auto scene_with = [](const std::string& material) { return scene_beside_logo("bumpy", material); };
   const absl::StatusOr<Scene> scene = scene_with(
       R"({"type": "diffuse", "albedo": [1, 1, 1], "normal_map": "CesiumLogoFlat.png",
           "normal_scale": 0.5})");
@@ -349,17 +342,7 @@ TEST(ParseScene, AnyMaterialNamesANormalMap) {
 }
 
 TEST(ParseScene, AnyMaterialMayBeCutOutOrBlended) {
-  auto scene_with = [](const std::string& material) {
-    return parse_scene(R"({
-      "camera": {"position": [0, 1, -5], "look_at": [0, 1, 0], "fov": 45, "width": 8, "height": 8},
-      "materials": {"leaf": )" +
-                           material + R"(},
-      "lights": [{"type": "point", "position": [0, 3, 0], "intensity": [1, 1, 1]}],
-      "shapes": [{"type": "quad", "material": "leaf",
-                  "vertices": [[-1, 0, -1], [-1, 0, 1], [1, 0, 1], [1, 0, -1]]}]
-    })",
-                       scene_data("thirdparty/gltf2/BoxTextured"), "inline.json");
-  };
+  auto scene_with = [](const std::string& material) { return scene_beside_logo("leaf", material); };
   const absl::StatusOr<Scene> masked = scene_with(
       R"({"type": "diffuse", "albedo": [1, 1, 1], "alpha_mode": "mask", "alpha_cutoff": 0.25,
           "opacity_map": "CesiumLogoFlat.png"})");
