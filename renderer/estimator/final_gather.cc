@@ -209,7 +209,7 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     Sampler s = direct_sampler(i);
     Vec3f weight;
     (void)reflected_at(
-        scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
+        scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, 0.0f, weight,
         [&](const auto& reflection) {
           return direct_light_by(scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
                                  s, [&](uint32_t slot, const Ray& r) {
@@ -232,8 +232,8 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     const uint8_t* mine = is_blocked + i * slots;
     Vec3f weight;
     out[i] = h.throughput *
-             reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
-                          [&](const auto& reflection) {
+             reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, 0.0f,
+                          weight, [&](const auto& reflection) {
                             return direct_light_by(
                                 scene, h.position, h.geometric_normal, reflection, 1, scene_radius,
                                 s, [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });
@@ -254,8 +254,8 @@ Buffer<Vec3f> gather_ray_radiance(const Structure& structure, Backend& backend,
     const uint32_t i = index[j];
     const GatherHit& h = hit[i];
     Vec3f weight;
-    (void)reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, weight,
-                       [](const auto&) { return Vec3f(0.0f); });
+    (void)reflected_at(scene, h.sampled, h.albedo, h.metal_rough, h.normal, h.wo, 0.0f, 0.0f,
+                       weight, [](const auto&) { return Vec3f(0.0f); });
     request[j] = {h.position, h.normal, h.throughput * weight, i / per_seed, i % per_seed};
   });
   const size_t seeds = m / per_seed;

@@ -40,7 +40,7 @@ void SppmEstimator::render(Backend& backend, const ResidentScene& scene,
   }
   trace_visible_points(backend, scene, camera,
                        {shading.max_depth, shading.area_light_samples, shading.seed, shading.pass,
-                        shading.ray_queues},
+                        shading.ray_queues, shading.near_specular_alpha},
                        points_.data(), light_.data());
   SppmGather gather;
   gather.alpha = options_.sppm_alpha;

@@ -62,8 +62,10 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
   if (is_sampled_model(m)) {
     const SurfaceBsdf bsdf = SurfaceBsdf::at_hit(scene, m, hit, sh, d, 0.0f, Transport::kRadiance);
     const Vec3f wo = -d;
-    c.light +=
-        c.throughput * direct(sh, SurfaceReflection{bsdf, wo, float(cfg.area_light_samples)}, c.s);
+    c.light += c.throughput * direct(sh,
+                                     reflection_on_path(bsdf, wo, float(cfg.area_light_samples),
+                                                        cfg.near_specular_alpha),
+                                     c.s);
     // One point a pixel: the base's, with the probability of its share of what this hit reflects,
     // or else the chain goes on along the glossy lobes' direction. The share may depend on the
     // direction drawn, which is drawn first.
@@ -82,7 +84,7 @@ CAUSTICA_HDI bool chain_step(const ResidentSceneView& scene, const Hit& hit,
     if ((dot(g.wi, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits)
       return false;
     c.throughput *= g.weight / (1.0f - stop);
-    c.glossy_pdf = g.pdf;
+    c.glossy_pdf = continuation_pdf(bsdf, g.pdf, cfg.near_specular_alpha);
     next = g.wi;
   } else {
     switch (m.type) {

@@ -12,6 +12,7 @@
 #include "renderer/photon/sppm.h"
 #include "renderer/render/camera.h"
 #include "renderer/resident/resident_scene.h"
+#include "renderer/resident/surface_bsdf.h"
 
 namespace caustica {
 
@@ -23,6 +24,8 @@ struct VisiblePointSettings {
   // Trace the chains as ray queues (batches of closest and any hits) even where the structure
   // answers single rays; structures that answer batches only always do. The points are the same.
   bool ray_queues = false;
+  // ShadingSettings::near_specular_alpha.
+  float near_specular_alpha = kNearSpecularAlpha;
 };
 
 // Each pixel's visible point (photon/sppm.h) of pass `settings.pass` into `points`, and the emitted

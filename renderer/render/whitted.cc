@@ -99,19 +99,21 @@ CAUSTICA_HDI void specular_branches(const DeviceMaterial& m, Vec3f color, const 
 
 // The branch a hit on a sampled model (surface_bsdf.h) spawns: one direction from its glossy lobes,
 // drawn by the branch's own numbers, spawn(direction, throughput, choice, density) with choice 1
-// for a transmission. A direction on the wrong side of the triangle itself (a shading normal tilted
-// from the geometric one) would leak through it and is dropped.
+// for a transmission and the density continuation_pdf's. A direction on the wrong side of the
+// triangle itself (a shading normal tilted from the geometric one) would leak through it and is
+// dropped.
 template <typename Spawn>
 CAUSTICA_HDI void glossy_branch(const SurfaceBsdf& bsdf, const SurfaceHit& sh, Vec3f d,
                                 Vec3f throughput, const BranchRoulette& roulette, uint64_t branch,
-                                uint32_t depth, Spawn spawn) {
+                                uint32_t depth, float near_specular_alpha, Spawn spawn) {
   const SurfaceSample g =
       bsdf.sample_glossy(-d, roulette.uniform(branch, depth, 0), roulette.uniform(branch, depth, 1),
                          roulette.uniform(branch, depth, 2));
   if (!g.valid()) return;
   const bool transmits = (g.flags & kBsdfTransmission) != 0;
   if ((dot(g.wi, sh.geometric_normal) * dot(d, sh.geometric_normal) < 0.0f) == transmits) return;
-  spawn(g.wi, throughput * g.weight, transmits ? uint64_t(1) : uint64_t(0), g.pdf);
+  spawn(g.wi, throughput * g.weight, transmits ? uint64_t(1) : uint64_t(0),
+        continuation_pdf(bsdf, g.pdf, near_specular_alpha));
 }
 
 // Follows the specular tree of one camera ray depth-first (each dielectric hit adds at most one
@@ -131,8 +133,8 @@ template <bool kMedia, bool kEnvironment, bool kSurfaceMaps, typename Structure,
 CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Structure& structure,
                                       const Ray& camera_ray, const Hit& first_hit,
                                       uint32_t max_depth, float pixel_spread, float light_samples,
-                                      const BranchRoulette& roulette, OnDiffuse on_diffuse,
-                                      OnBeam on_beam) {
+                                      float near_specular_alpha, const BranchRoulette& roulette,
+                                      OnDiffuse on_diffuse, OnBeam on_beam) {
   PendingStack pending;
   PendingRay* stack = pending.item;
   int top = 0;
@@ -187,7 +189,8 @@ CAUSTICA_HDI Vec3f walk_specular_tree(const ResidentSceneView& scene, const Stru
           SurfaceBsdf::at_hit(scene, m, hit, sh, d, cone, Transport::kRadiance);
       on_diffuse(sh, bsdf.normal(), bsdf.color, pr.throughput, kMedia ? pr.medium : kVacuum, &bsdf,
                  -d);
-      glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
+      glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, near_specular_alpha,
+                    spawn);
       continue;
     }
     switch (m.type) {
@@ -387,7 +390,7 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
           uint32_t made = 0, beams_made = 0;
           Vec3f emitted = walk_specular_tree<kMedia, kEnvironment, kSurfaceMaps>(
               in.scene, structure, in.camera_ray(pixel, s), primary[pixel], in.max_depth,
-              in.pixel_spread, float(in.cfg.area_light_samples),
+              in.pixel_spread, float(in.cfg.area_light_samples), in.cfg.near_specular_alpha,
               BranchRoulette(in.cfg, in.camera.stream(pixel)),
               [&](const SurfaceHit& sh, Vec3f n, Vec3f color, Vec3f throughput, uint32_t medium,
                   const SurfaceBsdf* bsdf, Vec3f wo) {
@@ -398,7 +401,8 @@ SpecularPaths walk_specular_paths(Backend& backend, const Structure& structure,
                                              sh.geometric_normal, color, in.cfg.area_light_samples,
                                              in.scene_radius, s, medium);
                 } else {
-                  const SurfaceReflection r{*bsdf, wo, float(in.cfg.area_light_samples)};
+                  const SurfaceReflection r = reflection_on_path(
+                      *bsdf, wo, float(in.cfg.area_light_samples), in.cfg.near_specular_alpha);
                   direct +=
                       throughput * direct_light_traced<kEnvironment, kSurfaceMaps>(
                                        in.scene, structure, sh.position, sh.geometric_normal, r,
@@ -471,10 +475,11 @@ struct PathLeaf {
 
   // The leaf's direct light by reflected_at, and the weight of its gather request.
   template <typename Direct>
-  CAUSTICA_HDI Vec3f reflected(const ResidentSceneView& scene, float light_samples, Vec3f& weight,
-                               Direct direct) const {
-    const Vec3f light = reflected_at(scene, sampled, albedo, metal_rough, normal, wo, light_samples,
-                                     weight, direct);
+  CAUSTICA_HDI Vec3f reflected(const ShadingSettings& cfg, const ResidentSceneView& scene,
+                               Vec3f& weight, Direct direct) const {
+    const Vec3f light =
+        reflected_at(scene, sampled, albedo, metal_rough, normal, wo, float(cfg.area_light_samples),
+                     cfg.near_specular_alpha, weight, direct);
     weight = throughput * weight;
     return light;
   }
@@ -550,7 +555,8 @@ void shade_wave(Backend& backend, const PassInputs& in, const PathRay* wave, con
         color = bsdf.color;
         material = sh.material;
         metal_rough = Vec2f{bsdf.metallic, bsdf.roughness};
-        glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth, spawn);
+        glossy_branch(bsdf, sh, d, pr.throughput, roulette, pr.branch, pr.depth,
+                      in.cfg.near_specular_alpha, spawn);
       } else {
         n = dot(d, sh.shading_normal) < 0.0f ? sh.shading_normal : -sh.shading_normal;
         color = surface_color(in.scene, m, hit, d, cone);
@@ -688,7 +694,7 @@ void queue_shadow_rays(Backend& backend, const PassInputs& in, const DiffuseLeav
     Sampler s = diffuse.sampler(in, uint32_t(r), l);
     Vec3f weight;
     (void)l.reflected(
-        in.scene, float(in.cfg.area_light_samples), weight, [&](const auto& reflection) {
+        in.cfg, in.scene, weight, [&](const auto& reflection) {
           return direct_light_by<kEnvironment>(in.scene, l.position, l.geometric_normal, reflection,
                                                in.cfg.area_light_samples, in.scene_radius, s,
                                                [&](uint32_t slot, const Ray& ray) {
@@ -709,8 +715,8 @@ void shade_shadow_rays(Backend& backend, const PassInputs& in, const DiffuseLeav
     const uint8_t* mine = is_blocked + r * diffuse.slots;
     Sampler s = diffuse.sampler(in, uint32_t(r), l);
     Vec3f weight;
-    l.value += l.reflected(
-        in.scene, float(in.cfg.area_light_samples), weight, [&](const auto& reflection) {
+    l.value +=
+        l.reflected(in.cfg, in.scene, weight, [&](const auto& reflection) {
           return direct_light_by<kEnvironment>(
               in.scene, l.position, l.geometric_normal, reflection, in.cfg.area_light_samples,
               in.scene_radius, s, [&](uint32_t slot, const Ray&) { return mine[slot] == 0; });

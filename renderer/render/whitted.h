@@ -48,6 +48,10 @@ struct ShadingSettings {
   // lossless branches to the depth cap, 0 ends every branch at kBranchRouletteFrom. A tuning knob
   // of the benchmark's.
   float branch_survival = kBranchSurvival;
+  // The GGX alpha below which a glossy lobe is near-specular (kNearSpecularAlpha): its light from
+  // area lights and the environment comes from the pixel's branch alone. 0 sends shadow rays
+  // through every lobe, as the image converges to the same either way; a knob of the tests'.
+  float near_specular_alpha = kNearSpecularAlpha;
   // The pass's volume photon map, which camera rays through media gather from (the beam radiance
   // estimate); empty when the scene has no media.
   VolumeMapView volume{};
@@ -259,19 +263,22 @@ constexpr uint32_t kLambertHit = 0xffffffffu;
 // What a hit that waits for its direct light reflects: `direct(reflection)` given a
 // LambertReflection of `albedo` (a diffuse hit) or the SurfaceReflection of material `sampled` of
 // colour `albedo` and metalness and roughness `metal_rough` towards `wo`, whose frame's normal is
-// `normal` (its `light_samples` as SurfaceReflection's); `weight` gets what its gather request
-// weighs the photons' density by (albedo, or the base's albedo towards wo).
+// `normal` (reflection_on_path's with `light_samples` and `near_specular_alpha`; light_samples 0
+// where no path goes on); `weight` gets what its gather request weighs the photons' density by
+// (albedo, or the base's albedo towards wo).
 template <typename Direct>
 CAUSTICA_HDI Vec3f reflected_at(const ResidentSceneView& scene, uint32_t sampled, Vec3f albedo,
                                 Vec2f metal_rough, Vec3f normal, Vec3f wo, float light_samples,
-                                Vec3f& weight, Direct direct) {
+                                float near_specular_alpha, Vec3f& weight, Direct direct) {
   if (sampled == kLambertHit) {
     weight = albedo;
     return direct(LambertReflection{albedo * kInvPi, normal});
   }
-  const SurfaceReflection r{SurfaceBsdf::at(scene.materials[sampled], albedo, metal_rough, normal,
-                                            -wo, Transport::kRadiance),
-                            wo, light_samples};
+  const SurfaceBsdf bsdf = SurfaceBsdf::at(scene.materials[sampled], albedo, metal_rough, normal,
+                                           -wo, Transport::kRadiance);
+  const SurfaceReflection r = light_samples > 0.0f
+                                  ? reflection_on_path(bsdf, wo, light_samples, near_specular_alpha)
+                                  : SurfaceReflection{bsdf, wo, 0.0f};
   weight = r.bsdf.base_albedo(wo);
   return direct(r);
 }

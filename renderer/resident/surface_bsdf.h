@@ -12,6 +12,11 @@
 
 namespace caustica {
 
+// The GGX alpha below which a camera path treats a glossy lobe as near-specular, as it treats a
+// mirror: the lobe's light from area lights and the environment comes from the path's own
+// continuation alone, without shadow rays (docs/materials.md, "Near-specular lobes").
+constexpr float kNearSpecularAlpha = 0.0625f;
+
 // Whether a material scatters through SurfaceBsdf rather than the first kinds' own code.
 CAUSTICA_HDI bool is_sampled_model(const DeviceMaterial& m) {
   return m.type == MaterialType::kMetallicRoughness || m.type == MaterialType::kPhong ||
@@ -178,6 +183,15 @@ struct SurfaceBsdf {
     }
   }
 
+  // The GGX alpha of the glossy lobes, or for Phong's cos^n lobe the alpha of the same width
+  // (Walter et al. 2007: n = 2 / alpha^2 - 2).
+  CAUSTICA_HDI float glossy_alpha() const {
+    if (type == MaterialType::kPhong) return sqrtf(2.0f / (exponent + 2.0f));
+    return roughness * roughness;
+  }
+  // Whether the glossy lobes are narrower than `threshold` (kNearSpecularAlpha by default).
+  CAUSTICA_HDI bool near_specular(float threshold) const { return glossy_alpha() < threshold; }
+
   // The diffuse base, f_base(wo, wi) = base_albedo(wo) base_in(wi) / pi: black for glass and for a
   // pure metal. Photons are stored with base_in of the way they came (photon_tracer.cc), so that
   // the density weighed by base_albedo(wo) is the base's reflected light.
@@ -233,25 +247,45 @@ struct LambertReflection {
 // and the glossy lobes weighed by the power heuristic against the path's own glossy continuation,
 // which may meet the same light (glossy_emission_weight); `light_samples` is how many shadow rays
 // the hit sends to area lights, or 0 where no path goes on (the glossy lobes' share then comes
-// from the shadow rays alone).
+// from the shadow rays alone). With `glossy_by_path`, a near-specular lobe's path goes on and
+// alone carries that share: the shadow rays see the base only, and a pure metal's none at all.
 struct SurfaceReflection {
   SurfaceBsdf bsdf;
   Vec3f wo;
   float light_samples;
+  bool glossy_by_path = false;
   CAUSTICA_HDI Vec3f delta(Vec3f wi) const {
     return bsdf.f(wo, wi) * fabsf(dot(bsdf.normal(), wi));
   }
   CAUSTICA_HDI Vec3f area(Vec3f wi, float light_pdf) const {
     const float c = fabsf(dot(bsdf.normal(), wi));
-    float glossy_share = 1.0f;
-    if (light_samples > 0.0f)
-      glossy_share = power_heuristic(light_samples * light_pdf, bsdf.glossy_pdf(wo, wi));
-    Vec3f f = bsdf.glossy_f(wo, wi) * glossy_share;
+    Vec3f f(0.0f);
+    if (!glossy_by_path) {
+      float glossy_share = 1.0f;
+      if (light_samples > 0.0f)
+        glossy_share = power_heuristic(light_samples * light_pdf, bsdf.glossy_pdf(wo, wi));
+      f = bsdf.glossy_f(wo, wi) * glossy_share;
+    }
     if (dot(bsdf.normal(), wi) > 0.0f && bsdf.type != MaterialType::kDielectric)
       f += bsdf.base_albedo(wo) * (bsdf.base_in(wi) * kInvPi);
     return f * c;
   }
 };
+
+// What a camera path's hit on a sampled model reflects of direct light while its path goes on
+// along the glossy lobes, with `light_samples` shadow rays to area lights: near-specular lobes
+// (below `near_specular_alpha`) left to the path alone.
+CAUSTICA_HDI SurfaceReflection reflection_on_path(const SurfaceBsdf& bsdf, Vec3f wo,
+                                                  float light_samples, float near_specular_alpha) {
+  return {bsdf, wo, light_samples, bsdf.near_specular(near_specular_alpha)};
+}
+
+// The density a camera path's glossy continuation drawn with density `pdf` carries to the MIS
+// weights of the lights it meets (glossy_emission_weight, environment_seen): 0 after a
+// near-specular lobe, whose hit sent no shadow rays that could have found them.
+CAUSTICA_HDI float continuation_pdf(const SurfaceBsdf& bsdf, float pdf, float near_specular_alpha) {
+  return bsdf.near_specular(near_specular_alpha) ? 0.0f : pdf;
+}
 
 // The solid-angle density with which a shadow ray chooses a direction that meets area light `a`
 // (an index into scene.area_lights) at squared distance `dist2` with cosine `cos_light` there.

@@ -23,6 +23,9 @@ struct GlossyPlane {
   MaterialType type;
   Vec3f color, specular;
   float metallic, roughness, exponent;
+  // Under a point light, the most a pixel's jittered samples may differ from the value at its
+  // centre: a narrower lobe curves more over a pixel.
+  float worst_pixel;
 
   void apply(Material& m) const {
     m.type = type;
@@ -41,9 +44,12 @@ struct GlossyPlane {
 
 const GlossyPlane kPlanes[] = {
     {"metallic-roughness", MaterialType::kMetallicRoughness, Vec3f(0.8f, 0.6f, 0.3f), Vec3f(0.0f),
-     0.6f, 0.45f, 0.0f},
+     0.6f, 0.45f, 0.0f, 0.06f},
     {"phong", MaterialType::kPhong, Vec3f(0.4f, 0.3f, 0.2f), Vec3f(0.3f, 0.4f, 0.5f), 0.0f, 0.0f,
-     15.0f},
+     15.0f, 0.06f},
+    // Below kNearSpecularAlpha: area lights reach its lobe by the camera path's branch alone.
+    {"near-specular metallic-roughness", MaterialType::kMetallicRoughness, Vec3f(0.9f, 0.7f, 0.5f),
+     Vec3f(0.0f), 0.5f, 0.2f, 0.0f, 0.2f},
 };
 
 const char* const kIntegrators[] = {R"({"photons": 20000})",
@@ -89,7 +95,7 @@ TEST(Glossy, APlaneUnderAPointLightReflectsWhatItsModelSays) {
       std::printf("%s plane under a point light, %s: worst pixel %.2f%%, mean %.4f of expected\n",
                   model.name, settings, 100 * worst, sum / sum_expected);
       EXPECT_NEAR(sum / sum_expected, 1.0, 0.005) << model.name << " " << settings;
-      EXPECT_LT(worst, 0.06) << model.name << " " << settings;
+      EXPECT_LT(worst, model.worst_pixel) << model.name << " " << settings;
     }
   }
 }
