@@ -102,9 +102,11 @@ bool has_no_highlight(int shading_model) {
 // factor, with its roughness (metallic-roughness); a specular colour with a shininess under a
 // shading model that has highlights (modified Phong); else the diffuse (or PBR base) colour.
 // Emission comes on top. Mirrors are not guessed: Assimp's reflectivity means different things per
-// format.
+// format. A 3DS file's emission is its self-illumination percentage (Assimp reads p% as grey
+// p/100), which in 3D Studio replaced a surface's shading by its own colour and lit nothing else:
+// such a file emits nothing (`self_illumination`), with a warning naming the material.
 Material convert_material(const aiMaterial& source, size_t index, const std::string& file_name,
-                          std::vector<std::string>* warnings) {
+                          bool self_illumination, std::vector<std::string>* warnings) {
   Material m;
   aiString name;
   m.name = source.Get(AI_MATKEY_NAME, name) == AI_SUCCESS && name.length > 0
@@ -122,6 +124,11 @@ Material convert_material(const aiMaterial& source, size_t index, const std::str
     float strength = 1;
     if (source.Get(AI_MATKEY_EMISSIVE_INTENSITY, strength) == AI_SUCCESS)
       emission = emission * strength;
+  }
+  if (self_illumination && !is_black(emission)) {
+    warnings->push_back(absl::StrCat(where, "3DS self-illumination ", emission.x * 100,
+                                     "% shades the surface and lights nothing; it emits nothing"));
+    emission = Vec3f(0);
   }
   float opacity = 1;
   source.Get(AI_MATKEY_OPACITY, opacity);
@@ -199,11 +206,14 @@ class AssimpReader {
   absl::StatusOr<MeshFile> read() {
     if (scene_.mRootNode == nullptr) return absl::InvalidArgumentError("the file has no nodes");
     for (unsigned i = 0; i < scene_.mNumMaterials; ++i) {
-      Material m = convert_material(*scene_.mMaterials[i], i, file_name_, &file_.warnings);
+      Material m = convert_material(*scene_.mMaterials[i], i, file_name_, is_3ds_, &file_.warnings);
       m.color_map = texture_map(*scene_.mMaterials[i], m.name,
                                 {aiTextureType_BASE_COLOR, aiTextureType_DIFFUSE});
-      m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
-                                   {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
+      // A 3DS self-illumination map, like its percentage, is shading, not light.
+      if (!is_3ds_) {
+        m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
+                                     {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
+      }
       m.normal_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_NORMALS});
       m.opacity_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_OPACITY});
       if (m.opacity_map.used()) m.alpha_mode = AlphaMode::kBlend;

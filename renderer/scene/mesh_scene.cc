@@ -225,8 +225,12 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
     scene.camera.up = {0, 1, 0};
     scene.camera.vertical_fov_deg = kInteriorFovDeg;
     if (warnings != nullptr) {
-      warnings->push_back(absl::StrCat(
-          source, ": the model encloses its centre; seen from there, with a light above it"));
+      // Says which light the view has: one added above the camera only where the file brings none.
+      const char* lit = !file.lights.empty() ? "lit by the file's own lights"
+                        : emits              ? "lit by the file's emitting surfaces alone"
+                                             : "with a light above it";
+      warnings->push_back(
+          absl::StrCat(source, ": the model encloses its centre; seen from there, ", lit));
     }
   } else {
     scene.camera = frame_bounds(bounds, Camera{});

@@ -279,5 +279,25 @@ TEST(BareMesh, AnInteriorIsSeenAndLitFromInside) {
   std::filesystem::remove_all(std::filesystem::temp_directory_path() / "caustica_interior_test");
 }
 
+// A room whose walls emit gets no light of its own, and its warning does not promise one.
+TEST(BareMesh, AnEmittingInteriorIsLitByItsOwnSurfaces) {
+  absl::StatusOr<MeshFile> file = load_mesh_file(write_box("glowing_room.obj", true));
+  ASSERT_TRUE(file.ok()) << file.status();
+  Material glow;
+  glow.name = "glow";
+  glow.radiance = Vec3f(1);
+  file->materials.push_back(glow);
+  for (Mesh& mesh : file->meshes) mesh.material_ids.assign(mesh.triangle_count(), 0);
+  std::vector<std::string> warnings;
+  const absl::StatusOr<Scene> room =
+      scene_around_mesh_file(*std::move(file), "glowing_room.obj", false, &warnings);
+  ASSERT_TRUE(room.ok()) << room.status();
+  EXPECT_TRUE(room->lights.empty());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_THAT(warnings[0], HasSubstr("encloses its centre; seen from there, lit by the file's "
+                                     "emitting surfaces alone"));
+  std::filesystem::remove_all(std::filesystem::temp_directory_path() / "caustica_interior_test");
+}
+
 }  // namespace
 }  // namespace caustica
