@@ -22,6 +22,7 @@
 #include "client/result_output.h"
 #include "client/scene_source.h"
 #include "client/scene_upload.h"
+#include "proto/wire/scene_wire.h"
 #include "renderer/scene/load_scene.h"
 
 namespace caustica::client {
@@ -390,6 +391,18 @@ absl::Status run_animate_fleet(const GlobalOptions& global, const AnimateOptions
   absl::StatusOr<Scene> scene = load_scene_file(options.job.scene);
   if (!scene.ok()) return scene.status();
   options.job.overrides.apply(*scene);
+  // A keyframe's camera stays until another keyframe moves it, but each replica sees only the
+  // keyframes it renders: each keyframe carries the camera it is seen through.
+  v1::Camera camera = wire::encode_camera(scene->camera);
+  camera.clear_width();
+  camera.clear_height();
+  for (v1::Keyframe& keyframe : keyframes) {
+    if (keyframe.has_camera()) {
+      camera = keyframe.camera();
+    } else {
+      *keyframe.mutable_camera() = camera;
+    }
+  }
   Fleet fleet(global, options, *std::move(format), std::move(keyframes), *std::move(scene),
               default_scene_name(options.job.scene));
   if (absl::Status opened = fleet.open_replicas(); !opened.ok()) return opened;

@@ -69,6 +69,31 @@ absl::Status check_keys(const Json& object, std::initializer_list<std::string_vi
   return absl::OkStatus();
 }
 
+// A keyframe's camera, read by the scene loader as a scene file's camera without its size (the
+// animation keeps the scene's): position, look_at, up and fov. Sent with width and height 0.
+absl::StatusOr<v1::Camera> read_camera(const Json& camera, std::string_view source,
+                                       const std::string& path) {
+  if (!camera.is_object()) {
+    return invalid(source, path, absl::StrCat("expected an object, got ", camera.dump()));
+  }
+  if (absl::Status s = check_keys(camera, {"position", "look_at", "up", "fov"}, source, path);
+      !s.ok()) {
+    return s;
+  }
+  Json sized = camera;
+  sized["width"] = 1;
+  sized["height"] = 1;
+  // Its errors read "s.json: keyframes[3]: camera.fov: ...", as a light's do.
+  const std::string keyframe = path.substr(0, path.rfind('.'));
+  absl::StatusOr<Scene> scene = scene_from_json(Json{{"camera", sized}}.dump(), {},
+                                                absl::StrCat(as_absl(source), ": ", keyframe));
+  if (!scene.ok()) return scene.status();
+  v1::Camera out = wire::encode_camera(scene->camera);
+  out.clear_width();
+  out.clear_height();
+  return out;
+}
+
 // A keyframe's pass count: an integer in [0, kMaxPasses], whole floats allowed as in scene files.
 absl::StatusOr<uint32_t> read_passes(const Json& value, std::string_view source,
                                      const std::string& field) {
@@ -117,7 +142,8 @@ absl::StatusOr<std::vector<v1::Keyframe>> parse_light_script(std::string_view te
     if (!entry.is_object()) {
       return invalid(source_name, path, absl::StrCat("expected an object, got ", entry.dump()));
     }
-    if (absl::Status s = check_keys(entry, {"lights", "passes"}, source_name, path); !s.ok()) {
+    if (absl::Status s = check_keys(entry, {"lights", "passes", "camera"}, source_name, path);
+        !s.ok()) {
       return s;
     }
     if (!entry.contains("lights")) {
@@ -134,6 +160,12 @@ absl::StatusOr<std::vector<v1::Keyframe>> parse_light_script(std::string_view te
           read_passes(entry["passes"], source_name, absl::StrCat(path, ".passes"));
       if (!passes.ok()) return passes.status();
       keyframe.set_passes(*passes);
+    }
+    if (entry.contains("camera")) {
+      absl::StatusOr<v1::Camera> camera =
+          read_camera(entry["camera"], source_name, absl::StrCat(path, ".camera"));
+      if (!camera.ok()) return camera.status();
+      *keyframe.mutable_camera() = *std::move(camera);
     }
     out.push_back(std::move(keyframe));
   }

@@ -3,6 +3,8 @@
 //
 //   lights file (caustica light set --file):  {"lights": [...]}  or the bare array [...]
 //   light script (caustica animate --script): {"keyframes": [{"lights": [...], "passes": 2}, ...]}
+//     a keyframe may also move the camera: "camera": {"position", "look_at", "up", "fov"}, the
+//     scene file's camera without its size
 //
 // Each light is read by the scene loader itself (scene_from_json), so a light means exactly what
 // it means in a scene file. Errors start with the source name and name the keyframe and field:

@@ -886,17 +886,41 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
         SceneEntry& entry = *call->entry;
         const FrameSpec& spec = call->spec;
         // Every keyframe is decoded before the first one plays: a bad script changes nothing.
-        std::vector<std::vector<Light>> keyframes;
+        struct Step {
+          std::vector<Light> lights;
+          std::optional<Camera> camera;
+        };
+        std::vector<Step> keyframes;
         for (int i = 0; i < request->keyframes_size(); ++i) {
-          absl::StatusOr<std::vector<Light>> lights = wire::decode_lights(
-              request->keyframes(i).lights(), absl::StrCat("keyframes[", i, "].lights"));
+          const v1::Keyframe& keyframe = request->keyframes(i);
+          absl::StatusOr<std::vector<Light>> lights =
+              wire::decode_lights(keyframe.lights(), absl::StrCat("keyframes[", i, "].lights"));
           if (!lights.ok()) return lights.status();
-          keyframes.push_back(*std::move(lights));
+          Step step{*std::move(lights), std::nullopt};
+          if (keyframe.has_camera()) {
+            // Its size is the scene's, set when it plays.
+            v1::Camera sized = keyframe.camera();
+            sized.set_width(1);
+            sized.set_height(1);
+            absl::StatusOr<Camera> camera =
+                wire::decode_camera(sized, absl::StrCat("keyframes[", i, "].camera"));
+            if (!camera.ok()) return camera.status();
+            step.camera = *camera;
+          }
+          keyframes.push_back(std::move(step));
         }
         const size_t chunk = chunk_bytes(request->max_chunk_bytes());
         for (size_t i = 0; i < keyframes.size(); ++i) {
-          absl::StatusOr<v1::RebuildReport> report = rebuild(
-              context, entry, [&](Engine& engine) { return engine.set_lights(keyframes[i]); });
+          absl::StatusOr<v1::RebuildReport> report =
+              rebuild(context, entry, [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+                if (std::optional<Camera> camera = keyframes[i].camera) {
+                  camera->width = engine.scene().camera.width;
+                  camera->height = engine.scene().camera.height;
+                  absl::StatusOr<RebuildReport> moved = engine.set_camera(*camera);
+                  if (!moved.ok()) return moved.status();
+                }
+                return engine.set_lights(keyframes[i].lights);
+              });
           if (!report.ok()) return report.status();
           const uint32_t passes = std::max(request->keyframes(static_cast<int>(i)).passes(), 1u);
           absl::StatusOr<EncodedFrame> frame =

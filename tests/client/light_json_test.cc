@@ -74,8 +74,9 @@ TEST(LightScript, ErrorsNameTheKeyframeAndTheField) {
   EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [{"type": "point", "position": [0, 0, 0],
       "intensity": [1, 1, 1], "colour": [1, 0, 0]}]}]})"),
               HasSubstr("keyframes[0]: lights[0].colour"));
-  EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [], "pases": 2}]})"),
-              HasSubstr("s.json: keyframes[0].pases: unknown key (expected lights, passes)"));
+  EXPECT_THAT(
+      error_of(R"({"keyframes": [{"lights": [], "pases": 2}]})"),
+      HasSubstr("s.json: keyframes[0].pases: unknown key (expected lights, passes, camera)"));
   EXPECT_THAT(
       error_of(R"({"keyframes": [{"lights": []}, {"lights": []}, {"lights": [], "passes": 1.5}]})"),
       HasSubstr("s.json: keyframes[2].passes: expected an integer from 0 to 100000, got 1.5"));
@@ -88,6 +89,34 @@ TEST(LightScript, ErrorsNameTheKeyframeAndTheField) {
   EXPECT_THAT(error_of(R"({"keyframes": []})"),
               HasSubstr("s.json: keyframes: expected a non-empty"));
   EXPECT_THAT(error_of(R"({"frames": []})"), HasSubstr("s.json: frames: unknown key"));
+}
+
+// A keyframe may move the camera, read as a scene file's camera without its size.
+TEST(LightScript, AKeyframeMayMoveTheCamera) {
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_light_script(
+      R"({"keyframes": [{"lights": []},
+          {"lights": [], "camera": {"position": [1, 2, 3], "look_at": [1, 2, 4], "fov": 50}}]})",
+      "flight.json");
+  ASSERT_TRUE(keyframes.ok()) << keyframes.status();
+  EXPECT_FALSE((*keyframes)[0].has_camera());
+  ASSERT_TRUE((*keyframes)[1].has_camera());
+  const v1::Camera& camera = (*keyframes)[1].camera();
+  EXPECT_EQ(camera.position().z(), 3.0f);
+  EXPECT_EQ(camera.look_at().z(), 4.0f);
+  EXPECT_EQ(camera.up().y(), 1.0f);  // the scene format's default
+  EXPECT_EQ(camera.vertical_fov_deg(), 50.0f);
+  EXPECT_EQ(camera.width(), 0u);  // the scene's size
+  EXPECT_EQ(camera.height(), 0u);
+
+  EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [], "camera": {"position": [0, 0, 0],
+      "look_at": [0, 0, 1], "fov": 40, "width": 64}}]})"),
+              HasSubstr("s.json: keyframes[0].camera.width: unknown key (expected position, "
+                        "look_at, up, fov)"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"lights": []}, {"lights": [], "camera": {
+      "position": [0, 0], "look_at": [0, 0, 1], "fov": 40}}]})"),
+              HasSubstr("s.json: keyframes[1]: camera.position"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [], "camera": [0, 0, 0]}]})"),
+              HasSubstr("s.json: keyframes[0].camera: expected an object"));
 }
 
 TEST(LightScript, SyntaxErrorsGiveLineAndColumn) {

@@ -29,17 +29,24 @@ using std::chrono::steady_clock;
 constexpr int kKeyframes = 48;
 
 // A light circling under the ceiling, one keyframe per step; a few passes each so that the run
-// lasts long enough for a replica to die and another to join while keyframes remain.
+// lasts long enough for a replica to die and another to join while keyframes remain. Halfway the
+// camera steps 200 mm closer and stays there: the replicas that render the later keyframes must
+// see them through it too.
 fs::path write_orbit_script(const fs::path& dir) {
   std::ostringstream script;
   script << "{\"keyframes\": [";
   for (int i = 0; i < kKeyframes; ++i) {
     const double angle = 2 * M_PI * i / kKeyframes;
+    const char* camera =
+        i == kKeyframes / 2
+            ? ", \"camera\": {\"position\": [278, 273, -600], \"look_at\": [278, 273, 0], "
+              "\"fov\": 39.3077}"
+            : "";
     script << (i ? "," : "")
            << absl::StrFormat(
                   "{\"lights\": [{\"type\": \"point\", \"name\": \"orbit\", \"position\": [%.3f, "
-                  "380, %.3f], \"intensity\": [60000, 52000, 42000]}], \"passes\": 3}",
-                  278 + 170 * std::cos(angle), 280 + 170 * std::sin(angle));
+                  "380, %.3f], \"intensity\": [60000, 52000, 42000]}], \"passes\": 3%s}",
+                  278 + 170 * std::cos(angle), 280 + 170 * std::sin(angle), camera);
   }
   script << "]}";
   const fs::path path = dir / "orbit.json";

@@ -286,6 +286,43 @@ TEST_F(ServerTest, PlayAnimationStreamsOneFramePerKeyframe) {
   }
 }
 
+// A keyframe's camera moves the view before its frame and keeps the scene's size; a keyframe
+// without one leaves the camera where it is.
+TEST_F(ServerTest, PlayAnimationMovesTheCameraWhereAKeyframeSaysSo) {
+  const std::string id = upload_scene(*stub_, cornell_box(16, 12, 2000, 16, 2));
+  v1::PlayAnimationRequest request;
+  request.set_scene_id(id);
+  *request.mutable_format() = frame_format(v1::RGBA32F_LINEAR);
+  for (int i = 0; i < 3; ++i) {
+    v1::Keyframe* keyframe = request.add_keyframes();
+    *keyframe->add_lights() = point_light(1e5f);
+    if (i == 1) {
+      // Into the box's back wall, from 1 mm away: nearly the whole frame is that one white wall.
+      v1::Camera* camera = keyframe->mutable_camera();
+      camera->mutable_position()->set_x(278);
+      camera->mutable_position()->set_y(273);
+      camera->mutable_position()->set_z(558);
+      camera->mutable_look_at()->set_x(278);
+      camera->mutable_look_at()->set_y(273);
+      camera->mutable_look_at()->set_z(560);
+      camera->mutable_up()->set_y(1);
+      camera->set_vertical_fov_deg(10);
+    }
+  }
+  std::vector<StreamedFrame> frames;
+  const grpc::Status status = play_animation(*stub_, request, &frames);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(frames.size(), 3u);
+  EXPECT_EQ(frames[1].header.epochs().camera(), frames[0].header.epochs().camera() + 1);
+  EXPECT_EQ(frames[2].header.epochs().camera(), frames[1].header.epochs().camera());
+  for (const StreamedFrame& frame : frames) {
+    EXPECT_EQ(frame.header.width(), 16u);
+    EXPECT_EQ(frame.header.height(), 12u);
+  }
+  EXPECT_NE(frame_floats(frames[0].data), frame_floats(frames[1].data));
+  EXPECT_EQ(get_scene(*stub_, id).camera().position().z(), 558.0f);
+}
+
 TEST_F(ServerTest, UpdateCameraAndSettings) {
   const std::string id = upload_scene(*stub_, cornell_box(16, 16, 2000, 16, 2));
   v1::UpdateSettingsRequest settings;
