@@ -14,14 +14,15 @@ namespace caustica {
 
 // Loads a JSON scene file and every mesh it references; validates the result. A file whose
 // extension is a mesh format (.obj, .ply, .gltf, .glb, .fbx, .stl, ...) is loaded as a bare model
-// with a generated camera, floor and light (load_mesh_scene), and its loader's warnings go to
-// `warnings` when given.
+// with a generated camera, floor and light (load_mesh_scene). The loaders' warnings (a scene
+// file's: of each mesh file it references) go to `warnings` when given.
 absl::StatusOr<Scene> load_scene(const std::filesystem::path& path,
                                  std::vector<std::string>* warnings = nullptr);
 
 // Same from text already in memory; relative mesh paths resolve against base_dir; source_name
 // names the text in errors.
 absl::StatusOr<Scene> parse_scene(std::string_view json_text, const std::filesystem::path& base_dir,
-                                  std::string_view source_name);
+                                  std::string_view source_name,
+                                  std::vector<std::string>* warnings = nullptr);
 
 }  // namespace caustica

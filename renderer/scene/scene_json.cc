@@ -138,6 +138,9 @@ class SceneReader {
  public:
   explicit SceneReader(const std::filesystem::path& base_dir) : base_dir_(base_dir) {}
 
+  // What the mesh files' loaders warned of, each after its shape's field and file.
+  std::vector<std::string>& warnings() { return warnings_; }
+
   absl::StatusOr<Scene> read(const Json& root) {
     SCENE_ASSIGN_OR_RETURN(JsonObject top, JsonObject::open(root, ""));
     SCENE_ASSIGN_OR_RETURN(const Json* camera, top.find("camera", kRequired));
@@ -615,6 +618,8 @@ class SceneReader {
     MeshFile& mesh_file = *loaded;
 
     const std::string file_name = file_path.filename().string();
+    for (const std::string& warning : mesh_file.warnings)
+      warnings_.push_back(absl::StrCat(shape.field_path("file"), " (", file, "): ", warning));
     const uint32_t first_material = static_cast<uint32_t>(scene_.materials.size());
     if (!material_override) {
       // The file's textures join the scene's, and its materials' maps follow them.
@@ -659,13 +664,15 @@ class SceneReader {
   Scene scene_;
   std::map<std::string, uint32_t, std::less<>> material_ids_;
   std::map<std::string, uint32_t, std::less<>> medium_ids_;
+  std::vector<std::string> warnings_;
 };
 
 }  // namespace
 
 absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
                                       const std::filesystem::path& base_dir,
-                                      absl::string_view source_name) {
+                                      absl::string_view source_name,
+                                      std::vector<std::string>* warnings) {
   Json root;
   // nlohmann reports errors by exception; they stop here, as module borders require.
   try {
@@ -676,8 +683,12 @@ absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
   } catch (const Json::exception& error) {
     return absl::InvalidArgumentError(absl::StrCat(source_name, ": JSON error: ", error.what()));
   }
-  absl::StatusOr<Scene> scene = SceneReader(base_dir).read(root);
+  SceneReader reader(base_dir);
+  absl::StatusOr<Scene> scene = reader.read(root);
   if (!scene.ok()) return annotate(scene.status(), source_name);
+  if (warnings != nullptr)
+    for (const std::string& warning : reader.warnings())
+      warnings->push_back(absl::StrCat(source_name, ": ", warning));
   return scene;
 }
 

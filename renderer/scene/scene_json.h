@@ -3,6 +3,8 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
@@ -12,9 +14,11 @@ namespace caustica {
 
 // Errors start with `source_name` and then give line:column for JSON syntax errors or the JSON
 // path of the field (e.g. "shapes[3].vertices[2]") for everything else. Relative mesh paths
-// resolve against `base_dir`.
+// resolve against `base_dir`. What the mesh files' loaders warn of goes to `warnings` when given,
+// each after the source, the shape's field and the file's name.
 absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
                                       const std::filesystem::path& base_dir,
-                                      absl::string_view source_name);
+                                      absl::string_view source_name,
+                                      std::vector<std::string>* warnings = nullptr);
 
 }  // namespace caustica

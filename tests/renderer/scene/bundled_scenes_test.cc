@@ -162,5 +162,23 @@ TEST(BundledScenes, SibeniksSelfIlluminatedGlassEmitsNothing) {
   EXPECT_EQ(bare->textures.size(), 3u);
 }
 
+// A scene file passes on what its mesh files' loaders warn of, each after the shape that names
+// the file: the same warning about Sibenik's glass, through the bundled scene.json.
+TEST(BundledScenes, AScenesMeshWarningsReachItsReader) {
+  std::vector<std::string> warnings;
+  const std::filesystem::path file =
+      std::filesystem::path(CAUSTICA_SCENES_DIR) / "sibenik" / "scene.json";
+  const absl::StatusOr<Scene> scene = load_scene(file, &warnings);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_THAT(warnings,
+              ::testing::Contains(::testing::AllOf(
+                  ::testing::StartsWith(file.string() + ": shapes[0].file (sibenik.3ds): "),
+                  ::testing::HasSubstr("material 'glas': 3DS self-illumination 100%"))));
+  // Without a list to fill, the same file loads the same.
+  const absl::StatusOr<Scene> quiet = load_scene(file);
+  ASSERT_TRUE(quiet.ok()) << quiet.status();
+  EXPECT_EQ(quiet->materials.size(), scene->materials.size());
+}
+
 }  // namespace
 }  // namespace caustica
