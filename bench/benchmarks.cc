@@ -14,6 +14,7 @@
 #include "bench/convergence.h"
 #include "bench/measure.h"
 #include "bench/multi_device.h"
+#include "bench/seed_tables.h"
 #include "bench/serving.h"
 #include "renderer/accel/camera_tiles.h"
 #include "renderer/accel/dacrt.h"
@@ -55,10 +56,8 @@ absl::StatusOr<Scene> load_bench_mesh_scene(const BenchOptions& o) {
                      ".", "benchmark mesh scene");
 }
 
-namespace {
-
-// The camera of the ray benchmarks: at the box centre + (0, 0, 2 x diagonal), looking down -z,
-// with a field of view that fits the larger of the x and y extents plus a 5% margin.
+// At the box centre + (0, 0, 2 x diagonal), with a field of view that fits the larger of the x and
+// y extents plus a 5% margin.
 Camera framing_camera(const Aabb& b, int width, int height) {
   Vec3f c = b.center(), e = b.extent();
   float distance = 2.0f * length(e);
@@ -78,6 +77,17 @@ absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& 
   return make_backend(*kind, size_t(16) << 30);
 }
 
+void queue_camera_rays(Backend& backend, const PinholeCamera& camera, Buffer<Ray>& rays) {
+  const size_t pixels = size_t(camera.width) * camera.height;
+  rays.resize_discard(pixels);
+  Ray* ray = rays.data();
+  parallel_for(backend, "camera_ray_queue", pixels, [=] CAUSTICA_HD(size_t i) {
+    ray[i] = camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f);
+  });
+}
+
+namespace {
+
 // For dacrt, what one batch of the rays held at most in scratch memory (what it uses instead of a
 // stored structure), reported as `label`; other structures trace in none.
 template <typename Structure>
@@ -92,16 +102,6 @@ void report_batch_scratch(Backend& backend, const Structure& view, const Ray* ra
                 "tests/ray");
     report.line("dacrt_levels", name, double(stats.levels), "levels");
   }
-}
-
-// The ray benchmarks' camera rays through pixel centres, in pixel order, queued in `rays`.
-void queue_camera_rays(Backend& backend, const PinholeCamera& camera, Buffer<Ray>& rays) {
-  const size_t pixels = size_t(camera.width) * camera.height;
-  rays.resize_discard(pixels);
-  Ray* ray = rays.data();
-  parallel_for(backend, "camera_ray_queue", pixels, [=] CAUSTICA_HD(size_t i) {
-    ray[i] = camera.ray_through(float(i % camera.width) + 0.5f, float(i / camera.width) + 0.5f);
-  });
 }
 
 // The primary rays one per thread through a per-ray view (StructureView).
@@ -639,6 +639,7 @@ std::vector<std::string> benchmark_names() {
                                     "photon_gather",   "path_pass",    "convergence"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
   for (std::string& name : multi_device_benchmark_names()) names.push_back(std::move(name));
+  names.push_back("seed_tables");
   return names;
 }
 
@@ -656,7 +657,10 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
     return std::any_of(names.begin(), names.end(),
                        [&](const std::string& n) { return wanted(o, n); });
   };
-  if (o.mesh.empty() && o.photon_scene.empty() && !any_of({"stream_rgba8", "stream_rgba32f"}))
+  const bool seed_tables_named =
+      std::find(o.only.begin(), o.only.end(), "seed_tables") != o.only.end();
+  if (o.mesh.empty() && o.photon_scene.empty() && !seed_tables_named &&
+      !any_of({"stream_rgba8", "stream_rgba32f"}))
     return absl::InvalidArgumentError("nothing to measure: give --mesh and/or --scene");
   if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
@@ -681,6 +685,10 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   if (std::find(o.only.begin(), o.only.end(), "convergence") != o.only.end()) {
     if (o.photon_scene.empty()) return absl::InvalidArgumentError("convergence needs --scene");
     if (absl::Status s = convergence_benchmark(o, report); !s.ok()) return s;
+  }
+  // The seeds' tables on their own scenes: run only when named.
+  if (seed_tables_named) {
+    if (absl::Status s = seed_tables(o, report); !s.ok()) return s;
   }
 
   return absl::OkStatus();

@@ -3,13 +3,16 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "renderer/parallel/buffer.h"
 #include "renderer/photon/photon_map.h"
+#include "renderer/render/camera.h"
 #include "renderer/scene/scene.h"
 
 namespace caustica {
@@ -53,6 +56,13 @@ struct BenchOptions {
   // as are listed) the multi-device engine runs on. Empty: every GPU, or two backends on the only
   // one.
   std::vector<int> devices;
+  // seed_tables: the folder holding the bundled scenes (empty: the source tree's scenes/), the
+  // Stanford dragon's mesh (empty: its rows are listed as unavailable), the frames of each flight
+  // measured (0: all) and a divisor of every table's image sides and photons (1: the seeds' own).
+  std::filesystem::path seed_scenes;
+  std::filesystem::path dragon;
+  int flight_frames = 0;
+  int seed_reduce = 1;
 };
 
 // The photon scene (--scene) at the benchmark's size, photons per pass and k.
@@ -74,6 +84,16 @@ std::vector<std::string> convergence_run_names();
 
 // The names run_benchmarks knows, in the order it runs them.
 std::vector<std::string> benchmark_names();
+
+// The camera of the ray benchmarks for a mesh with bounds `b`: outside the box, looking down -z at
+// its centre.
+Camera framing_camera(const Aabb& b, int width, int height);
+
+// The camera's rays through pixel centres, in pixel order, queued in `rays`.
+void queue_camera_rays(Backend& backend, const PinholeCamera& camera, Buffer<Ray>& rays);
+
+// The backend --device names.
+absl::StatusOr<std::shared_ptr<Backend>> make_bench_backend(const BenchOptions& o);
 
 // The mesh (and its copies) as a scene: one diffuse material and a light above it. A scene file
 // (.json) is loaded as it is.

@@ -104,6 +104,19 @@ int main(int argc, char** argv) {
       "--ray-queues", options.ray_queues,
       "photon and frame benchmarks: trace through the ray queues (batches of closest and "
       "any hits) even for structures that answer single rays, as batch-only ones always do");
+  app.add_option("--seed-scenes", options.seed_scenes,
+                 "seed_tables: the folder of the bundled scenes (default: the source tree's "
+                 "scenes/)");
+  app.add_option("--dragon", options.dragon,
+                 "seed_tables: the Stanford dragon's mesh (scripts/fetch-dragon); without it the "
+                 "dragon's rows are listed as unavailable");
+  app.add_option("--flight-frames", options.flight_frames,
+                 "seed_tables: the frames of each flight measured (default: all)")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--seed-reduce", options.seed_reduce,
+                 "seed_tables: every table's image sides and photons divided by this, for a quick "
+                 "look (default 1: the seeds' own)")
+      ->check(CLI::Range(1, 1024));
   bool soak_mode = false;
   CLI::Option* soak_flag = app.add_flag("--soak", soak_mode, "run the soak test (see above)");
   app.add_option("--clients", soak.clients, "soak: concurrent clients")

@@ -1,0 +1,44 @@
+#include "bench/seed_flight.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "absl/strings/str_cat.h"
+#include "client/light_json.h"
+#include "proto/wire/scene_wire.h"
+
+namespace caustica {
+
+absl::StatusOr<std::vector<FlightFrame>> load_flight(const std::filesystem::path& path,
+                                                     const Camera& start, int width, int height) {
+  std::ifstream in(path);
+  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot be read"));
+  std::stringstream text;
+  text << in.rdbuf();
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes =
+      client::parse_light_script(text.str(), path.string());
+  if (!keyframes.ok()) return keyframes.status();
+  std::vector<FlightFrame> frames;
+  Camera camera = start;
+  camera.width = width;
+  camera.height = height;
+  for (size_t i = 0; i < keyframes->size(); ++i) {
+    const v1::Keyframe& keyframe = (*keyframes)[i];
+    const std::string field = absl::StrCat(path.string(), ": keyframes[", i, "]");
+    if (keyframe.has_camera()) {
+      v1::Camera sized = keyframe.camera();
+      sized.set_width(uint32_t(width));
+      sized.set_height(uint32_t(height));
+      absl::StatusOr<Camera> moved = wire::decode_camera(sized, absl::StrCat(field, ".camera"));
+      if (!moved.ok()) return moved.status();
+      camera = *moved;
+    }
+    absl::StatusOr<std::vector<Light>> lights =
+        wire::decode_lights(keyframe.lights(), absl::StrCat(field, ".lights"));
+    if (!lights.ok()) return lights.status();
+    frames.push_back({camera, *std::move(lights)});
+  }
+  return frames;
+}
+
+}  // namespace caustica
