@@ -904,8 +904,11 @@ std::vector<float> render_image(const Scene& scene, DeviceKind device, uint32_t 
 
 // Whole images of every bundled scene on both backends, same seed. Photon paths may part where
 // the GPU's sinf/cosf/powf differ from the C library's in the last bit, so the images agree to
-// within the relative RMS difference below, not bit for bit.
+// within the relative RMS difference below, not bit for bit. The paths that part are noise, which
+// more passes average out: the glass bunny, whose photons refract many times, differed by 2.5%
+// after 4 passes.
 constexpr double kImageRelativeRmse = 0.02;
+constexpr uint32_t kImagePasses = 16;
 
 // Every bundled scene, loaded, with its directory's name.
 std::vector<std::pair<std::string, Scene>> bundled_scenes() {
@@ -943,8 +946,8 @@ TEST(GpuParity, BundledScenesRenderAlike) {
     scene.camera.height = 96;
     scene.settings.photons_per_pass = 100000;
     scene.settings.seed = 5;
-    const std::vector<float> images[2] = {render_image(scene, DeviceKind::kCpu, 4),
-                                          render_image(scene, DeviceKind::kCuda, 4)};
+    const std::vector<float> images[2] = {render_image(scene, DeviceKind::kCpu, kImagePasses),
+                                          render_image(scene, DeviceKind::kCuda, kImagePasses)};
     ASSERT_FALSE(images[0].empty());
     ASSERT_EQ(images[0].size(), images[1].size());
     const double rmse = relative_rmse(images[0], images[1]);
