@@ -40,14 +40,12 @@ std::vector<TriangleVertices> sphere_triangles() {
   return tris;
 }
 
-// The bunny, when scripts/fetch-bunny has put it beside the sources; empty otherwise.
+// The bundled Stanford bunny (scenes/bunny, 69,451 triangles).
 std::vector<TriangleVertices> bunny_triangles() {
-  const std::filesystem::path path =
-      std::filesystem::path(CAUSTICA_SCENES_DIR).parent_path() / ".bench-assets" / "bunny.obj";
-  std::vector<TriangleVertices> tris;
-  if (!std::filesystem::exists(path)) return tris;
-  absl::StatusOr<MeshFile> file = load_mesh_file(path);
+  absl::StatusOr<MeshFile> file =
+      load_mesh_file(std::filesystem::path(CAUSTICA_SCENES_DIR) / "bunny" / "bunny.ply");
   EXPECT_TRUE(file.ok()) << file.status();
+  std::vector<TriangleVertices> tris;
   if (file.ok())
     for (const Mesh& m : file->meshes) append_triangles(m, tris);
   return tris;
@@ -204,8 +202,8 @@ TEST_P(KdTrees, BundledScenes) {
 
 TEST_P(KdTrees, Bunny) {
   const std::vector<TriangleVertices> bunny = bunny_triangles();
-  if (bunny.empty()) GTEST_SKIP() << "no .bench-assets/bunny.obj (scripts/fetch-bunny)";
-  check(bunny, 10000, 11);
+  ASSERT_EQ(bunny.size(), 69451u);
+  check(bunny, 2000, 11);
 }
 
 TEST_P(KdTrees, SmallSoups) {
