@@ -26,10 +26,8 @@ absl::StatusOr<std::vector<FlightFrame>> load_flight(const std::filesystem::path
     const v1::Keyframe& keyframe = (*keyframes)[i];
     const std::string field = absl::StrCat(path.string(), ": keyframes[", i, "]");
     if (keyframe.has_camera()) {
-      v1::Camera sized = keyframe.camera();
-      sized.set_width(uint32_t(width));
-      sized.set_height(uint32_t(height));
-      absl::StatusOr<Camera> moved = wire::decode_camera(sized, absl::StrCat(field, ".camera"));
+      absl::StatusOr<Camera> moved =
+          wire::decode_camera_at(keyframe.camera(), absl::StrCat(field, ".camera"), width, height);
       if (!moved.ok()) return moved.status();
       camera = *moved;
     }

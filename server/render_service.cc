@@ -899,11 +899,8 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
           Step step{*std::move(lights), std::nullopt};
           if (keyframe.has_camera()) {
             // Its size is the scene's, set when it plays.
-            v1::Camera sized = keyframe.camera();
-            sized.set_width(1);
-            sized.set_height(1);
-            absl::StatusOr<Camera> camera =
-                wire::decode_camera(sized, absl::StrCat("keyframes[", i, "].camera"));
+            absl::StatusOr<Camera> camera = wire::decode_camera_at(
+                keyframe.camera(), absl::StrCat("keyframes[", i, "].camera"), 0, 0);
             if (!camera.ok()) return camera.status();
             step.camera = *camera;
           }

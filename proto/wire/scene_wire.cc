@@ -632,7 +632,8 @@ absl::StatusOr<std::vector<Light>> decode_lights(
   return out;
 }
 
-absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view field) {
+absl::StatusOr<Camera> decode_camera_at(const v1::Camera& in, std::string_view field, int width,
+                                        int height) {
   Camera camera;
   absl::StatusOr<Vec3f> position = decode_vec3(in.position(), join_field(field, "position"));
   if (!position.ok()) return position.status();
@@ -640,6 +641,18 @@ absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view fiel
   if (!look_at.ok()) return look_at.status();
   absl::StatusOr<Vec3f> up = decode_vec3(in.up(), join_field(field, "up"));
   if (!up.ok()) return up.status();
+  camera.position = *position;
+  camera.look_at = *look_at;
+  camera.up = *up;
+  camera.vertical_fov_deg = in.vertical_fov_deg();
+  camera.width = width;
+  camera.height = height;
+  return camera;
+}
+
+absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view field) {
+  absl::StatusOr<Camera> camera = decode_camera_at(in, field, 0, 0);
+  if (!camera.ok()) return camera.status();
   // Sizes beyond int would wrap; anything over the limit is refused by validation anyway.
   for (auto [name, value] : {std::pair{"width", in.width()}, std::pair{"height", in.height()}}) {
     if (value == 0 || value > uint32_t(kMaxImageSide)) {
@@ -647,12 +660,8 @@ absl::StatusOr<Camera> decode_camera(const v1::Camera& in, std::string_view fiel
                      absl::StrCat(value, " is outside [1, ", kMaxImageSide, "]"));
     }
   }
-  camera.position = *position;
-  camera.look_at = *look_at;
-  camera.up = *up;
-  camera.vertical_fov_deg = in.vertical_fov_deg();
-  camera.width = static_cast<int>(in.width());
-  camera.height = static_cast<int>(in.height());
+  camera->width = static_cast<int>(in.width());
+  camera->height = static_cast<int>(in.height());
   return camera;
 }
 

@@ -61,6 +61,10 @@ absl::StatusOr<Light> decode_light(const v1::Light& light, std::string_view fiel
 absl::StatusOr<std::vector<Light>> decode_lights(
     const google::protobuf::RepeatedPtrField<v1::Light>& lights, std::string_view field);
 absl::StatusOr<Camera> decode_camera(const v1::Camera& camera, std::string_view field);
+// A camera whose size the message does not give (a keyframe's): its width and height are not read
+// and the camera takes `width` x `height`.
+absl::StatusOr<Camera> decode_camera_at(const v1::Camera& camera, std::string_view field, int width,
+                                        int height);
 // nullopt for STRUCTURE_UNSPECIFIED and for values this build does not know.
 std::optional<StructureKind> decode_structure(v1::Structure structure);
 // Applies the fields set in `settings` on top of `current`.

@@ -411,6 +411,36 @@ TEST(SceneWire, LightsAndSettingsRoundTrip) {
   EXPECT_EQ(applied->photons_per_pass, current.photons_per_pass);  // unset fields stay
 }
 
+// A keyframe's camera carries no size: decode_camera_at reads the rest and gives the camera the
+// size it is told, whatever the message holds there, while decode_camera refuses a size of 0.
+TEST(SceneWire, ACameraWithoutASizeTakesTheOneItIsGiven) {
+  Camera camera;
+  camera.position = Vec3f(1, 2, 3);
+  camera.look_at = Vec3f(0, 1, 0);
+  camera.up = Vec3f(0, 0, 1);
+  camera.vertical_fov_deg = 35;
+  camera.width = 64;
+  camera.height = 48;
+  v1::Camera message = encode_camera(camera);
+  message.clear_width();
+  message.clear_height();
+  const absl::StatusOr<Camera> at = decode_camera_at(message, "keyframes[2].camera", 320, 240);
+  ASSERT_TRUE(at.ok()) << at.status();
+  EXPECT_EQ(at->position, camera.position);
+  EXPECT_EQ(at->look_at, camera.look_at);
+  EXPECT_EQ(at->up, camera.up);
+  EXPECT_EQ(at->vertical_fov_deg, 35.0f);
+  EXPECT_EQ(at->width, 320);
+  EXPECT_EQ(at->height, 240);
+  const absl::StatusOr<Camera> sized = decode_camera(message, "camera");
+  ASSERT_FALSE(sized.ok());
+  EXPECT_THAT(std::string(sized.status().message()), HasSubstr("camera.width: 0 is outside"));
+  message.mutable_position()->set_x(std::nanf(""));
+  const absl::StatusOr<Camera> bad = decode_camera_at(message, "keyframes[2].camera", 320, 240);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(std::string(bad.status().message()), HasSubstr("keyframes[2].camera.position"));
+}
+
 // An environment arrives with its map, colour, intensity and rotation; a scene without one has
 // none; a map that names no texture is refused by name.
 TEST(SceneWire, EnvironmentRoundTrips) {
