@@ -2,6 +2,8 @@
 
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
+#include <cmath>
 #include <exception>
 #include <string>
 #include <unordered_map>
@@ -10,6 +12,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/string_view.h"
 #include "absl/strings/strip.h"
@@ -25,6 +28,25 @@ namespace {
 Vec3f to_vec3(const tinyobj::real_t* v) { return {v[0], v[1], v[2]}; }
 
 // `file_name` names the OBJ in the warning of a Phong material scaled to conserve energy.
+// Whether the material uses the PBR extension of MTL that Blender's exporter and tinyobjloader
+// know (Pr roughness, Pm metalness and their maps). tinyobj reports an absent Pr or Pm as 0, so a
+// material whose two factors are 0 and that names neither map reads as one without it.
+bool has_pbr_extension(const tinyobj::material_t& mtl) {
+  return mtl.roughness != 0 || mtl.metallic != 0 || !mtl.roughness_texname.empty() ||
+         !mtl.metallic_texname.empty();
+}
+
+// A factor of the PBR extension, clamped to [0, 1] with a warning naming it when it is not there.
+float pbr_factor(float value, const char* name, const std::string& material,
+                 const std::string& file_name, std::vector<std::string>& warnings) {
+  const float clamped = std::isfinite(value) ? std::clamp(value, 0.0f, 1.0f) : 0.0f;
+  if (clamped != value) {
+    warnings.push_back(absl::StrCat(file_name, ": material '", material, "': ", name, " ", value,
+                                    " is outside [0, 1]; read as ", clamped));
+  }
+  return clamped;
+}
+
 Material convert_material(const tinyobj::material_t& mtl, size_t index,
                           const std::string& file_name, std::vector<std::string>& warnings) {
   Material m;
@@ -42,6 +64,15 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index,
     m.type = MaterialType::kDielectric;
     // tinyobj reports 1 when Ni is absent, and glass of index 1 would be invisible.
     m.ior = mtl.ior > 1 ? mtl.ior : 1.5f;
+    if (has_pbr_extension(mtl))
+      m.roughness = pbr_factor(mtl.roughness, "Pr", m.name, file_name, warnings);
+  } else if (has_pbr_extension(mtl)) {
+    // The PBR extension's material is glTF's: Kd the base colour, Pm the metalness, Pr the
+    // perceptual roughness; Ks and Ns have no part in it.
+    m.type = MaterialType::kMetallicRoughness;
+    m.color = to_vec3(mtl.diffuse);
+    m.metallic = pbr_factor(mtl.metallic, "Pm", m.name, file_name, warnings);
+    m.roughness = pbr_factor(mtl.roughness, "Pr", m.name, file_name, warnings);
   } else if (mtl.illum == 3 || mtl.illum == 5 || mtl.illum == 8) {
     // The MTL specification's ray-traced reflection: a perfect mirror of colour Ks.
     m.type = MaterialType::kMirror;
@@ -291,6 +322,29 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
     // `norm` names a tangent-space normal map; `bump`, a height map, is not read.
     m.normal_map = convert_map(materials[i].normal_texname, materials[i].normal_texopt, textures,
                                file.warnings);
+    // The PBR extension's maps are read where they are one image, roughness in its green channel
+    // and metalness in its blue, as glTF packs them (Pr and Pm multiply it); two images are not
+    // combined, and the factors alone are used.
+    const tinyobj::material_t& mtl = materials[i];
+    if (m.type == MaterialType::kMetallicRoughness &&
+        (!mtl.roughness_texname.empty() || !mtl.metallic_texname.empty())) {
+      if (mtl.roughness_texname == mtl.metallic_texname) {
+        m.metallic_roughness_map =
+            convert_map(mtl.roughness_texname, mtl.roughness_texopt, textures, file.warnings);
+      } else {
+        std::vector<std::string> named;
+        if (!mtl.roughness_texname.empty())
+          named.push_back(absl::StrCat("map_Pr '", mtl.roughness_texname, "'"));
+        if (!mtl.metallic_texname.empty())
+          named.push_back(absl::StrCat("map_Pm '", mtl.metallic_texname, "'"));
+        file.warnings.push_back(absl::StrCat(
+            path.filename().string(), ": material '", m.name, "': ", absl::StrJoin(named, " and "),
+            named.size() > 1 ? " are" : " is",
+            " not read: a metallic-roughness map is one image (roughness in green, metalness in "
+            "blue); Pr ",
+            m.roughness, " and Pm ", m.metallic, " are used"));
+      }
+    }
     // `map_d` dissolves the surface where it is dark: the chance that a ray stops there.
     m.opacity_map =
         convert_map(materials[i].alpha_texname, materials[i].alpha_texopt, textures, file.warnings);

@@ -206,5 +206,72 @@ TEST(LoadObj, PhongBrighterThanItsLightIsScaledWithAWarning) {
                                            "exceeds 1; both scaled by 0.76923"));
 }
 
+// MTL's PBR extension (Pr, Pm, as Blender writes them) is glTF's metallic-roughness material: Kd
+// the base colour; a glass's Pr is its roughness; factors outside [0, 1] are clamped, saying so.
+TEST(LoadObj, PbrExtensionIsMetallicRoughness) {
+  const std::filesystem::path path = write_obj_with_mtl(
+      "pbr",
+      "newmtl steel\nKd 0.9 0.6 0.2\nKs 0.5 0.5 0.5\nNs 100\nPr 0.3\nPm 1\nillum 2\n"
+      "newmtl plastic\nKd 0.2 0.4 0.8\nPr 0.7\nillum 2\n"
+      "newmtl frosted\nKd 1 1 1\nNi 1.45\nPr 0.2\nillum 7\n"
+      "newmtl wild\nKd 0.5 0.5 0.5\nPr 1.5\nPm -0.5\nillum 2\n"
+      "newmtl classic\nKd 0.5 0.4 0.3\nKs 0.25 0.3 0.35\nNs 64\nillum 2\n",
+      {"steel", "plastic", "frosted", "wild", "classic"});
+  const absl::StatusOr<MeshFile> file = load_obj(path);
+  std::filesystem::remove_all(path.parent_path());
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 5u);
+  const Material& steel = file->materials[0];
+  EXPECT_EQ(steel.type, MaterialType::kMetallicRoughness);
+  EXPECT_THAT(steel.color, Vec3Near(Vec3f(0.9f, 0.6f, 0.2f), 0));
+  EXPECT_EQ(steel.metallic, 1.0f);
+  EXPECT_EQ(steel.roughness, 0.3f);
+  const Material& plastic = file->materials[1];
+  EXPECT_EQ(plastic.type, MaterialType::kMetallicRoughness);
+  EXPECT_EQ(plastic.metallic, 0.0f);
+  EXPECT_EQ(plastic.roughness, 0.7f);
+  const Material& frosted = file->materials[2];
+  EXPECT_EQ(frosted.type, MaterialType::kDielectric);
+  EXPECT_EQ(frosted.ior, 1.45f);
+  EXPECT_EQ(frosted.roughness, 0.2f);
+  const Material& wild = file->materials[3];
+  EXPECT_EQ(wild.roughness, 1.0f);
+  EXPECT_EQ(wild.metallic, 0.0f);
+  EXPECT_EQ(file->materials[4].type, MaterialType::kPhong);  // no Pr or Pm: as before
+  ASSERT_EQ(file->warnings.size(), 2u);
+  EXPECT_THAT(file->warnings[0], HasSubstr("pbr.obj: material 'wild': Pm -0.5 is outside [0, 1]; "
+                                           "read as 0"));
+  EXPECT_THAT(file->warnings[1], HasSubstr("material 'wild': Pr 1.5 is outside [0, 1]; read as 1"));
+}
+
+// Its maps are read where map_Pr and map_Pm name one image, packed as glTF's (roughness green,
+// metalness blue); two images are not, and the warning says which and what is used instead.
+TEST(LoadObj, PbrExtensionMapsAreReadWhenPackedInOneImage) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "caustica_map_pr";
+  std::filesystem::create_directories(dir);
+  for (const char* name : {"orm.png", "rough.png", "metal.png"})
+    std::filesystem::copy_file(scene_data("thirdparty/gltf2/BoxTextured/CesiumLogoFlat.png"),
+                               dir / name, std::filesystem::copy_options::overwrite_existing);
+  std::ofstream(dir / "m.mtl") << "newmtl packed\nKd 1 1 1\nPr 1\nPm 1\nmap_Pr orm.png\n"
+                                  "map_Pm orm.png\n"
+                                  "newmtl apart\nKd 1 1 1\nPr 0.5\nPm 1\nmap_Pr rough.png\n"
+                                  "map_Pm metal.png\n";
+  std::ofstream(dir / "m.obj") << "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                  "vt 0 0\nvt 1 0\nvt 0 1\nusemtl packed\nf 1/1 2/2 3/3\n"
+                                  "usemtl apart\nf 1/1 2/2 3/3\n";
+  const absl::StatusOr<MeshFile> file = load_obj(dir / "m.obj");
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->materials.size(), 2u);
+  EXPECT_TRUE(file->materials[0].metallic_roughness_map.used());
+  EXPECT_FALSE(file->materials[1].metallic_roughness_map.used());
+  EXPECT_EQ(file->materials[1].roughness, 0.5f);
+  ASSERT_EQ(file->warnings.size(), 1u);
+  EXPECT_THAT(file->warnings[0],
+              HasSubstr("material 'apart': map_Pr 'rough.png' and map_Pm 'metal.png' are not "
+                        "read: a metallic-roughness map is one image"));
+  EXPECT_EQ(file->textures.size(), 1u);
+}
+
 }  // namespace
 }  // namespace caustica
