@@ -162,6 +162,19 @@ TEST(BundledScenes, SibeniksSelfIlluminatedGlassEmitsNothing) {
   EXPECT_EQ(bare->textures.size(), 3u);
 }
 
+// Sponza's 3DS file names bump maps for its stone, which no material model reads: the loader says
+// so once, naming the maps and counting the materials, so that flat walls are explained.
+TEST(BundledScenes, SponzasBumpMapsAreNamedAsNotRead) {
+  std::vector<std::string> warnings;
+  const absl::StatusOr<Scene> bare =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "sponza" / "sponza.3ds", &warnings);
+  ASSERT_TRUE(bare.ok()) << bare.status();
+  EXPECT_THAT(warnings, ::testing::Contains(
+                            "sponza.3ds: its bump maps are not read (17 materials): 00_SKAP.JPG, "
+                            "01_STUB-.JPG, 01_ST_KP.JPG, 01_S_BA.JPG, KAMEN-BU.JPG, PROZOR1.JPG, "
+                            "RELJEF-B.JPG, SP_LUK-B.JPG, VRATA_KO.JPG, VRATA_KR.JPG"));
+}
+
 // A scene file passes on what its mesh files' loaders warn of, each after the shape that names
 // the file: the same warning about Sibenik's glass, through the bundled scene.json.
 TEST(BundledScenes, AScenesMeshWarningsReachItsReader) {
