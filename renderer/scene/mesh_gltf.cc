@@ -16,6 +16,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "absl/strings/strip.h"
 #include "renderer/scene/file_io.h"
 #include "renderer/scene/scene_limits.h"
@@ -309,6 +311,7 @@ class GltfReader {
         textures_(path) {}
 
   absl::StatusOr<MeshFile> read() {
+    warn_of_unread_extensions();
     for (size_t i = 0; i < model_.materials.size(); ++i) {
       const tinygltf::Material& gltf = model_.materials[i];
       Material m = convert_material(gltf, i);
@@ -354,6 +357,29 @@ class GltfReader {
   }
 
  private:
+  // The extensions the file uses that the reader does not read (KHR_materials_clearcoat, _volume,
+  // _specular, ...), named in one warning, so that a model that differs from its author's renders
+  // says why. Those it requires are named as such.
+  void warn_of_unread_extensions() {
+    static constexpr std::string_view kRead[] = {
+        "KHR_lights_punctual",        "KHR_materials_emissive_strength", "KHR_materials_ior",
+        "KHR_materials_transmission", "KHR_texture_transform",
+    };
+    std::vector<std::string> unread;
+    for (const std::string& used : model_.extensionsUsed) {
+      if (std::find(std::begin(kRead), std::end(kRead), used) != std::end(kRead)) continue;
+      const bool required =
+          std::find(model_.extensionsRequired.begin(), model_.extensionsRequired.end(), used) !=
+          model_.extensionsRequired.end();
+      unread.push_back(required ? absl::StrCat(used, " (required)") : used);
+    }
+    if (unread.empty()) return;
+    file_.warnings.push_back(absl::StrCat(file_name_,
+                                          ": extensions not read (the file is read as "
+                                          "core glTF 2.0 states it): ",
+                                          absl::StrJoin(unread, ", ")));
+  }
+
   // A material's texture `index` (its textureInfo's) as the scene's: the image once per file, the
   // sampler's wrap modes and KHR_texture_transform. Maps on a second set of coordinates, or whose
   // image did not load, are left out with a warning.

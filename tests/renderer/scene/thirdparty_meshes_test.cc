@@ -254,6 +254,21 @@ TEST(ThirdPartyGltf, CesiumBoxCarriesItsBaseColourTextureAndSampler) {
   EXPECT_EQ(file->meshes[0].uvs.size(), file->meshes[0].positions.size());
 }
 
+// ClearCoatTest uses KHR_materials_clearcoat, which no material model reads: the loader says so
+// by name. A file whose extensions are all read (lights.gltf: lights, transmission, ior, emissive
+// strength) gets no such warning.
+TEST(ThirdPartyGltf, ExtensionsNotReadAreNamed) {
+  const absl::StatusOr<MeshFile> coat = load("gltf2/ClearCoat/ClearCoatTest.gltf");
+  ASSERT_TRUE(coat.ok()) << coat.status();
+  EXPECT_THAT(coat->warnings, ::testing::Contains("ClearCoatTest.gltf: extensions not read (the "
+                                                  "file is read as core glTF 2.0 states it): "
+                                                  "KHR_materials_clearcoat"));
+  const absl::StatusOr<MeshFile> lights = load_mesh_file(scene_data("meshes/lights.gltf"));
+  ASSERT_TRUE(lights.ok()) << lights.status();
+  EXPECT_THAT(lights->warnings,
+              ::testing::Not(::testing::Contains(::testing::HasSubstr("extensions not read"))));
+}
+
 TEST(ThirdPartyGltf, ClearCoatTestsPartialCoatingBlendsByItsBaseColoursAlpha) {
   // ClearCoatTest's "Partial_Coating": "alphaMode": "BLEND", no alphaCutoff and no
   // baseColorFactor, its baseColorTexture texture 1, image PartialCoating_Alpha.png. Every other
