@@ -138,7 +138,7 @@ class SceneReader {
  public:
   explicit SceneReader(const std::filesystem::path& base_dir) : base_dir_(base_dir) {}
 
-  // What the mesh files' loaders warned of, each after its shape's field and file.
+  // What the mesh files' loaders warned of, each after the field of the shape that named it.
   std::vector<std::string>& warnings() { return warnings_; }
 
   absl::StatusOr<Scene> read(const Json& root) {
@@ -619,7 +619,7 @@ class SceneReader {
 
     const std::string file_name = file_path.filename().string();
     for (const std::string& warning : mesh_file.warnings)
-      warnings_.push_back(absl::StrCat(shape.field_path("file"), " (", file, "): ", warning));
+      warnings_.push_back(absl::StrCat(shape.field_path("file"), ": ", warning));
     const uint32_t first_material = static_cast<uint32_t>(scene_.materials.size());
     if (!material_override) {
       // The file's textures join the scene's, and its materials' maps follow them.

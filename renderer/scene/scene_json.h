@@ -15,7 +15,7 @@ namespace caustica {
 // Errors start with `source_name` and then give line:column for JSON syntax errors or the JSON
 // path of the field (e.g. "shapes[3].vertices[2]") for everything else. Relative mesh paths
 // resolve against `base_dir`. What the mesh files' loaders warn of goes to `warnings` when given,
-// each after the source, the shape's field and the file's name.
+// each after the source and the field of the shape that names the file.
 absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
                                       const std::filesystem::path& base_dir,
                                       absl::string_view source_name,

@@ -185,7 +185,7 @@ TEST(BundledScenes, AScenesMeshWarningsReachItsReader) {
   ASSERT_TRUE(scene.ok()) << scene.status();
   EXPECT_THAT(warnings,
               ::testing::Contains(::testing::AllOf(
-                  ::testing::StartsWith(file.string() + ": shapes[0].file (sibenik.3ds): "),
+                  ::testing::StartsWith(file.string() + ": shapes[0].file: sibenik.3ds: "),
                   ::testing::HasSubstr("material 'glas': 3DS self-illumination 100%"))));
   // Without a list to fill, the same file loads the same.
   const absl::StatusOr<Scene> quiet = load_scene(file);
