@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -95,6 +96,36 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index,
     m.color = to_vec3(mtl.diffuse);
   }
   return m;
+}
+
+// One warning per kind of MTL map that no model reads (map_Ka, map_Ks, map_Ns, bump, disp, refl,
+// map_Ps), naming its files and counting the materials, so that a model that looks flatter than
+// its author made it says why.
+void warn_of_unread_maps(const std::vector<tinyobj::material_t>& materials,
+                         const std::string& file_name, std::vector<std::string>& warnings) {
+  using Field = std::string tinyobj::material_t::*;
+  static const std::pair<Field, const char*> kUnread[] = {
+      {&tinyobj::material_t::ambient_texname, "map_Ka"},
+      {&tinyobj::material_t::specular_texname, "map_Ks"},
+      {&tinyobj::material_t::specular_highlight_texname, "map_Ns"},
+      {&tinyobj::material_t::bump_texname, "bump"},
+      {&tinyobj::material_t::displacement_texname, "disp"},
+      {&tinyobj::material_t::reflection_texname, "refl"},
+      {&tinyobj::material_t::sheen_texname, "map_Ps"},
+  };
+  for (const auto& [field, kind] : kUnread) {
+    std::set<std::string> files;
+    size_t count = 0;
+    for (const tinyobj::material_t& mtl : materials) {
+      if ((mtl.*field).empty()) continue;
+      files.insert(mtl.*field);
+      ++count;
+    }
+    if (count == 0) continue;
+    warnings.push_back(absl::StrCat(file_name, ": its ", kind, " maps are not read (", count,
+                                    " material", count > 1 ? "s" : "",
+                                    "): ", absl::StrJoin(files, ", ")));
+  }
 }
 
 // An MTL map (`map_Kd file` with its options) as a texture of the scene. MTL's coordinates put v up
@@ -319,7 +350,8 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
                               file.warnings);
     m.emission_map = convert_map(materials[i].emissive_texname, materials[i].emissive_texopt,
                                  textures, file.warnings);
-    // `norm` names a tangent-space normal map; `bump`, a height map, is not read.
+    // `norm` names a tangent-space normal map; `bump`, a height map, is not read (a warning says
+    // so, warn_of_unread_maps).
     m.normal_map = convert_map(materials[i].normal_texname, materials[i].normal_texopt, textures,
                                file.warnings);
     // The PBR extension's maps are read where they are one image, roughness in its green channel
@@ -351,6 +383,7 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
     if (m.opacity_map.used()) m.alpha_mode = AlphaMode::kBlend;
     file.materials.push_back(std::move(m));
   }
+  warn_of_unread_maps(materials, path.filename().string(), file.warnings);
   file.textures = textures.take();
   ObjMeshBuilder builder(path, reader.GetAttrib());
   SCENE_RETURN_IF_ERROR(builder.check(reader.GetShapes()));

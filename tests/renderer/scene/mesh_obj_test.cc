@@ -154,17 +154,24 @@ std::filesystem::path write_obj_with_mtl(const std::string& name, const std::str
   return dir / (name + ".obj");
 }
 
+// The OBJ of write_obj_with_mtl, loaded, with its directory removed.
+absl::StatusOr<MeshFile> load_obj_with_mtl(const std::string& name, const std::string& mtl,
+                                           const std::vector<std::string>& materials) {
+  const std::filesystem::path path = write_obj_with_mtl(name, mtl, materials);
+  absl::StatusOr<MeshFile> file = load_obj(path);
+  std::filesystem::remove_all(path.parent_path());
+  return file;
+}
+
 // Ks with a highlight's illumination model is the modified Phong lobe, Kd its diffuse one and Ns
 // its exponent; illum 0 and 1 have no highlight, whatever Ks says.
 TEST(LoadObj, MtlWithASpecularColourIsPhong) {
-  const std::filesystem::path path =
-      write_obj_with_mtl("phong",
-                         "newmtl glossy\nKd 0.5 0.4 0.3\nKs 0.25 0.3 0.35\nNs 64\nillum 2\n"
-                         "newmtl matte\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs 10\nillum 1\n"
-                         "newmtl flat\nKd 0.2 0.2 0.2\nKs 0.1 0.1 0.1\nNs 0\nillum 2\n",
-                         {"glossy", "matte", "flat"});
-  const absl::StatusOr<MeshFile> file = load_obj(path);
-  std::filesystem::remove_all(path.parent_path());
+  const absl::StatusOr<MeshFile> file =
+      load_obj_with_mtl("phong",
+                        "newmtl glossy\nKd 0.5 0.4 0.3\nKs 0.25 0.3 0.35\nNs 64\nillum 2\n"
+                        "newmtl matte\nKd 0.5 0.5 0.5\nKs 0.3 0.3 0.3\nNs 10\nillum 1\n"
+                        "newmtl flat\nKd 0.2 0.2 0.2\nKs 0.1 0.1 0.1\nNs 0\nillum 2\n",
+                        {"glossy", "matte", "flat"});
   ASSERT_TRUE(file.ok()) << file.status();
   EXPECT_TRUE(file->warnings.empty()) << file->warnings.front();
   ASSERT_EQ(file->materials.size(), 3u);
@@ -186,10 +193,8 @@ TEST(LoadObj, MtlWithASpecularColourIsPhong) {
 // Kd + Ks above 1 would reflect more light than arrives: both are scaled by one factor until
 // the worst channel sums to 1, and the file and material are named in a warning.
 TEST(LoadObj, PhongBrighterThanItsLightIsScaledWithAWarning) {
-  const std::filesystem::path path = write_obj_with_mtl(
+  const absl::StatusOr<MeshFile> file = load_obj_with_mtl(
       "hot", "newmtl hot\nKd 0.8 0.6 0.2\nKs 0.5 0.2 0.1\nNs 30\nillum 2\n", {"hot"});
-  const absl::StatusOr<MeshFile> file = load_obj(path);
-  std::filesystem::remove_all(path.parent_path());
   ASSERT_TRUE(file.ok()) << file.status();
   ASSERT_EQ(file->materials.size(), 1u);
   const Material& hot = file->materials[0];
@@ -209,7 +214,7 @@ TEST(LoadObj, PhongBrighterThanItsLightIsScaledWithAWarning) {
 // MTL's PBR extension (Pr, Pm, as Blender writes them) is glTF's metallic-roughness material: Kd
 // the base colour; a glass's Pr is its roughness; factors outside [0, 1] are clamped, saying so.
 TEST(LoadObj, PbrExtensionIsMetallicRoughness) {
-  const std::filesystem::path path = write_obj_with_mtl(
+  const absl::StatusOr<MeshFile> file = load_obj_with_mtl(
       "pbr",
       "newmtl steel\nKd 0.9 0.6 0.2\nKs 0.5 0.5 0.5\nNs 100\nPr 0.3\nPm 1\nillum 2\n"
       "newmtl plastic\nKd 0.2 0.4 0.8\nPr 0.7\nillum 2\n"
@@ -217,8 +222,6 @@ TEST(LoadObj, PbrExtensionIsMetallicRoughness) {
       "newmtl wild\nKd 0.5 0.5 0.5\nPr 1.5\nPm -0.5\nillum 2\n"
       "newmtl classic\nKd 0.5 0.4 0.3\nKs 0.25 0.3 0.35\nNs 64\nillum 2\n",
       {"steel", "plastic", "frosted", "wild", "classic"});
-  const absl::StatusOr<MeshFile> file = load_obj(path);
-  std::filesystem::remove_all(path.parent_path());
   ASSERT_TRUE(file.ok()) << file.status();
   ASSERT_EQ(file->materials.size(), 5u);
   const Material& steel = file->materials[0];
@@ -271,6 +274,22 @@ TEST(LoadObj, PbrExtensionMapsAreReadWhenPackedInOneImage) {
               HasSubstr("material 'apart': map_Pr 'rough.png' and map_Pm 'metal.png' are not "
                         "read: a metallic-roughness map is one image"));
   EXPECT_EQ(file->textures.size(), 1u);
+}
+
+// The MTL maps no model reads are named, one warning per kind with its files.
+TEST(LoadObj, UnreadMapsAreNamedByKind) {
+  const absl::StatusOr<MeshFile> file =
+      load_obj_with_mtl("unread",
+                        "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.5 stone_bump.png\nmap_Ks shine.png\n"
+                        "newmtl b\nKd 0.5 0.5 0.5\nmap_bump stone_bump.png\n"
+                        "newmtl c\nKd 0.5 0.5 0.5\nbump wood_bump.png\n",
+                        {"a", "b", "c"});
+  ASSERT_TRUE(file.ok()) << file.status();
+  EXPECT_THAT(file->warnings,
+              ::testing::ElementsAre(
+                  "unread.obj: its map_Ks maps are not read (1 material): shine.png",
+                  "unread.obj: its bump maps are not read (3 materials): stone_bump.png, "
+                  "wood_bump.png"));
 }
 
 }  // namespace
