@@ -1,22 +1,18 @@
 #include "bench/seed_flight.h"
 
-#include <fstream>
-#include <sstream>
-
 #include "absl/strings/str_cat.h"
 #include "client/light_json.h"
 #include "proto/wire/scene_wire.h"
+#include "renderer/scene/file_io.h"
 
 namespace caustica {
 
 absl::StatusOr<std::vector<FlightFrame>> load_flight(const std::filesystem::path& path,
                                                      const Camera& start, int width, int height) {
-  std::ifstream in(path);
-  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot be read"));
-  std::stringstream text;
-  text << in.rdbuf();
+  const absl::StatusOr<std::string> text = read_file(path);
+  if (!text.ok()) return text.status();
   absl::StatusOr<std::vector<v1::Keyframe>> keyframes =
-      client::parse_light_script(text.str(), path.string());
+      client::parse_light_script(*text, path.string());
   if (!keyframes.ok()) return keyframes.status();
   std::vector<FlightFrame> frames;
   Camera camera = start;

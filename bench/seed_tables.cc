@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include "absl/strings/str_cat.h"
@@ -485,6 +486,19 @@ absl::Status seed_tables(const BenchOptions& o, Reporter& report) {
       if (absl::Status s = flight_row(o, row, estimator, report); !s.ok()) return s;
     }
   }
+  // The bunny and the dragon serve both structure tables: each is loaded once.
+  const int side = std::max(1, 1024 / o.seed_reduce);
+  std::map<std::string, SeedModel, std::less<>> loaded;
+  auto model_named = [&](const std::string& name,
+                         const std::filesystem::path& path) -> absl::StatusOr<const SeedModel*> {
+    auto it = loaded.find(name);
+    if (it == loaded.end()) {
+      absl::StatusOr<SeedModel> model = load_model(o, name, path, side);
+      if (!model.ok()) return model.status();
+      it = loaded.emplace(name, *std::move(model)).first;
+    }
+    return &it->second;
+  };
   for (int i = 0; i < int(std::size(kZeidanModels)); ++i) {
     const std::string name = kZeidanModels[i].name;
     const std::optional<std::filesystem::path> path = model_path(o, name);
@@ -492,9 +506,9 @@ absl::Status seed_tables(const BenchOptions& o, Reporter& report) {
       unavailable(report, kZeidan, name, missing_model(name));
       continue;
     }
-    absl::StatusOr<SeedModel> model = load_model(o, name, *path, 1024);
+    absl::StatusOr<const SeedModel*> model = model_named(name, *path);
     if (!model.ok()) return model.status();
-    if (absl::Status s = zeidan_model(o, i, *model, report); !s.ok()) return s;
+    if (absl::Status s = zeidan_model(o, i, **model, report); !s.ok()) return s;
   }
   for (const DacrtRow& row : kDacrtRows) {
     const std::optional<std::filesystem::path> path = model_path(o, row.scene);
@@ -502,10 +516,9 @@ absl::Status seed_tables(const BenchOptions& o, Reporter& report) {
       unavailable(report, kRavichandran, row.scene, missing_model(row.scene));
       continue;
     }
-    const int side = std::max(1, 1024 / o.seed_reduce);
-    absl::StatusOr<SeedModel> model = load_model(o, row.scene, *path, side);
+    absl::StatusOr<const SeedModel*> model = model_named(row.scene, *path);
     if (!model.ok()) return model.status();
-    if (absl::Status s = dacrt_row(o, row, *model, report); !s.ok()) return s;
+    if (absl::Status s = dacrt_row(o, row, **model, report); !s.ok()) return s;
   }
   return absl::OkStatus();
 }

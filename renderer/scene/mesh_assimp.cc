@@ -9,9 +9,7 @@
 #include <cmath>
 #include <exception>
 #include <initializer_list>
-#include <map>
 #include <optional>
-#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -20,7 +18,6 @@
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
 #include "absl/strings/strip.h"
 #include "renderer/scene/affine.h"
 #include "renderer/scene/mesh_scene.h"
@@ -223,7 +220,7 @@ class AssimpReader {
       note_unread_maps(*scene_.mMaterials[i]);
       file_.materials.push_back(std::move(m));
     }
-    warn_of_unread_maps();
+    unread_maps_.warn(file_name_, file_.warnings);
     file_.textures = textures_.take();
     SCENE_RETURN_IF_ERROR(visit_tree());
     if (file_.meshes.empty()) {
@@ -495,7 +492,7 @@ class AssimpReader {
   // colour or emissive, normals): a file beside the model, or one the model embeds in a file
   // format's bytes. Embedded raw texels are left out with a warning.
   // The maps of `material` that no material model reads (a 3DS file's bump maps, an FBX file's
-  // separate metalness and roughness maps), gathered by kind for warn_of_unread_maps.
+  // separate metalness and roughness maps), gathered by kind for one warning each.
   void note_unread_maps(const aiMaterial& material) {
     static constexpr std::pair<aiTextureType, const char*> kUnread[] = {
         {aiTextureType_HEIGHT, "bump"},
@@ -514,20 +511,8 @@ class AssimpReader {
       for (unsigned t = 0; t < material.GetTextureCount(type); ++t) {
         aiString file;
         if (material.GetTexture(type, t, &file) != AI_SUCCESS) continue;
-        UnreadMaps& maps = unread_maps_[kind];
-        maps.files.insert(file.C_Str());
-        ++maps.materials;
+        unread_maps_.note(kind, file.C_Str());
       }
-    }
-  }
-
-  // One warning per kind of map no model reads, naming its files, so that a model that looks
-  // flatter than its author made it says why.
-  void warn_of_unread_maps() {
-    for (const auto& [kind, maps] : unread_maps_) {
-      file_.warnings.push_back(absl::StrCat(
-          file_name_, ": its ", kind, " maps are not read (", maps.materials, " material",
-          maps.materials > 1 ? "s" : "", "): ", absl::StrJoin(maps.files, ", ")));
     }
   }
 
@@ -583,13 +568,7 @@ class AssimpReader {
   size_t skipped_meshes_ = 0;
   size_t total_triangles_ = 0;
   std::unordered_map<std::string, Affine> node_worlds_;  // the first node of each name
-  // Maps no model reads, by kind in the order of their warnings: their files and how many
-  // materials name one.
-  struct UnreadMaps {
-    std::set<std::string> files;
-    size_t materials = 0;
-  };
-  std::map<std::string, UnreadMaps> unread_maps_;
+  UnreadMaps unread_maps_;
   MeshFile file_;
 };
 

@@ -7,6 +7,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "renderer/scene/mesh_assimp.h"
 #include "renderer/scene/mesh_gltf.h"
 #include "renderer/scene/mesh_obj.h"
@@ -68,6 +69,22 @@ bool is_mesh_file_name(const std::filesystem::path& path) {
     return true;
   }
   return extension != ".json" && assimp_reads_extension(extension);
+}
+
+void UnreadMaps::note(std::string_view kind, const std::string& file) {
+  auto it =
+      std::find_if(kinds_.begin(), kinds_.end(), [&](const Kind& k) { return k.name == kind; });
+  if (it == kinds_.end()) it = kinds_.insert(kinds_.end(), Kind{std::string(kind), {}, 0});
+  it->files.insert(file);
+  ++it->materials;
+}
+
+void UnreadMaps::warn(const std::string& file_name, std::vector<std::string>& warnings) const {
+  for (const Kind& kind : kinds_) {
+    warnings.push_back(absl::StrCat(file_name, ": its ", kind.name, " maps are not read (",
+                                    kind.materials, " material", kind.materials > 1 ? "s" : "",
+                                    "): ", absl::StrJoin(kind.files, ", ")));
+  }
 }
 
 }  // namespace caustica

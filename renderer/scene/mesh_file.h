@@ -5,7 +5,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <set>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -15,6 +17,24 @@ namespace caustica {
 
 // Marks triangles whose file gave them no material; the scene must supply one.
 inline constexpr uint32_t kNoMaterial = 0xffffffffu;
+
+// The maps of a model file's materials that no material model reads, gathered by kind in the
+// order first noted, so that a model that looks flatter than its author made it says why: one
+// warning per kind, naming the files and counting the materials.
+class UnreadMaps {
+ public:
+  void note(std::string_view kind, const std::string& file);
+  // "NAME: its KIND maps are not read (N materials): a.png, b.png", one per kind.
+  void warn(const std::string& file_name, std::vector<std::string>& warnings) const;
+
+ private:
+  struct Kind {
+    std::string name;
+    std::set<std::string> files;
+    size_t materials = 0;
+  };
+  std::vector<Kind> kinds_;
+};
 
 struct MeshFile {
   std::vector<Mesh> meshes;         // material_ids index `materials` or are kNoMaterial

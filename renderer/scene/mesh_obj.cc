@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
-#include <set>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -113,19 +112,12 @@ void warn_of_unread_maps(const std::vector<tinyobj::material_t>& materials,
       {&tinyobj::material_t::reflection_texname, "refl"},
       {&tinyobj::material_t::sheen_texname, "map_Ps"},
   };
+  UnreadMaps unread;
   for (const auto& [field, kind] : kUnread) {
-    std::set<std::string> files;
-    size_t count = 0;
-    for (const tinyobj::material_t& mtl : materials) {
-      if ((mtl.*field).empty()) continue;
-      files.insert(mtl.*field);
-      ++count;
-    }
-    if (count == 0) continue;
-    warnings.push_back(absl::StrCat(file_name, ": its ", kind, " maps are not read (", count,
-                                    " material", count > 1 ? "s" : "",
-                                    "): ", absl::StrJoin(files, ", ")));
+    for (const tinyobj::material_t& mtl : materials)
+      if (!(mtl.*field).empty()) unread.note(kind, mtl.*field);
   }
+  unread.warn(file_name, warnings);
 }
 
 // An MTL map (`map_Kd file` with its options) as a texture of the scene. MTL's coordinates put v up
