@@ -283,6 +283,10 @@ v1::Material encode_material(const Material& m) {
     *out.mutable_metallic_roughness_map() = encode_texture_ref(m.metallic_roughness_map);
   if (m.normal_map.used()) *out.mutable_normal_map() = encode_texture_ref(m.normal_map);
   if (m.normal_scale != 1.0f) out.set_normal_scale(m.normal_scale);
+  if (m.roughness_map.used()) *out.mutable_roughness_map() = encode_texture_ref(m.roughness_map);
+  if (m.metallic_map.used()) *out.mutable_metallic_map() = encode_texture_ref(m.metallic_map);
+  if (m.bump_map.used()) *out.mutable_bump_map() = encode_texture_ref(m.bump_map);
+  if (m.bump_scale != 1.0f) out.set_bump_scale(m.bump_scale);
   static_assert(kLastAlphaMode == AlphaMode::kBlend,
                 "encode_material and the assembler's decoding know every alpha mode");
   out.set_alpha_mode(static_cast<v1::Material::AlphaMode>(m.alpha_mode));
@@ -852,6 +856,7 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
     m.specular = *specular;
     m.exponent = in.exponent();
     if (in.has_normal_scale()) m.normal_scale = in.normal_scale();
+    if (in.has_bump_scale()) m.bump_scale = in.bump_scale();
     if (!v1::Material::AlphaMode_IsValid(in.alpha_mode())) {
       return invalid(
           join_field(field, "alpha_mode"),
@@ -868,8 +873,13 @@ absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
           std::tuple{&m.metallic_roughness_map, "metallic_roughness_map",
                      &v1::Material::has_metallic_roughness_map,
                      &v1::Material::metallic_roughness_map},
+          std::tuple{&m.roughness_map, "roughness_map", &v1::Material::has_roughness_map,
+                     &v1::Material::roughness_map},
+          std::tuple{&m.metallic_map, "metallic_map", &v1::Material::has_metallic_map,
+                     &v1::Material::metallic_map},
           std::tuple{&m.normal_map, "normal_map", &v1::Material::has_normal_map,
                      &v1::Material::normal_map},
+          std::tuple{&m.bump_map, "bump_map", &v1::Material::has_bump_map, &v1::Material::bump_map},
           std::tuple{&m.opacity_map, "opacity_map", &v1::Material::has_opacity_map,
                      &v1::Material::opacity_map}}) {
       if (!(in.*has)()) continue;

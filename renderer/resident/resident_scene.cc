@@ -1,11 +1,14 @@
 #include "renderer/resident/resident_scene.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <map>
 #include <type_traits>
 #include <utility>
 
 #include "renderer/parallel/parallel_for.h"
+#include "renderer/resident/derived_maps.h"
 #include "renderer/scene/density_grid.h"
 #include "renderer/scene/scene_limits.h"
 
@@ -77,8 +80,8 @@ std::vector<DeviceMaterial> to_device_materials(std::span<const Material> materi
         i < maps.size() ? maps[i] : ResidentScene::MaterialMaps{};
     out.push_back({m.type, m.color, m.ior, emitted_radiance(m), mine.color, mine.emission,
                    m.metallic, m.roughness, m.specular, m.exponent, mine.metallic_roughness,
-                   mine.normal, m.normal_scale, m.alpha_mode, m.opacity, m.alpha_cutoff,
-                   mine.opacity, mine.opacity_channel});
+                   mine.normal, m.normal_map.used() ? m.normal_scale : 1.0f, m.alpha_mode,
+                   m.opacity, m.alpha_cutoff, mine.opacity, mine.opacity_channel});
   }
   return out;
 }
@@ -338,23 +341,29 @@ void ResidentScene::upload_environment(const Scene& scene) {
 }
 
 ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene) {
-  // Each image once per encoding, however many maps read it: [texture][1] decoded from sRGB.
-  std::vector<std::array<uint32_t, 2>> chain_of_texture(scene.textures.size(),
-                                                        {kNoTexture, kNoTexture});
-  std::vector<uint32_t> chain_of_map;
   TextureMaps maps;
-  auto add_map = [&](const TextureRef& ref, bool srgb) -> uint32_t {
-    if (!ref.used() || ref.texture >= scene.textures.size()) return kNoTexture;
+  std::vector<uint32_t> chain_of_map;
+  // Each chain once, however many maps read it: an image per encoding (sRGB or linear), and each
+  // map derived from images per the images and wrap modes it is derived from.
+  std::map<std::array<uint32_t, 5>, uint32_t> chain_of_source;
+  enum Source : uint32_t { kLinear, kSrgb, kNormalsFromHeights, kPackedMetallicRoughness };
+  auto decoded = [&](const TextureRef& ref) -> const DecodedImage* {
+    if (!ref.used() || ref.texture >= scene.textures.size()) return nullptr;
     const TextureImage& image = scene.textures[ref.texture];
-    if (image.decoded == nullptr || image.decoded->width == 0) return kNoTexture;
-    uint32_t& chain = chain_of_texture[ref.texture][srgb ? 1 : 0];
-    if (chain == kNoTexture) {
-      chain = uint32_t(maps.chains.size());
-      const MipChain& mips = maps.chains.emplace_back(build_mip_chain(
-          image.decoded->width, image.decoded->height, linear_texels(*image.decoded, srgb)));
+    return image.decoded != nullptr && image.decoded->width > 0 ? image.decoded.get() : nullptr;
+  };
+  auto chain_for = [&](std::array<uint32_t, 5> source, auto&& texels) -> uint32_t {
+    auto [it, added] = chain_of_source.try_emplace(source, uint32_t(maps.chains.size()));
+    if (added) {
+      uint32_t width = 0, height = 0;
+      std::vector<Texel> image = texels(&width, &height);
+      const MipChain& mips = maps.chains.emplace_back(build_mip_chain(width, height, image));
       texels_.emplace_back(*backend_, 0).upload(mips.texels);
       mip_levels_.emplace_back(*backend_, 0).upload(mips.levels);
     }
+    return it->second;
+  };
+  auto map_of = [&](uint32_t chain, const TextureRef& ref) -> uint32_t {
     DeviceTextureMap map;
     map.view.texels = texels_[chain].data();
     map.view.levels = mip_levels_[chain].data();
@@ -366,22 +375,63 @@ ResidentScene::TextureMaps ResidentScene::upload_texture_maps(const Scene& scene
     maps.device.push_back(map);
     return uint32_t(maps.device.size() - 1);
   };
+  auto add_map = [&](const TextureRef& ref, bool srgb) -> uint32_t {
+    const DecodedImage* image = decoded(ref);
+    if (image == nullptr) return kNoTexture;
+    const uint32_t chain =
+        chain_for({srgb ? kSrgb : kLinear, ref.texture, 0, 0, 0}, [&](uint32_t* w, uint32_t* h) {
+          *w = image->width, *h = image->height;
+          return linear_texels(*image, srgb);
+        });
+    return map_of(chain, ref);
+  };
+  auto add_bump_map = [&](const TextureRef& ref, float scale) -> uint32_t {
+    const DecodedImage* image = decoded(ref);
+    if (image == nullptr) return kNoTexture;
+    const uint32_t chain =
+        chain_for({kNormalsFromHeights, ref.texture, uint32_t(ref.wrap_u), uint32_t(ref.wrap_v),
+                   std::bit_cast<uint32_t>(scale)},
+                  [&](uint32_t* w, uint32_t* h) {
+                    *w = image->width, *h = image->height;
+                    return normals_from_heights(*image, scale, ref.wrap_u, ref.wrap_v);
+                  });
+    return map_of(chain, ref);
+  };
+  auto add_packed_map = [&](const TextureRef& roughness, const TextureRef& metallic) -> uint32_t {
+    const DecodedImage *r = decoded(roughness), *m = decoded(metallic);
+    if (r == nullptr && m == nullptr) return kNoTexture;
+    const uint32_t chain = chain_for({kPackedMetallicRoughness, r ? roughness.texture : kNoTexture,
+                                      m ? metallic.texture : kNoTexture, 0, 0},
+                                     [&](uint32_t* w, uint32_t* h) {
+                                       PackedImage packed = packed_metallic_roughness(r, m);
+                                       *w = packed.width, *h = packed.height;
+                                       return std::move(packed.texels);
+                                     });
+    // Validation has both sample alike.
+    return map_of(chain, r != nullptr ? roughness : metallic);
+  };
   material_maps_.assign(scene.materials.size(), MaterialMaps{});
   for (size_t i = 0; i < scene.materials.size(); ++i) {
     const Material& m = scene.materials[i];
-    material_maps_[i].color = add_map(m.color_map, true);
-    material_maps_[i].emission = add_map(m.emission_map, true);
-    if (m.type == MaterialType::kMetallicRoughness)
-      material_maps_[i].metallic_roughness = add_map(m.metallic_roughness_map, false);
-    material_maps_[i].normal = add_map(m.normal_map, false);
+    MaterialMaps& mine = material_maps_[i];
+    mine.color = add_map(m.color_map, true);
+    mine.emission = add_map(m.emission_map, true);
+    if (m.type == MaterialType::kMetallicRoughness) {
+      mine.metallic_roughness = m.metallic_roughness_map.used()
+                                    ? add_map(m.metallic_roughness_map, false)
+                                    : add_packed_map(m.roughness_map, m.metallic_map);
+    }
+    mine.normal = add_map(m.normal_map, false);
+    // A derived normal map carries its bump scale; to_device_materials gives it scale 1.
+    if (!m.normal_map.used()) mine.normal = add_bump_map(m.bump_map, m.bump_scale);
     if (m.alpha_mode != AlphaMode::kOpaque && m.opacity_map.used() &&
         m.opacity_map.texture < scene.textures.size()) {
       // Alpha is linear in every chain, so an alpha map shares its image's colour chain (glTF's
       // opacity is the base colour texture's alpha); a grey map is read linear.
       const TextureImage& image = scene.textures[m.opacity_map.texture];
       const bool alpha = image.decoded != nullptr && image.decoded->has_alpha;
-      material_maps_[i].opacity = add_map(m.opacity_map, alpha);
-      material_maps_[i].opacity_channel = alpha ? 3 : 0;
+      mine.opacity = add_map(m.opacity_map, alpha);
+      mine.opacity_channel = alpha ? 3 : 0;
     }
   }
   // The same maps over the host's copies, now that the chains no longer move.

@@ -214,10 +214,35 @@ class AssimpReader {
         m.emission_map = texture_map(*scene_.mMaterials[i], m.name,
                                      {aiTextureType_EMISSION_COLOR, aiTextureType_EMISSIVE});
       }
-      m.normal_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_NORMALS});
+      const aiMaterial& source = *scene_.mMaterials[i];
+      m.normal_map = texture_map(source, m.name, {aiTextureType_NORMALS});
+      // A height map (a 3DS or OBJ bump map) becomes a normal map at upload, scaled by the bump
+      // amount the file gives.
+      m.bump_map = texture_map(source, m.name, {aiTextureType_HEIGHT});
+      if (float bump = 1; m.bump_map.used() &&
+                          source.Get(AI_MATKEY_BUMPSCALING, bump) == AI_SUCCESS &&
+                          std::isfinite(bump) && bump != 0) {
+        m.bump_scale = std::clamp(bump, -kMaxBumpScale, kMaxBumpScale);
+      }
+      if (m.type == MaterialType::kMetallicRoughness) {
+        // Separate maps, or one image for both packed as glTF packs it.
+        m.roughness_map = texture_map(source, m.name, {aiTextureType_DIFFUSE_ROUGHNESS});
+        m.metallic_map = texture_map(source, m.name, {aiTextureType_METALNESS});
+        if (m.roughness_map.used() && m.roughness_map.texture == m.metallic_map.texture) {
+          m.metallic_roughness_map = m.roughness_map;
+          m.roughness_map = m.metallic_map = TextureRef{};
+        } else if (m.roughness_map.used() && m.metallic_map.used() &&
+                   !m.roughness_map.samples_like(m.metallic_map)) {
+          file_.warnings.push_back(absl::StrCat(
+              file_name_, ": material '", m.name,
+              "': its metalness map is not read: it wraps unlike its roughness map, with which "
+              "it would be packed into one map"));
+          m.metallic_map = TextureRef{};
+        }
+      }
       m.opacity_map = texture_map(*scene_.mMaterials[i], m.name, {aiTextureType_OPACITY});
       if (m.opacity_map.used()) m.alpha_mode = AlphaMode::kBlend;
-      note_unread_maps(*scene_.mMaterials[i]);
+      note_unread_maps(source, m);
       file_.materials.push_back(std::move(m));
     }
     unread_maps_.warn(file_name_, file_.warnings);
@@ -488,14 +513,12 @@ class AssimpReader {
     return absl::OkStatus();
   }
 
-  // The first texture of `types` Assimp reports for a material (base colour or diffuse, emission
-  // colour or emissive, normals): a file beside the model, or one the model embeds in a file
-  // format's bytes. Embedded raw texels are left out with a warning.
-  // The maps of `material` that no material model reads (a 3DS file's bump maps, an FBX file's
-  // separate metalness and roughness maps), gathered by kind for one warning each.
-  void note_unread_maps(const aiMaterial& material) {
+  // The maps of `material`, read as `read`, that no material model reads (a 3DS file's specular
+  // maps, metalness and roughness maps of a material that is not metallic-roughness), gathered by
+  // kind for one warning each.
+  void note_unread_maps(const aiMaterial& material, const Material& read) {
+    const bool pbr = read.type == MaterialType::kMetallicRoughness;
     static constexpr std::pair<aiTextureType, const char*> kUnread[] = {
-        {aiTextureType_HEIGHT, "bump"},
         {aiTextureType_DISPLACEMENT, "displacement"},
         {aiTextureType_SPECULAR, "specular"},
         {aiTextureType_SHININESS, "shininess"},
@@ -508,6 +531,8 @@ class AssimpReader {
         {aiTextureType_UNKNOWN, "unknown"},
     };
     for (const auto& [type, kind] : kUnread) {
+      if (pbr && (type == aiTextureType_METALNESS || type == aiTextureType_DIFFUSE_ROUGHNESS))
+        continue;
       for (unsigned t = 0; t < material.GetTextureCount(type); ++t) {
         aiString file;
         if (material.GetTexture(type, t, &file) != AI_SUCCESS) continue;
@@ -516,6 +541,9 @@ class AssimpReader {
     }
   }
 
+  // The first texture of `types` Assimp reports for a material (base colour or diffuse, emission
+  // colour or emissive, normals, heights, ...): a file beside the model, or one the model embeds in
+  // a file format's bytes. Embedded raw texels are left out with a warning.
   TextureRef texture_map(const aiMaterial& material, const std::string& name,
                          std::initializer_list<aiTextureType> types) {
     TextureRef ref;

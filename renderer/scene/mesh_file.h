@@ -40,6 +40,9 @@ struct MeshFile {
   std::vector<Mesh> meshes;         // material_ids index `materials` or are kNoMaterial
   std::vector<Material> materials;  // empty for formats without materials (PLY)
   std::vector<TextureImage> textures;  // what the materials' maps index
+  // Media the meshes enclose (their interior_medium indexes these): glTF's
+  // KHR_materials_volume, in file space.
+  std::vector<Medium> media;
   std::vector<Light> lights;        // glTF KHR_lights_punctual, already in file space
   // Perspective cameras of the file (glTF), already in file space; a JSON scene ignores them, a
   // bare mesh file renders through the first.

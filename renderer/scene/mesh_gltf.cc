@@ -343,6 +343,7 @@ class GltfReader {
         m.alpha_cutoff = static_cast<float>(gltf.alphaCutoff);
         m.opacity_map = m.color_map;
       }
+      volume_of_material_.push_back(volume_medium(gltf, m));
       file_.materials.push_back(std::move(m));
     }
     file_.textures = textures_.take();
@@ -357,13 +358,14 @@ class GltfReader {
   }
 
  private:
-  // The extensions the file uses that the reader does not read (KHR_materials_clearcoat, _volume,
+  // The extensions the file uses that the reader does not read (KHR_materials_clearcoat,
   // _specular, ...), named in one warning, so that a model that differs from its author's renders
   // says why. Those it requires are named as such.
   void warn_of_unread_extensions() {
     static constexpr std::string_view kRead[] = {
-        "KHR_lights_punctual",        "KHR_materials_emissive_strength", "KHR_materials_ior",
-        "KHR_materials_transmission", "KHR_texture_transform",
+        "KHR_lights_punctual",  "KHR_materials_emissive_strength",
+        "KHR_materials_ior",    "KHR_materials_transmission",
+        "KHR_materials_volume", "KHR_texture_transform",
     };
     std::vector<std::string> unread;
     for (const std::string& used : model_.extensionsUsed) {
@@ -431,6 +433,61 @@ class GltfReader {
       }
     }
     return ref;
+  }
+
+  // KHR_materials_volume of a transmitting material: the medium inside, which absorbs per unit of
+  // length -ln(attenuationColor) / attenuationDistance (the distance is in the file's world
+  // units, so node scales do not change it), or kNoMedium where nothing is absorbed. The
+  // thickness factor and texture, a rasterizer's stand-in for the distance a ray travels inside,
+  // are not needed by a ray tracer, which measures it.
+  uint32_t volume_medium(const tinygltf::Material& gltf, const Material& m) {
+    const auto it = gltf.extensions.find("KHR_materials_volume");
+    if (it == gltf.extensions.end() || m.type != MaterialType::kDielectric) return kNoMedium;
+    const double distance =
+        extension_number(gltf.extensions, "KHR_materials_volume", "attenuationDistance", INFINITY);
+    Vec3f color(1.0f);
+    if (it->second.Has("attenuationColor")) {
+      const tinygltf::Value& c = it->second.Get("attenuationColor");
+      if (c.IsArray() && c.ArrayLen() >= 3) {
+        for (int k = 0; k < 3; ++k)
+          if (c.Get(k).IsNumber()) (&color.x)[k] = float(c.Get(k).GetNumberAsDouble());
+      }
+    }
+    const std::string where = absl::StrCat(file_name_, ": material '", m.name, "'");
+    if (!(distance > 0) || !std::isfinite(color.x + color.y + color.z) || color.x < 0 ||
+        color.y < 0 || color.z < 0) {
+      file_.warnings.push_back(
+          absl::StrCat(where, ": KHR_materials_volume's attenuation (distance ", distance,
+                       ", colour (", color.x, ", ", color.y, ", ", color.z,
+                       ")) is not a positive distance and a colour >= 0; nothing "
+                       "is absorbed inside"));
+      return kNoMedium;
+    }
+    if (std::isinf(distance) || (color.x >= 1 && color.y >= 1 && color.z >= 1)) return kNoMedium;
+    // A channel of colour 0 absorbs everything; the floor keeps the coefficient finite.
+    const auto coefficient = [&](float c) {
+      return float(-std::log(std::clamp(double(c), 1e-6, 1.0)) / distance);
+    };
+    Medium medium;
+    medium.name = absl::StrCat(m.name, " (volume)");
+    medium.absorption = {coefficient(color.x), coefficient(color.y), coefficient(color.z)};
+    file_.media.push_back(std::move(medium));
+    return uint32_t(file_.media.size() - 1);
+  }
+
+  // A primitive of a material with a volume encloses its medium, where it is closed; else a
+  // warning says that its attenuation is left out.
+  void enclose_volume(int material, Mesh* mesh) {
+    if (material < 0 || size_t(material) >= volume_of_material_.size()) return;
+    const uint32_t medium = volume_of_material_[size_t(material)];
+    if (medium == kNoMedium) return;
+    if (absl::Status closed = check_closed(*mesh, mesh->name, file_.media[medium].name);
+        !closed.ok()) {
+      file_.warnings.push_back(
+          absl::StrCat(closed.message(), "; its KHR_materials_volume attenuation is left out"));
+      return;
+    }
+    mesh->interior_medium = medium;
   }
 
   // The default scene's roots; without scenes, every node that is nobody's child.
@@ -533,6 +590,7 @@ class GltfReader {
       SCENE_ASSIGN_OR_RETURN(Mesh mesh, convert_primitive(primitive, mode, name));
       mesh.name = absl::StrCat(file_name_, ": ", name);
       transform_mesh(world, &mesh);
+      enclose_volume(primitive.material, &mesh);
       file_.meshes.push_back(std::move(mesh));
     }
     return absl::OkStatus();
@@ -728,6 +786,7 @@ class GltfReader {
   std::vector<bool> node_seen_;
   size_t skipped_primitives_ = 0;
   MeshFile file_;
+  std::vector<uint32_t> volume_of_material_;  // each material's medium, or kNoMedium
 };
 
 // Why a file is glTF 1.0, or empty when it is not. tinygltf reads such files as glTF 2.0 and fails

@@ -12,7 +12,6 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/string_view.h"
 #include "absl/strings/strip.h"
@@ -97,9 +96,9 @@ Material convert_material(const tinyobj::material_t& mtl, size_t index,
   return m;
 }
 
-// One warning per kind of MTL map that no model reads (map_Ka, map_Ks, map_Ns, bump, disp, refl,
-// map_Ps), naming its files and counting the materials, so that a model that looks flatter than
-// its author made it says why.
+// One warning per kind of MTL map that no model reads (map_Ka, map_Ks, map_Ns, disp, refl, map_Ps),
+// naming its files and counting the materials, so that a model that looks flatter than its author
+// made it says why.
 void warn_of_unread_maps(const std::vector<tinyobj::material_t>& materials,
                          const std::string& file_name, std::vector<std::string>& warnings) {
   using Field = std::string tinyobj::material_t::*;
@@ -107,7 +106,6 @@ void warn_of_unread_maps(const std::vector<tinyobj::material_t>& materials,
       {&tinyobj::material_t::ambient_texname, "map_Ka"},
       {&tinyobj::material_t::specular_texname, "map_Ks"},
       {&tinyobj::material_t::specular_highlight_texname, "map_Ns"},
-      {&tinyobj::material_t::bump_texname, "bump"},
       {&tinyobj::material_t::displacement_texname, "disp"},
       {&tinyobj::material_t::reflection_texname, "refl"},
       {&tinyobj::material_t::sheen_texname, "map_Ps"},
@@ -342,31 +340,34 @@ absl::StatusOr<MeshFile> load_obj(const std::filesystem::path& path) {
                               file.warnings);
     m.emission_map = convert_map(materials[i].emissive_texname, materials[i].emissive_texopt,
                                  textures, file.warnings);
-    // `norm` names a tangent-space normal map; `bump`, a height map, is not read (a warning says
-    // so, warn_of_unread_maps).
+    // `norm` names a tangent-space normal map; `bump` a height map, scaled by its -bm, from which
+    // one is derived where `norm` is not given.
     m.normal_map = convert_map(materials[i].normal_texname, materials[i].normal_texopt, textures,
                                file.warnings);
-    // The PBR extension's maps are read where they are one image, roughness in its green channel
-    // and metalness in its blue, as glTF packs them (Pr and Pm multiply it); two images are not
-    // combined, and the factors alone are used.
+    m.bump_map =
+        convert_map(materials[i].bump_texname, materials[i].bump_texopt, textures, file.warnings);
+    if (m.bump_map.used()) m.bump_scale = float(materials[i].bump_texopt.bump_multiplier);
+    // The PBR extension's maps: one image named by both is packed as glTF packs it (roughness in
+    // green, metalness in blue); two images are each read by their first channel.
     const tinyobj::material_t& mtl = materials[i];
-    if (m.type == MaterialType::kMetallicRoughness &&
-        (!mtl.roughness_texname.empty() || !mtl.metallic_texname.empty())) {
+    if (m.type == MaterialType::kMetallicRoughness) {
       if (mtl.roughness_texname == mtl.metallic_texname) {
         m.metallic_roughness_map =
             convert_map(mtl.roughness_texname, mtl.roughness_texopt, textures, file.warnings);
       } else {
-        std::vector<std::string> named;
-        if (!mtl.roughness_texname.empty())
-          named.push_back(absl::StrCat("map_Pr '", mtl.roughness_texname, "'"));
-        if (!mtl.metallic_texname.empty())
-          named.push_back(absl::StrCat("map_Pm '", mtl.metallic_texname, "'"));
-        file.warnings.push_back(absl::StrCat(
-            path.filename().string(), ": material '", m.name, "': ", absl::StrJoin(named, " and "),
-            named.size() > 1 ? " are" : " is",
-            " not read: a metallic-roughness map is one image (roughness in green, metalness in "
-            "blue); Pr ",
-            m.roughness, " and Pm ", m.metallic, " are used"));
+        m.roughness_map =
+            convert_map(mtl.roughness_texname, mtl.roughness_texopt, textures, file.warnings);
+        m.metallic_map =
+            convert_map(mtl.metallic_texname, mtl.metallic_texopt, textures, file.warnings);
+        if (m.roughness_map.used() && m.metallic_map.used() &&
+            !m.roughness_map.samples_like(m.metallic_map)) {
+          file.warnings.push_back(absl::StrCat(
+              path.filename().string(), ": material '", m.name, "': map_Pm '", mtl.metallic_texname,
+              "' is not read: its -o, -s or -clamp differ from map_Pr's, with which it would be "
+              "packed into one map; Pm ",
+              m.metallic, " is used"));
+          m.metallic_map = TextureRef{};
+        }
       }
     }
     // `map_d` dissolves the surface where it is dark: the chance that a ray stops there.

@@ -153,6 +153,7 @@ absl::StatusOr<Scene> scene_around_mesh_file(MeshFile file, std::string_view sou
   Scene scene;
   scene.materials = std::move(file.materials);
   scene.textures = std::move(file.textures);
+  scene.media = std::move(file.media);
   // Triangles the file leaves without a material (PLY, OBJ without MTL) get a light grey.
   uint32_t default_material = kNoMaterial;
   for (Mesh& mesh : file.meshes) {

@@ -71,6 +71,13 @@ struct TextureRef {
   TextureWrap wrap_u = TextureWrap::kRepeat, wrap_v = TextureWrap::kRepeat;
   TextureTransform transform;
   bool used() const { return texture != kNoTexture; }
+  // Whether `other` reads its image at the same coordinates: same wrap modes and transform.
+  bool samples_like(const TextureRef& other) const {
+    const TextureTransform &s = transform, &t = other.transform;
+    return wrap_u == other.wrap_u && wrap_v == other.wrap_v && s.offset.x == t.offset.x &&
+           s.offset.y == t.offset.y && s.scale.x == t.scale.x && s.scale.y == t.scale.y &&
+           s.rotation == t.rotation;
+  }
 };
 
 struct Material {
@@ -99,11 +106,22 @@ struct Material {
   // glTF's metallicRoughnessTexture, linear: its green channel multiplies `roughness`, its blue
   // `metallic` (metallic-roughness materials only).
   TextureRef metallic_roughness_map;
+  // The same two as separate linear maps, their first channels multiplying `roughness` and
+  // `metallic` (MTL's map_Pr and map_Pm, an FBX file's roughness and metalness maps); packed into
+  // one at upload (docs/materials.md, "Derived maps"). Either excludes metallic_roughness_map.
+  TextureRef roughness_map;
+  TextureRef metallic_map;
   // A tangent-space normal map (glTF's normalTexture, MTL's norm), linear, any type: its texel c
   // bends the shading normal to (2 c - 1) with x and y times `normal_scale`, x along the texture's
   // u and y up its image (docs/materials.md, "Normal maps").
   TextureRef normal_map;
   float normal_scale = 1.0f;
+  // A height map (MTL's bump, a 3DS or Assimp height map), linear, any type: its first channel is
+  // a height, `bump_scale` times its value in units of a texel's width, from which a normal map is
+  // derived at upload (docs/materials.md, "Derived maps"). A normal map, where both are given,
+  // takes precedence.
+  TextureRef bump_map;
+  float bump_scale = 1.0f;
   // Opacity in [0, 1] (glTF's base colour alpha, MTL's map_d), times its map's alpha channel
   // where the map's image has one, else its first (a grey dissolve map), applied as
   // `alpha_mode` says; a mask cuts out where it is below `alpha_cutoff`. Any type may have it.
@@ -113,19 +131,21 @@ struct Material {
   TextureRef opacity_map;
 
   // Every map with its field's name, for what treats them alike.
-  std::array<std::pair<TextureRef*, const char*>, 5> maps() {
+  std::array<std::pair<TextureRef*, const char*>, 8> maps() {
     return {{{&color_map, "color_map"},
              {&emission_map, "emission_map"},
              {&metallic_roughness_map, "metallic_roughness_map"},
+             {&roughness_map, "roughness_map"},
+             {&metallic_map, "metallic_map"},
              {&normal_map, "normal_map"},
+             {&bump_map, "bump_map"},
              {&opacity_map, "opacity_map"}}};
   }
-  std::array<std::pair<const TextureRef*, const char*>, 5> maps() const {
-    return {{{&color_map, "color_map"},
-             {&emission_map, "emission_map"},
-             {&metallic_roughness_map, "metallic_roughness_map"},
-             {&normal_map, "normal_map"},
-             {&opacity_map, "opacity_map"}}};
+  std::array<std::pair<const TextureRef*, const char*>, 8> maps() const {
+    auto all = const_cast<Material*>(this)->maps();
+    std::array<std::pair<const TextureRef*, const char*>, 8> out;
+    for (size_t i = 0; i < all.size(); ++i) out[i] = {all[i].first, all[i].second};
+    return out;
   }
   // Whether a ray may pass through some of the surface.
   bool has_cutouts() const {

@@ -1,6 +1,7 @@
 #include "renderer/scene/scene_json.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -339,6 +340,8 @@ class SceneReader {
       SCENE_RETURN_IF_ERROR(object.read("roughness", kOptional, &material.roughness));
       SCENE_ASSIGN_OR_RETURN(material.metallic_roughness_map,
                              read_map(object, "metallic_roughness_map"));
+      SCENE_ASSIGN_OR_RETURN(material.roughness_map, read_map(object, "roughness_map"));
+      SCENE_ASSIGN_OR_RETURN(material.metallic_map, read_map(object, "metallic_map"));
     } else if (type == "phong") {
       material.type = MaterialType::kPhong;
       // The defaults sum to 1: white light is all reflected, mostly diffusely.
@@ -359,6 +362,8 @@ class SceneReader {
     SCENE_ASSIGN_OR_RETURN(material.emission_map, read_map(object, "emission_map"));
     SCENE_ASSIGN_OR_RETURN(material.normal_map, read_map(object, "normal_map"));
     SCENE_RETURN_IF_ERROR(object.read("normal_scale", kOptional, &material.normal_scale));
+    SCENE_ASSIGN_OR_RETURN(material.bump_map, read_map(object, "bump_map"));
+    SCENE_RETURN_IF_ERROR(object.read("bump_scale", kOptional, &material.bump_scale));
     if (object.has("alpha_mode")) {
       SCENE_RETURN_IF_ERROR(read_choice(object, "alpha_mode", "alpha mode",
                                         {std::pair{"opaque", AlphaMode::kOpaque},
@@ -621,6 +626,18 @@ class SceneReader {
     for (const std::string& warning : mesh_file.warnings)
       warnings_.push_back(absl::StrCat(shape.field_path("file"), ": ", warning));
     const uint32_t first_material = static_cast<uint32_t>(scene_.materials.size());
+    // The media the file's meshes enclose join the scene's, unless the shape names its own medium
+    // or material; a transform's scale stretches the distances they absorb over.
+    const auto first_medium = static_cast<uint32_t>(scene_.media.size());
+    if (interior == kNoMedium && !material_override) {
+      const double scale = transform ? std::cbrt(std::fabs(transform->determinant())) : 1.0;
+      for (Medium& medium : mesh_file.media) {
+        medium.name = absl::StrCat(file_name, ":", medium.name);
+        medium.absorption = medium.absorption / float(scale);
+        medium.scattering = medium.scattering / float(scale);
+        scene_.media.push_back(std::move(medium));
+      }
+    }
     if (!material_override) {
       // The file's textures join the scene's, and its materials' maps follow them.
       const auto first_texture = static_cast<uint32_t>(scene_.textures.size());
@@ -648,7 +665,11 @@ class SceneReader {
       }
       if (transform) transform_mesh(*transform, &mesh);
       mesh.name = shape_label(shape.path(), name, mesh.name);
-      mesh.interior_medium = interior;
+      if (interior != kNoMedium || material_override) {
+        mesh.interior_medium = interior;
+      } else if (mesh.interior_medium != kNoMedium) {
+        mesh.interior_medium += first_medium;
+      }
       scene_.meshes.push_back(std::move(mesh));
     }
     for (Light& light : mesh_file.lights) {

@@ -23,6 +23,9 @@ inline constexpr float kMaxPhongExponent = 1e6f;
 // A normal map's x and y scaled beyond this bend every normal to the tangent plane; larger scales
 // are typos.
 inline constexpr float kMaxNormalScale = 100.0f;
+// A height map's steps are a few hundredths of its range per texel; a scale beyond this bends
+// every derived normal to the tangent plane.
+inline constexpr float kMaxBumpScale = 1000.0f;
 #ifdef FUZZING_BUILD_MODE_UNSAFE_FOR_PRODUCTION
 // The fuzz preset (fuzz/): a few bytes of scene may legally ask for a 100M-triangle sphere, which
 // would exceed a fuzzer's memory and time per input and be reported as a finding. Meshes a fuzzer

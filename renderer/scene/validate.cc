@@ -62,6 +62,49 @@ absl::Status check_tangent(const Vec4f& t) {
       absl::StrCat(value, " has w = ", t.w, ", not 1 or -1 (the bitangent's sign)"));
 }
 
+// A mesh that encloses a medium must be closed, so that every ray that enters it leaves it: each
+// edge, with its ends compared by position (shapes and files repeat corners), borders exactly two
+// triangles, which run along it in opposite directions.
+absl::Status check_closed(const Mesh& mesh, const std::string& field, const std::string& medium) {
+  using Corner = std::array<float, 3>;
+  auto corner = [&](uint32_t v) {
+    const Vec3f p = mesh.positions[v];
+    return Corner{p.x, p.y, p.z};
+  };
+  // Each undirected edge: how many triangles run along it from its smaller end, and how many back.
+  std::map<std::pair<Corner, Corner>, std::pair<int, int>> edges;
+  for (size_t t = 0; t < mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const Corner a = corner(mesh.indices[3 * t + k]);
+      const Corner b = corner(mesh.indices[3 * t + (k + 1) % 3]);
+      if (a == b) continue;  // a degenerate triangle's collapsed edge
+      if (a < b) {
+        ++edges[{a, b}].first;
+      } else {
+        ++edges[{b, a}].second;
+      }
+    }
+  }
+  for (const auto& [edge, runs] : edges) {
+    if (runs.first == 1 && runs.second == 1) continue;
+    const auto& [a, b] = edge;
+    const std::string where = absl::StrFormat("the edge from (%g, %g, %g) to (%g, %g, %g)", a[0],
+                                              a[1], a[2], b[0], b[1], b[2]);
+    if (runs.first + runs.second == 1) {
+      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but is not closed: ",
+                                               where, " borders one triangle"));
+    }
+    if (runs.first + runs.second == 2) {
+      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but ", where,
+                                               " joins two triangles facing opposite ways"));
+    }
+    return invalid_field(field,
+                         absl::StrCat("encloses medium '", medium, "' but ", where, " borders ",
+                                      runs.first + runs.second, " triangles, not two"));
+  }
+  return absl::OkStatus();
+}
+
 absl::Status validate_camera(const Camera& camera) {
   if (!is_finite(camera.position)) return invalid_field("camera.position", "is not finite");
   if (!is_finite(camera.look_at)) return invalid_field("camera.look_at", "is not finite");
@@ -168,6 +211,26 @@ absl::Status validate_material(const Material& m, size_t textures) {
                          absl::StrCat(m.normal_scale, " is not a number in [-", kMaxNormalScale,
                                       ", ", kMaxNormalScale, "]"));
   }
+  if (!(std::isfinite(m.bump_scale) && std::fabs(m.bump_scale) <= kMaxBumpScale)) {
+    return invalid_field(absl::StrCat(field, ".bump_scale"),
+                         absl::StrCat(m.bump_scale, " is not a number in [-", kMaxBumpScale, ", ",
+                                      kMaxBumpScale, "]"));
+  }
+  // The separate maps are packed into one at upload, sampled as one.
+  for (const auto& [map, name] :
+       {std::pair{&m.roughness_map, "roughness_map"}, std::pair{&m.metallic_map, "metallic_map"}}) {
+    if (map->used() && m.metallic_roughness_map.used()) {
+      return invalid_field(absl::StrCat(field, ".", name),
+                           "excludes metallic_roughness_map: give the packed map or the separate "
+                           "ones");
+    }
+  }
+  if (m.roughness_map.used() && m.metallic_map.used() &&
+      !m.roughness_map.samples_like(m.metallic_map)) {
+    return invalid_field(absl::StrCat(field, ".metallic_map"),
+                         "wraps or transforms its coordinates unlike roughness_map, with which "
+                         "it is packed into one map");
+  }
   if (m.alpha_mode > kLastAlphaMode) {
     return invalid_field(
         absl::StrCat(field, ".alpha_mode"),
@@ -245,49 +308,6 @@ absl::Status validate_medium(const Medium& m) {
                          "is not an invertible map of finite numbers");
   }
   return check_density_grid(*m.grid, grid_field);
-}
-
-// A mesh that encloses a medium must be closed, so that every ray that enters it leaves it: each
-// edge, with its ends compared by position (shapes and files repeat corners), borders exactly two
-// triangles, which run along it in opposite directions.
-absl::Status check_closed(const Mesh& mesh, const std::string& field, const std::string& medium) {
-  using Corner = std::array<float, 3>;
-  auto corner = [&](uint32_t v) {
-    const Vec3f p = mesh.positions[v];
-    return Corner{p.x, p.y, p.z};
-  };
-  // Each undirected edge: how many triangles run along it from its smaller end, and how many back.
-  std::map<std::pair<Corner, Corner>, std::pair<int, int>> edges;
-  for (size_t t = 0; t < mesh.triangle_count(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const Corner a = corner(mesh.indices[3 * t + k]);
-      const Corner b = corner(mesh.indices[3 * t + (k + 1) % 3]);
-      if (a == b) continue;  // a degenerate triangle's collapsed edge
-      if (a < b) {
-        ++edges[{a, b}].first;
-      } else {
-        ++edges[{b, a}].second;
-      }
-    }
-  }
-  for (const auto& [edge, runs] : edges) {
-    if (runs.first == 1 && runs.second == 1) continue;
-    const auto& [a, b] = edge;
-    const std::string where = absl::StrFormat("the edge from (%g, %g, %g) to (%g, %g, %g)", a[0],
-                                              a[1], a[2], b[0], b[1], b[2]);
-    if (runs.first + runs.second == 1) {
-      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but is not closed: ",
-                                               where, " borders one triangle"));
-    }
-    if (runs.first + runs.second == 2) {
-      return invalid_field(field, absl::StrCat("encloses medium '", medium, "' but ", where,
-                                               " joins two triangles facing opposite ways"));
-    }
-    return invalid_field(field,
-                         absl::StrCat("encloses medium '", medium, "' but ", where, " borders ",
-                                      runs.first + runs.second, " triangles, not two"));
-  }
-  return absl::OkStatus();
 }
 
 absl::Status validate_light(const Light& light, size_t index) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -34,5 +35,10 @@ absl::Status validate_triangle_total(size_t triangles);
 // One vertex tangent (Mesh::tangents): finite, its w the bitangent's sign, 1 or -1. The message
 // names the value and the problem; the caller names the vertex.
 absl::Status check_tangent(const Vec4f& tangent);
+
+// OK when `mesh` is closed, as one that encloses a medium must be: every edge, its ends compared
+// by position, borders exactly two triangles running along it in opposite directions. Else
+// INVALID_ARGUMENT naming `field`, the medium and the first edge that is not.
+absl::Status check_closed(const Mesh& mesh, const std::string& field, const std::string& medium);
 
 }  // namespace caustica

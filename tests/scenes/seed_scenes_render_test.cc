@@ -74,7 +74,7 @@ TEST_P(SeedScenes, RenderLitFromInside) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Bundled, SeedScenes,
-                         ::testing::Values(SeedScene{"sponza", 11}, SeedScene{"sibenik", 3},
+                         ::testing::Values(SeedScene{"sponza", 15}, SeedScene{"sibenik", 3},
                                            SeedScene{"conference", 0}, SeedScene{"bunny", 0}),
                          [](const auto& info) { return std::string(info.param.name); });
 

@@ -804,6 +804,14 @@ Scene with_textures() {
   fourth.alpha_cutoff = 0.25f;
   fourth.opacity = 0.75f;
   fourth.opacity_map.texture = 1;
+  fourth.bump_map.texture = 0;
+  fourth.bump_scale = 3.0f;
+  Material separate;
+  separate.name = "separate";
+  separate.type = MaterialType::kMetallicRoughness;
+  separate.roughness_map.texture = 0;
+  separate.metallic_map.texture = 1;
+  scene.materials.push_back(separate);
   return scene;
 }
 
@@ -851,6 +859,14 @@ TEST(SceneWire, TexturesArriveByteForByteWithTheirMaps) {
   EXPECT_EQ(back->materials.at(0).opacity, 1.0f);
   EXPECT_EQ(back->materials.at(0).alpha_cutoff, 0.5f);
   EXPECT_FALSE(back->materials.at(0).opacity_map.used());
+  EXPECT_EQ(fourth.bump_map.texture, 0u);
+  EXPECT_EQ(fourth.bump_scale, 3.0f);
+  EXPECT_FALSE(back->materials.at(0).bump_map.used());
+  EXPECT_EQ(back->materials.at(0).bump_scale, 1.0f);
+  const Material& separate = back->materials.back();
+  EXPECT_EQ(separate.roughness_map.texture, 0u);
+  EXPECT_EQ(separate.metallic_map.texture, 1u);
+  EXPECT_FALSE(separate.metallic_roughness_map.used());
   EXPECT_TRUE(validate_scene(*back).ok());
 }
 

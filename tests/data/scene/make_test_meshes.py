@@ -21,6 +21,9 @@ The outputs are committed; this script documents how they were made and regenera
   meshes/camera_light.gltf
       a quad with a perspective and an orthographic camera and two KHR_lights_punctual lights,
       for the bare-mesh scene (mesh_scene.h).
+  meshes/volume.gltf
+      glass cubes with KHR_materials_volume (one at scale 2), a glass cube whose volume absorbs
+      nothing, and an open sheet of the absorbing glass, which cannot enclose its medium.
   bad/gltf1_no_asset.gltf, bad/garbage.fbx, bad/truncated.stl
       a glTF 1.0 document recognisable only by its top-level objects, text that is no FBX, and a
       binary STL that claims 1000 facets but holds one.
@@ -468,6 +471,60 @@ def camera_light_document():
     }
 
 
+# A unit cube around the origin, its triangles wound to face out.
+CUBE = [(-.5, -.5, -.5), (.5, -.5, -.5), (.5, .5, -.5), (-.5, .5, -.5),
+        (-.5, -.5, .5), (.5, -.5, .5), (.5, .5, .5), (-.5, .5, .5)]
+CUBE_INDICES = [0, 3, 2, 0, 2, 1, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5]
+SHEET = [(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)]
+
+
+def volume_document():
+    buffer, views = pack_views(b"".join(struct.pack("<3f", *p) for p in CUBE),
+                               struct.pack("<36H", *CUBE_INDICES),
+                               b"".join(struct.pack("<3f", *p) for p in SHEET),
+                               struct.pack("<6H", 0, 2, 1, 0, 3, 2))
+    glass = {"pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 0}}
+    return {
+        "asset": {"version": "2.0", "generator": "caustica make_test_meshes.py"},
+        "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_volume"],
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 2, 3]}],
+        "nodes": [{"mesh": 0, "name": "tinted cube"},
+                  {"mesh": 0, "name": "big tinted cube", "scale": [2, 2, 2],
+                   "translation": [3, 0, 0]},
+                  {"mesh": 1, "name": "clear cube", "translation": [-3, 0, 0]},
+                  {"mesh": 2, "name": "tinted sheet", "translation": [0, -2, 0]}],
+        "materials": [
+            dict(glass, name="tinted", extensions={
+                "KHR_materials_transmission": {"transmissionFactor": 1},
+                "KHR_materials_volume": {"attenuationColor": [0.1, 0.5, 0.9],
+                                         "attenuationDistance": 2, "thicknessFactor": 1}}),
+            dict(glass, name="clear", extensions={
+                "KHR_materials_transmission": {"transmissionFactor": 1},
+                "KHR_materials_volume": {"thicknessFactor": 1}}),
+        ],
+        "meshes": [
+            {"name": "cube", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1,
+                                             "material": 0}]},
+            {"name": "clear cube", "primitives": [{"attributes": {"POSITION": 0}, "indices": 1,
+                                                   "material": 1}]},
+            {"name": "sheet", "primitives": [{"attributes": {"POSITION": 2}, "indices": 3,
+                                              "material": 0}]},
+        ],
+        "buffers": [{"byteLength": len(buffer), "uri": embedded(buffer)}],
+        "bufferViews": views,
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+             "min": [-.5, -.5, -.5], "max": [.5, .5, .5]},
+            {"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"},
+            {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [-1, 0, -1], "max": [1, 0, 1]},
+            {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
+    }
+
+
 def write_strips_and_cameras():
     write(os.path.join(MESHES, "strips_fans.gltf"),
           json.dumps(strips_fans_document(), indent=1) + "\n")
@@ -478,6 +535,7 @@ def write_strips_and_cameras():
     write(os.path.join(BAD, "unknown_mode.gltf"), json.dumps(doc, indent=1) + "\n")
     write(os.path.join(MESHES, "camera_light.gltf"),
           json.dumps(camera_light_document(), indent=1) + "\n")
+    write(os.path.join(MESHES, "volume.gltf"), json.dumps(volume_document(), indent=1) + "\n")
 
 
 def write_other_bad_files():

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -178,6 +179,36 @@ TEST(LoadGltf, RoughGlassAndPartlyMetallicMaterialsKeepTheirFactors) {
   EXPECT_THAT(brushed.color, Vec3Near(Vec3f(0.2f, 0.4f, 0.6f), 1e-6f));
   EXPECT_FLOAT_EQ(brushed.metallic, 0.98f);
   EXPECT_FLOAT_EQ(brushed.roughness, 0.005f);
+}
+
+// KHR_materials_volume: a transmitting material's attenuation colour c over its distance d is an
+// absorbing medium of -ln(c) / d per unit, in world units, so the scaled node's cube encloses the
+// same one; a material that absorbs nothing encloses none; an open primitive cannot enclose one,
+// and a warning says its attenuation is left out.
+TEST(LoadGltf, VolumeAttenuationIsTheMediumInsideClosedPrimitives) {
+  const absl::StatusOr<MeshFile> file = load_gltf(scene_data("meshes/volume.gltf"));
+  ASSERT_TRUE(file.ok()) << file.status();
+  ASSERT_EQ(file->media.size(), 1u);
+  const Medium& inside = file->media[0];
+  EXPECT_EQ(inside.name, "tinted (volume)");
+  EXPECT_EQ(inside.type, MediumType::kHomogeneous);
+  EXPECT_THAT(inside.absorption,
+              Vec3Near(Vec3f(-std::log(0.1f), -std::log(0.5f), -std::log(0.9f)) / 2.0f, 1e-6f));
+  EXPECT_THAT(inside.scattering, Vec3Near(Vec3f(0.0f), 0.0f));
+  const Mesh* cube = mesh_named(*file, "node 'tinted cube'");
+  const Mesh* big = mesh_named(*file, "node 'big tinted cube'");
+  const Mesh* clear = mesh_named(*file, "node 'clear cube'");
+  const Mesh* sheet = mesh_named(*file, "node 'tinted sheet'");
+  ASSERT_TRUE(cube && big && clear && sheet);
+  EXPECT_EQ(cube->interior_medium, 0u);
+  EXPECT_EQ(big->interior_medium, 0u);
+  EXPECT_EQ(clear->interior_medium, kNoMedium);
+  EXPECT_EQ(sheet->interior_medium, kNoMedium);
+  EXPECT_THAT(file->warnings,
+              ::testing::ElementsAre(
+                  HasSubstr("node 'tinted sheet': encloses medium 'tinted (volume)' but is not "
+                            "closed: the edge from")));
+  EXPECT_THAT(file->warnings[0], HasSubstr("its KHR_materials_volume attenuation is left out"));
 }
 
 TEST(LoadGltf, AccessorPastItsBufferIsRejected) {

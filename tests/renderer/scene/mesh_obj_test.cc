@@ -247,49 +247,62 @@ TEST(LoadObj, PbrExtensionIsMetallicRoughness) {
   EXPECT_THAT(file->warnings[1], HasSubstr("material 'wild': Pr 1.5 is outside [0, 1]; read as 1"));
 }
 
-// Its maps are read where map_Pr and map_Pm name one image, packed as glTF's (roughness green,
-// metalness blue); two images are not, and the warning says which and what is used instead.
-TEST(LoadObj, PbrExtensionMapsAreReadWhenPackedInOneImage) {
+// Its maps: map_Pr and map_Pm naming one image are packed as glTF's (roughness green, metalness
+// blue); two images are the separate maps, unless they are read at different coordinates, which
+// one map cannot be, and then the warning says which is left out and what is used instead. A
+// bump map is read with its -bm.
+TEST(LoadObj, PbrExtensionAndBumpMapsAreRead) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "caustica_map_pr";
   std::filesystem::create_directories(dir);
-  for (const char* name : {"orm.png", "rough.png", "metal.png"})
+  for (const char* name : {"orm.png", "rough.png", "metal.png", "bump.png"})
     std::filesystem::copy_file(scene_data("thirdparty/gltf2/BoxTextured/CesiumLogoFlat.png"),
                                dir / name, std::filesystem::copy_options::overwrite_existing);
   std::ofstream(dir / "m.mtl") << "newmtl packed\nKd 1 1 1\nPr 1\nPm 1\nmap_Pr orm.png\n"
                                   "map_Pm orm.png\n"
                                   "newmtl apart\nKd 1 1 1\nPr 0.5\nPm 1\nmap_Pr rough.png\n"
-                                  "map_Pm metal.png\n";
+                                  "map_Pm metal.png\nbump -bm 0.25 bump.png\n"
+                                  "newmtl shifted\nKd 1 1 1\nPr 0.5\nPm 1\nmap_Pr rough.png\n"
+                                  "map_Pm -o 0.5 0 0 metal.png\n";
   std::ofstream(dir / "m.obj") << "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
                                   "vt 0 0\nvt 1 0\nvt 0 1\nusemtl packed\nf 1/1 2/2 3/3\n"
-                                  "usemtl apart\nf 1/1 2/2 3/3\n";
+                                  "usemtl apart\nf 1/1 2/2 3/3\nusemtl shifted\nf 1/1 2/2 3/3\n";
   const absl::StatusOr<MeshFile> file = load_obj(dir / "m.obj");
   std::filesystem::remove_all(dir);
   ASSERT_TRUE(file.ok()) << file.status();
-  ASSERT_EQ(file->materials.size(), 2u);
-  EXPECT_TRUE(file->materials[0].metallic_roughness_map.used());
-  EXPECT_FALSE(file->materials[1].metallic_roughness_map.used());
-  EXPECT_EQ(file->materials[1].roughness, 0.5f);
-  ASSERT_EQ(file->warnings.size(), 1u);
-  EXPECT_THAT(file->warnings[0],
-              HasSubstr("material 'apart': map_Pr 'rough.png' and map_Pm 'metal.png' are not "
-                        "read: a metallic-roughness map is one image"));
-  EXPECT_EQ(file->textures.size(), 1u);
+  ASSERT_EQ(file->materials.size(), 3u);
+  const Material &packed = file->materials[0], &apart = file->materials[1],
+                 &shifted = file->materials[2];
+  EXPECT_TRUE(packed.metallic_roughness_map.used());
+  EXPECT_FALSE(packed.roughness_map.used() || packed.metallic_map.used());
+  EXPECT_FALSE(apart.metallic_roughness_map.used());
+  ASSERT_TRUE(apart.roughness_map.used() && apart.metallic_map.used());
+  EXPECT_NE(apart.roughness_map.texture, apart.metallic_map.texture);
+  ASSERT_TRUE(apart.bump_map.used());
+  EXPECT_EQ(apart.bump_scale, 0.25f);
+  EXPECT_FALSE(packed.bump_map.used());
+  EXPECT_TRUE(shifted.roughness_map.used());
+  EXPECT_FALSE(shifted.metallic_map.used());
+  EXPECT_THAT(file->warnings,
+              ::testing::ElementsAre(HasSubstr(
+                  "material 'shifted': map_Pm 'metal.png' is not read: its -o, -s or -clamp "
+                  "differ from map_Pr's")));
+  EXPECT_EQ(file->textures.size(), 4u);
 }
 
 // The MTL maps no model reads are named, one warning per kind with its files.
 TEST(LoadObj, UnreadMapsAreNamedByKind) {
   const absl::StatusOr<MeshFile> file =
       load_obj_with_mtl("unread",
-                        "newmtl a\nKd 0.5 0.5 0.5\nbump -bm 0.5 stone_bump.png\nmap_Ks shine.png\n"
-                        "newmtl b\nKd 0.5 0.5 0.5\nmap_bump stone_bump.png\n"
-                        "newmtl c\nKd 0.5 0.5 0.5\nbump wood_bump.png\n",
+                        "newmtl a\nKd 0.5 0.5 0.5\ndisp stone_disp.png\nmap_Ks shine.png\n"
+                        "newmtl b\nKd 0.5 0.5 0.5\ndisp stone_disp.png\n"
+                        "newmtl c\nKd 0.5 0.5 0.5\ndisp wood_disp.png\n",
                         {"a", "b", "c"});
   ASSERT_TRUE(file.ok()) << file.status();
   EXPECT_THAT(file->warnings,
               ::testing::ElementsAre(
                   "unread.obj: its map_Ks maps are not read (1 material): shine.png",
-                  "unread.obj: its bump maps are not read (3 materials): stone_bump.png, "
-                  "wood_bump.png"));
+                  "unread.obj: its disp maps are not read (3 materials): stone_disp.png, "
+                  "wood_disp.png"));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
@@ -225,6 +226,42 @@ TEST(ParseScene, ResolvesMeshPathsAgainstBaseDir) {
   EXPECT_EQ(scene->triangle_count(), 3u);
 }
 
+// A model file's volumes join the scene's media under the file's name, their coefficients over
+// the shape's scale (twice the size absorbs as much over twice the distance); a shape that names
+// its own material keeps the file's out.
+TEST(ParseScene, AModelFilesVolumesJoinTheScenesMedia) {
+  const auto with_shape = [](const std::string& extra) {
+    return parse_scene(R"({
+      "camera": {"position": [0, 1, -9], "look_at": [0, 0, 0], "fov": 45, "width": 8, "height": 8},
+      "materials": {"grey": {"type": "diffuse", "albedo": [0.5, 0.5, 0.5]}},
+      "media": {"fog": {"type": "homogeneous", "absorption": [0.1, 0.1, 0.1],
+                        "scattering": [0, 0, 0]}},
+      "lights": [{"type": "point", "position": [0, 4, 0], "intensity": [1, 1, 1]}],
+      "shapes": [{"type": "mesh", "file": "volume.gltf",
+                  "transform": {"scale": 2})" +
+                           extra + R"(}]
+    })",
+                       scene_data("meshes"), "inline.json");
+  };
+  const absl::StatusOr<Scene> scene = with_shape("");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  ASSERT_EQ(scene->media.size(), 2u);
+  EXPECT_EQ(scene->media[1].name, "volume.gltf:tinted (volume)");
+  EXPECT_NEAR(scene->media[1].absorption.x, -std::log(0.1f) / 4.0f, 1e-6f);
+  size_t enclosing = 0;
+  for (const Mesh& mesh : scene->meshes) {
+    if (mesh.interior_medium == kNoMedium) continue;
+    EXPECT_EQ(mesh.interior_medium, 1u);
+    ++enclosing;
+  }
+  EXPECT_EQ(enclosing, 2u);
+  // (The file's open sheet could not enclose a medium the shape named.)
+  const absl::StatusOr<Scene> own = with_shape(R"(, "material": "grey")");
+  ASSERT_TRUE(own.ok()) << own.status();
+  EXPECT_EQ(own->media.size(), 1u);
+  for (const Mesh& mesh : own->meshes) EXPECT_EQ(mesh.interior_medium, kNoMedium);
+}
+
 // Any kind of material may also emit; its radiance is checked as an emissive material's.
 TEST(ParseScene, ADiffuseMaterialMayEmit) {
   auto scene_with = [](const std::string& material) {
@@ -339,6 +376,41 @@ TEST(ParseScene, AnyMaterialNamesANormalMap) {
           "normal_scale": 1e9})");
   ASSERT_FALSE(huge.ok());
   EXPECT_THAT(message_of(huge.status()), HasSubstr("materials.bumpy.normal_scale"));
+}
+
+// Separate roughness and metalness maps, which are packed at upload, and a bump map with its
+// scale; the packed map and the separate ones exclude each other, maps packed together must be
+// read at the same coordinates, and a scale of no reason is refused, each by name.
+TEST(ParseScene, SeparateMetallicRoughnessMapsAndBumpMaps) {
+  auto scene_with = [](const std::string& material) { return scene_beside_logo("worn", material); };
+  const absl::StatusOr<Scene> scene = scene_with(
+      R"({"type": "metallic_roughness", "roughness_map": "CesiumLogoFlat.png",
+          "metallic_map": "CesiumLogoFlat.png", "bump_map": "CesiumLogoFlat.png",
+          "bump_scale": 4})");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const Material& m = scene->materials.at(0);
+  EXPECT_EQ(m.roughness_map.texture, 0u);
+  EXPECT_EQ(m.metallic_map.texture, 0u);
+  EXPECT_EQ(m.bump_map.texture, 0u);
+  EXPECT_EQ(m.bump_scale, 4.0f);
+  const std::pair<const char*, const char*> refused[] = {
+      {R"({"type": "metallic_roughness", "roughness_map": "CesiumLogoFlat.png",
+           "metallic_roughness_map": "CesiumLogoFlat.png"})",
+       "materials.worn.roughness_map: excludes metallic_roughness_map"},
+      {R"({"type": "metallic_roughness", "roughness_map": "CesiumLogoFlat.png",
+           "metallic_map": {"file": "CesiumLogoFlat.png", "wrap": "clamp"}})",
+       "materials.worn.metallic_map: wraps or transforms its coordinates unlike roughness_map"},
+      {R"({"type": "diffuse", "albedo": [1, 1, 1], "bump_map": "CesiumLogoFlat.png",
+           "bump_scale": 1e6})",
+       "materials.worn.bump_scale"},
+      {R"({"type": "diffuse", "albedo": [1, 1, 1], "roughness_map": "CesiumLogoFlat.png"})",
+       "roughness_map"},
+  };
+  for (const auto& [material, message] : refused) {
+    const absl::StatusOr<Scene> bad = scene_with(material);
+    ASSERT_FALSE(bad.ok()) << material;
+    EXPECT_THAT(message_of(bad.status()), HasSubstr(message));
+  }
 }
 
 TEST(ParseScene, AnyMaterialMayBeCutOutOrBlended) {
