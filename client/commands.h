@@ -8,6 +8,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -38,6 +39,30 @@ absl::Status run_scene_info(const GlobalOptions& global, const std::string& scen
                             std::ostream& out);
 absl::Status run_scene_delete(const GlobalOptions& global, const std::string& scene_id,
                               std::ostream& out);
+
+// A rebuild report as text, or one JSON object with --json.
+void print_rebuild(const GlobalOptions& global, const v1::RebuildReport& report, std::ostream& out);
+
+// Sends an update (UpdateLights, UpdateGeometry, ...) to the server holding scene `scene` and
+// prints the rebuild report it returns.
+template <typename Request>
+absl::Status send_update(const GlobalOptions& global, const std::string& scene,
+                         grpc::Status (v1::RenderService::Stub::*method)(grpc::ClientContext*,
+                                                                         const Request&,
+                                                                         v1::RebuildReport*),
+                         const Request& request, std::ostream& out) {
+  absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
+  if (!connection.ok()) return connection.status();
+  if (absl::Status pinned = (*connection)->pin_to_scene(scene); !pinned.ok()) return pinned;
+  absl::StatusOr<v1::RebuildReport> report = (*connection)->call(method, request);
+  if (!report.ok()) return report.status();
+  print_rebuild(global, *report, out);
+  return absl::OkStatus();
+}
+
+// The value "X,Y,Z" (or one value V meaning V,V,V when `allow_scalar`) of the flag `flag`.
+absl::StatusOr<v1::Vec3> parse_vec3_flag(std::string_view flag, const std::string& text,
+                                         bool allow_scalar);
 
 // light set SCENE: the complete new light list, from flags (one light) or a lights file.
 struct LightSetOptions {
@@ -74,6 +99,18 @@ struct LightEnvironmentOptions {
 absl::StatusOr<v1::UpdateLightsRequest> environment_request(const LightEnvironmentOptions& options);
 absl::Status run_light_environment(const GlobalOptions& global,
                                    const LightEnvironmentOptions& options, std::ostream& out);
+
+// mesh move SCENE MESH: where a mesh stands (UpdateGeometry), scaled, then rotated about x, y
+// and z, then translated, as a scene file's transform; it places the mesh as uploaded.
+struct MeshMoveOptions {
+  std::string scene;
+  std::string mesh;                      // as `scene info` lists it
+  std::string translate, rotate, scale;  // "X,Y,Z" (degrees for rotate; one value for scale)
+  std::optional<uint64_t> expect_epoch;  // apply only if the geometry epoch still equals this
+};
+absl::StatusOr<v1::UpdateGeometryRequest> mesh_move_request(const MeshMoveOptions& options);
+absl::Status run_mesh_move(const GlobalOptions& global, const MeshMoveOptions& options,
+                           std::ostream& out);
 
 // view SCENE: the scene (a file is uploaded) in the server's browser viewer; prints the URL and
 // opens it on a desktop. With the embedded server, serves until SIGINT or SIGTERM.

@@ -12,9 +12,7 @@
 #include "renderer/scene/file_io.h"
 
 namespace caustica::client {
-namespace {
 
-// "X,Y,Z" (or one value V meaning V,V,V when `allow_scalar`) for the flag `flag`.
 absl::StatusOr<v1::Vec3> parse_vec3_flag(std::string_view flag, const std::string& text,
                                          bool allow_scalar) {
   const std::vector<std::string> parts = absl::StrSplit(text, ',');
@@ -33,6 +31,8 @@ absl::StatusOr<v1::Vec3> parse_vec3_flag(std::string_view flag, const std::strin
   out.set_z(v[2]);
   return out;
 }
+
+namespace {
 
 absl::StatusOr<v1::Light> light_from_flags(const LightSetOptions& o) {
   v1::Light light;
@@ -90,26 +90,14 @@ absl::StatusOr<std::vector<v1::Light>> lights_from_options(const LightSetOptions
   return std::vector<v1::Light>{*std::move(light)};
 }
 
-namespace {
-
-absl::Status update_lights(const GlobalOptions& global, const v1::UpdateLightsRequest& request,
-                           std::ostream& out) {
-  const std::string& scene = request.scene_id();
-  absl::StatusOr<std::unique_ptr<Connection>> connection = Connection::open(global.connect);
-  if (!connection.ok()) return connection.status();
-  if (absl::Status pinned = (*connection)->pin_to_scene(scene); !pinned.ok()) return pinned;
-  absl::StatusOr<v1::RebuildReport> report =
-      (*connection)->call(&v1::RenderService::Stub::UpdateLights, request);
-  if (!report.ok()) return report.status();
+void print_rebuild(const GlobalOptions& global, const v1::RebuildReport& report,
+                   std::ostream& out) {
   if (global.json) {
-    print_json(out, to_json(*report));
+    print_json(out, to_json(report));
   } else {
-    print_rebuild_report(out, *report);
+    print_rebuild_report(out, report);
   }
-  return absl::OkStatus();
 }
-
-}  // namespace
 
 absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& options,
                            std::ostream& out) {
@@ -119,7 +107,8 @@ absl::Status run_light_set(const GlobalOptions& global, const LightSetOptions& o
   request.set_scene_id(options.scene);
   for (v1::Light& light : *lights) *request.add_lights() = std::move(light);
   if (options.expect_epoch) request.set_expected_lights_epoch(*options.expect_epoch);
-  return update_lights(global, request, out);
+  return send_update(global, request.scene_id(), &v1::RenderService::Stub::UpdateLights, request,
+                     out);
 }
 
 absl::StatusOr<v1::UpdateLightsRequest> emit_request(const LightEmitOptions& options) {
@@ -146,7 +135,8 @@ absl::Status run_light_emit(const GlobalOptions& global, const LightEmitOptions&
                             std::ostream& out) {
   absl::StatusOr<v1::UpdateLightsRequest> request = emit_request(options);
   if (!request.ok()) return request.status();
-  return update_lights(global, *request, out);
+  return send_update(global, request->scene_id(), &v1::RenderService::Stub::UpdateLights, *request,
+                     out);
 }
 
 absl::StatusOr<v1::UpdateLightsRequest> environment_request(
@@ -167,7 +157,8 @@ absl::Status run_light_environment(const GlobalOptions& global,
                                    const LightEnvironmentOptions& options, std::ostream& out) {
   absl::StatusOr<v1::UpdateLightsRequest> request = environment_request(options);
   if (!request.ok()) return request.status();
-  return update_lights(global, *request, out);
+  return send_update(global, request->scene_id(), &v1::RenderService::Stub::UpdateLights, *request,
+                     out);
 }
 
 }  // namespace caustica::client

@@ -228,6 +228,22 @@ int main(int argc, char** argv) {
   on(environment_cmd, "light environment",
      [&] { return run_light_environment(global, environment, std::cout); });
 
+  CLI::App* mesh = app.add_subcommand("mesh", "move a scene's meshes");
+  mesh->require_subcommand(1);
+  MeshMoveOptions move;
+  CLI::App* move_cmd = mesh->add_subcommand(
+      "move",
+      "place a mesh as uploaded by a transform (scale, rotate, translate) and print what was "
+      "rebuilt");
+  move_cmd->add_option("scene", move.scene, "scene id")->required();
+  move_cmd->add_option("mesh", move.mesh, "the mesh's name, as scene info lists it")->required();
+  move_cmd->add_option("--translate", move.translate, "X,Y,Z");
+  move_cmd->add_option("--rotate", move.rotate, "X,Y,Z degrees about x, then y, then z");
+  move_cmd->add_option("--scale", move.scale, "X,Y,Z or one value");
+  move_cmd->add_option("--expect-epoch", move.expect_epoch,
+                       "apply only if the scene's geometry epoch is still N");
+  on(move_cmd, "mesh move", [&] { return run_mesh_move(global, move, std::cout); });
+
   RenderOptions render;
   CLI::App* render_cmd = app.add_subcommand("render", "render one image");
   add_frame_job(render_cmd, render.job);

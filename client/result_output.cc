@@ -100,6 +100,7 @@ void print_scene_info(std::ostream& out, const v1::SceneInfo& s) {
     out << absl::StrFormat("environment  %s, colour %s, intensity %g, rotation %g degrees\n", map,
                            vec3_text(e.color()), e.intensity(), e.rotation_deg());
   }
+  for (const std::string& mesh : s.mesh_names()) out << absl::StrFormat("mesh         %s\n", mesh);
   for (const v1::TextureInfo& t : s.textures()) {
     out << absl::StrFormat("texture      %s: %dx%d, %s, %s\n", t.name(), t.width(), t.height(),
                            t.is_float() ? "float" : "8-bit", mib_text(t.decoded_bytes()));

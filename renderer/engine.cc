@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <exception>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <thread>
@@ -22,6 +24,7 @@
 #include "renderer/scene/emitters.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/texture_decode.h"
+#include "renderer/scene/transform.h"
 #include "renderer/scene/validate.h"
 
 #if defined(CAUSTICA_WITH_CUDA)
@@ -145,6 +148,14 @@ struct DeviceSlice {
 struct Engine::State {
   std::vector<DeviceSlice> slices;  // the first one answers for the engine where one must
   Scene scene;
+  // The meshes set_geometry moved or reshaped, by index into scene.meshes: their vertices as
+  // uploaded or last replaced, and the map that places them in `scene` now.
+  struct Placement {
+    Mesh rest;
+    Affine transform;
+    bool positions_replaced = false, normals_replaced = false;
+  };
+  std::map<size_t, Placement> placements;
   Epochs epochs;
   double last_build_ms = 0;
   size_t last_photon_map_bytes = 0;
@@ -224,6 +235,18 @@ struct Engine::State {
   }
   void swap_structures(std::vector<TriangleStructure>& structures) {
     for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_structure(structures[i]);
+  }
+  // The whole scene uploaded again beside what is in use: geometry, structure and lighting.
+  std::vector<std::optional<ResidentScene>> new_residents(const Scene& next) {
+    return make_on_every_device<std::optional<ResidentScene>>([&](DeviceSlice& d) {
+      std::optional<ResidentScene> resident;
+      resident.emplace(ResidentScene::upload(*d.backend, next));
+      d.backend->synchronize();
+      return resident;
+    });
+  }
+  void swap_residents(std::vector<std::optional<ResidentScene>>& residents) {
+    for (size_t i = 0; i < slices.size(); ++i) std::swap(slices[i].resident, residents[i]);
   }
   std::vector<ResidentScene::Lighting> new_lighting(const std::vector<Light>& lights,
                                                     const std::vector<Material>& materials,
@@ -427,6 +450,7 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& given) {
     });
     st.last_build_ms = elapsed_ms(start);
     st.scene = scene;
+    st.placements.clear();
     std::vector<std::optional<Film>> films = st.new_films(scene.camera.width, scene.camera.height);
     st.swap_films(films);
     std::vector<std::unique_ptr<Estimator>> estimators = st.new_estimators(scene.settings);
@@ -495,6 +519,143 @@ absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& light
   if (!status.ok()) return status;
   report.epochs = st.epochs;
   return report;
+}
+
+namespace {
+
+// The index of the mesh named `name` in `scene`, or the error naming `field`.
+absl::StatusOr<size_t> mesh_named(const Scene& scene, const std::string& name,
+                                  const std::string& field) {
+  std::optional<size_t> found;
+  for (size_t i = 0; i < scene.meshes.size(); ++i) {
+    if (scene.meshes[i].name != name) continue;
+    if (found) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": '", name,
+                                                     "' names more than one mesh (meshes[", *found,
+                                                     "] and meshes[", i, "])"));
+    }
+    found = i;
+  }
+  if (!found) {
+    return absl::NotFoundError(absl::StrCat(field, ": the scene has no mesh named '", name, "' (",
+                                            scene.meshes.size(), " meshes)"));
+  }
+  return *found;
+}
+
+// `vectors` as the new value of a mesh's `count` vertices' attribute `field`, or why not.
+absl::Status check_vertices(const std::vector<Vec3f>& vectors, size_t count,
+                            const std::string& field) {
+  if (vectors.size() != count) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": ", vectors.size(), " vertices, but the mesh has ", count));
+  }
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    const Vec3f v = vectors[i];
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+      return absl::InvalidArgumentError(
+          absl::StrFormat("%s[%d]: (%g, %g, %g) is not finite", field, i, v.x, v.y, v.z));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<RebuildReport> Engine::set_geometry(std::span<const MeshChange> changes) {
+  State& st = *state_;
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
+  // The scene as it will be, checked whole before anything changes.
+  Scene next = st.scene;
+  std::map<size_t, State::Placement> placements = st.placements;
+  for (size_t c = 0; c < changes.size(); ++c) {
+    const MeshChange& change = changes[c];
+    const std::string field = absl::StrCat("meshes[", c, "]");
+    absl::StatusOr<size_t> index = mesh_named(st.scene, change.mesh, field + ".mesh");
+    if (!index.ok()) return index.status();
+    // A mesh placed for the first time stands where it was uploaded.
+    State::Placement& placed =
+        placements.try_emplace(*index, State::Placement{st.scene.meshes[*index], Affine()})
+            .first->second;
+    Mesh& rest = placed.rest;
+    if (change.positions) {
+      if (absl::Status s =
+              check_vertices(*change.positions, rest.positions.size(), field + ".positions");
+          !s.ok())
+        return s;
+      rest.positions = *change.positions;
+      rest.tangents.clear();
+      if (!change.normals) rest.normals.clear();
+      placed.positions_replaced = true;
+    }
+    if (change.normals) {
+      if (absl::Status s =
+              check_vertices(*change.normals, rest.positions.size(), field + ".normals");
+          !s.ok())
+        return s;
+      rest.normals = *change.normals;
+      placed.normals_replaced = true;
+    }
+    if (change.transform) {
+      const Affine& t = *change.transform;
+      bool finite = true;
+      for (const auto& row : t.m)
+        for (const double x : row) finite &= std::isfinite(x);
+      const double det = t.determinant();
+      if (!finite || !(std::fabs(det) > 0) || !std::isfinite(det)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(field, ".transform: is not an invertible map of finite numbers"));
+      }
+      placed.transform = t;
+    }
+    Mesh moved = rest;
+    transform_mesh(placed.transform, &moved);
+    next.meshes[*index] = std::move(moved);
+  }
+  if (absl::Status s = validate_scene(next); !s.ok()) return s;
+  RebuildReport report;
+  absl::Status status = guarded([&]() -> absl::Status {
+    st.drop_maps();  // frees the old maps before the new geometry is allocated
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<std::optional<ResidentScene>> residents = st.new_residents(next);
+    report.timings.structure_build_ms = elapsed_ms(start);
+    // The photons are traced through the new geometry before the films restart; when that fails,
+    // the old geometry goes back.
+    st.swap_residents(residents);
+    report.rebuilt = {"geometry", "lights", "film"};
+    try {
+      st.prepare_photons(next.settings, report);
+    } catch (...) {
+      st.swap_residents(residents);
+      throw;
+    }
+    st.clear_films();
+    st.scene = std::move(next);
+    st.placements = std::move(placements);
+    st.last_build_ms = report.timings.structure_build_ms;
+    ++st.epochs.geometry;
+    ++st.epochs.lights;
+    return absl::OkStatus();
+  });
+  if (!status.ok()) return status;
+  report.epochs = st.epochs;
+  return report;
+}
+
+std::vector<MeshChange> Engine::placements() const {
+  std::vector<MeshChange> out;
+  for (const auto& [index, placed] : state_->placements) {
+    MeshChange& change = out.emplace_back();
+    change.mesh = state_->scene.meshes[index].name;
+    change.transform = placed.transform;
+    if (placed.positions_replaced) {
+      change.positions = placed.rest.positions;
+      if (!placed.rest.normals.empty()) change.normals = placed.rest.normals;
+    } else if (placed.normals_replaced) {
+      change.normals = placed.rest.normals;
+    }
+  }
+  return out;
 }
 
 absl::StatusOr<RebuildReport> Engine::set_camera(const Camera& camera) {

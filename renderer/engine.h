@@ -110,10 +110,10 @@ struct SceneStats {
 
 // Not thread-safe: callers serialise every call on one engine. With several devices, each call
 // works on all of them at once, from a thread per device, and returns when all are done.
-// A change (set_lights, set_camera, set_settings) is all or nothing: refused by its checks or for
-// memory on any device, it returns the error and leaves the scene, the epochs, the films and what
-// a render draws as they were. What it replaces is built beside what is in use, so that for a
-// while both take memory.
+// A change (set_lights, set_camera, set_settings, set_geometry) is all or nothing: refused by its
+// checks or for memory on any device, it returns the error and leaves the scene, the epochs, the
+// films and what a render draws as they were. What it replaces is built beside what is in use, so
+// that for a while both take memory.
 class Engine {
  public:
   static absl::StatusOr<std::unique_ptr<Engine>> create(const EngineOptions& options);
@@ -137,6 +137,17 @@ class Engine {
   // together or not at all.
   absl::StatusOr<RebuildReport> set_settings(const RenderSettings& settings,
                                              const ImageSize& size = {});
+
+  // Moves and reshapes meshes, all changes at once: the geometry is uploaded again, the triangle
+  // structure rebuilt (area lights follow their triangles), and the photons of the next pass
+  // traced, as after a light change. The geometry and lights epochs move. NOT_FOUND for a mesh
+  // the scene does not have; INVALID_ARGUMENT naming the change's field for the rest.
+  absl::StatusOr<RebuildReport> set_geometry(std::span<const MeshChange> changes);
+
+  // What set_geometry changed since the scene was loaded, as changes that redo it on the scene
+  // as loaded: per moved mesh, in scene order, its transform, and its vertices (and normals) where
+  // they were replaced.
+  std::vector<MeshChange> placements() const;
 
   using Progress = std::function<void(uint32_t done, uint32_t total)>;
   // Adds `passes` progressive passes to the film.

@@ -51,6 +51,8 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info) {
   }
   info->set_vertices(vertices);
   info->set_meshes(static_cast<uint32_t>(scene.meshes.size()));
+  info->clear_mesh_names();
+  for (const Mesh& mesh : scene.meshes) info->add_mesh_names(mesh.name);
   info->set_materials(static_cast<uint32_t>(scene.materials.size()));
   info->set_area_lights(static_cast<uint32_t>(emissive_triangles));
   info->clear_textures();

@@ -16,7 +16,7 @@ void add_timings(const v1::StageTimings& timings, v1::StageTimings* out);
 v1::RebuildReport encode_rebuild(const RebuildReport& report);
 
 // The SceneInfo fields fixed at upload: name, counts of meshes, materials, vertices, emissive
-// triangles.
+// triangles, the meshes' names.
 void describe_geometry(const Scene& scene, v1::SceneInfo* info);
 // The fields that change with updates and passes, from the engine (call under the device lease).
 void describe_state(const Engine& engine, v1::SceneInfo* info);

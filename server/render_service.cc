@@ -575,8 +575,8 @@ grpc::Status RenderService::UploadScene(grpc::ServerContext* context,
 
 absl::Status RenderService::persist(const SceneEntry& entry) {
   if (!options_.store) return absl::OkStatus();
-  absl::Status stored =
-      options_.store->update(entry.id(), entry.engine->scene(), entry.engine->epochs());
+  absl::Status stored = options_.store->update(entry.id(), entry.engine->scene(),
+                                               entry.engine->placements(), entry.engine->epochs());
   if (stored.ok()) return stored;
   return absl::InternalError(absl::StrCat(
       "the change was applied but could not be stored in --data-dir, so a restart would undo "
@@ -632,6 +632,11 @@ absl::Status RenderService::restore_scene(const StoredScene& stored) {
   if (!engine.ok()) return engine.status();
   absl::StatusOr<RebuildReport> built = (*engine)->load(scene);
   if (!built.ok()) return built.status();
+  // The meshes UpdateGeometry moved go where they were.
+  if (!stored.placements.empty()) {
+    absl::StatusOr<RebuildReport> placed_meshes = (*engine)->set_geometry(stored.placements);
+    if (!placed_meshes.ok()) return placed_meshes.status();
+  }
   (*engine)->restore_epochs(stored.epochs);
   built->epochs = stored.epochs;
   record_stages(built->timings);
@@ -756,6 +761,27 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
         if (request->has_environment_rotation_deg())
           environment.rotation_deg = request->environment_rotation_deg();
         return engine.set_lights(*lights, *emitters, environment);
+      });
+}
+
+grpc::Status RenderService::UpdateGeometry(grpc::ServerContext* context,
+                                           const v1::UpdateGeometryRequest* request,
+                                           v1::RebuildReport* response) {
+  return serve_update(
+      context, "UpdateGeometry", request->scene_id(), response,
+      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+        absl::StatusOr<std::vector<MeshChange>> changes =
+            wire::decode_mesh_changes(request->meshes(), "meshes");
+        if (!changes.ok()) return changes.status();
+        // Checked under the lease so no other update can slip in between check and change.
+        if (request->has_expected_geometry_epoch() &&
+            engine.epochs().geometry != request->expected_geometry_epoch()) {
+          return absl::FailedPreconditionError(absl::StrFormat(
+              "expected_geometry_epoch: the scene's geometry epoch is %d, not %d (another call "
+              "changed the geometry)",
+              engine.epochs().geometry, request->expected_geometry_epoch()));
+        }
+        return engine.set_geometry(*changes);
       });
 }
 

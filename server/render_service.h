@@ -90,6 +90,9 @@ class RenderService final : public v1::RenderService::Service {
                             v1::RebuildReport* response) override;
   grpc::Status UpdateCamera(grpc::ServerContext* context, const v1::UpdateCameraRequest* request,
                             v1::RebuildReport* response) override;
+  grpc::Status UpdateGeometry(grpc::ServerContext* context,
+                              const v1::UpdateGeometryRequest* request,
+                              v1::RebuildReport* response) override;
   grpc::Status UpdateSettings(grpc::ServerContext* context,
                               const v1::UpdateSettingsRequest* request,
                               v1::RebuildReport* response) override;

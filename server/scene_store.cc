@@ -182,8 +182,11 @@ EnvironmentChange environment_of(const Environment& environment) {
 std::string encode_state(const std::vector<Light>& lights,
                          const std::vector<EmitterChange>& emitters,
                          const EnvironmentChange& environment, const Camera& camera,
-                         const RenderSettings& settings) {
+                         const RenderSettings& settings,
+                         const std::vector<MeshChange>& placements) {
   v1::SceneHeader header;
+  for (const MeshChange& placed : placements)
+    *header.add_placements() = wire::encode_mesh_change(placed);
   for (const Light& light : lights) *header.add_lights() = wire::encode_light(light);
   if (environment.intensity || environment.rotation_deg) {
     v1::Environment& e = *header.mutable_environment();
@@ -230,6 +233,10 @@ absl::Status decode_state(const std::string& bytes, const std::string& id, Store
       out->environment.intensity = header.environment().intensity();
     out->environment.rotation_deg = header.environment().rotation_deg();
   }
+  absl::StatusOr<std::vector<MeshChange>> placements =
+      wire::decode_mesh_changes(header.placements(), "placements");
+  if (!placements.ok()) return damaged(placements.status());
+  out->placements = *std::move(placements);
   out->lights = *std::move(lights);
   out->camera = *camera;
   out->settings = *settings;
@@ -473,7 +480,7 @@ absl::Status SceneStore::add(const StoredScene& scene) {
   insert.bind_text(3, scene.name);
   insert.bind_text(4, scene.blob);
   insert.bind(5, encode_state(scene.lights, scene.emitters, scene.environment, scene.camera,
-                              scene.settings));
+                              scene.settings, scene.placements));
   insert.bind(6, static_cast<int64_t>(scene.epochs.geometry));
   insert.bind(7, static_cast<int64_t>(scene.epochs.lights));
   insert.bind(8, static_cast<int64_t>(scene.epochs.camera));
@@ -485,14 +492,16 @@ absl::Status SceneStore::add(const StoredScene& scene) {
   return absl::OkStatus();
 }
 
-absl::Status SceneStore::update(const std::string& id, const Scene& state, const Epochs& epochs) {
+absl::Status SceneStore::update(const std::string& id, const Scene& state,
+                                const std::vector<MeshChange>& placements, const Epochs& epochs) {
   std::lock_guard<std::mutex> lock(mutex_);
   Statement update(db_,
                    "UPDATE scenes SET state = ?, epoch_geometry = ?, epoch_lights = ?, "
                    "epoch_camera = ?, epoch_settings = ? WHERE id = ?");
   if (!update.ok()) return update.error("cannot prepare an update");
-  update.bind(1, encode_state(state.lights, emission_of(state.materials),
-                              environment_of(state.environment), state.camera, state.settings));
+  update.bind(
+      1, encode_state(state.lights, emission_of(state.materials), environment_of(state.environment),
+                      state.camera, state.settings, placements));
   update.bind(2, static_cast<int64_t>(epochs.geometry));
   update.bind(3, static_cast<int64_t>(epochs.lights));
   update.bind(4, static_cast<int64_t>(epochs.camera));

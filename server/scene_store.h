@@ -41,6 +41,7 @@ struct StoredScene {
   EnvironmentChange environment;        // its intensity and rotation; unset: the blob's
   Camera camera;
   RenderSettings settings;
+  std::vector<MeshChange> placements;  // the meshes UpdateGeometry moved, to redo after the load
   Epochs epochs;
   uint64_t upload_bytes = 0;
   double upload_ms = 0;
@@ -71,9 +72,11 @@ class SceneStore {
 
   // Each commits before it returns; add and remove also sync the index to the disk.
   absl::Status add(const StoredScene& scene);
-  // Stores `state`'s lights, emission, camera and settings and `epochs` as scene `id`'s current
-  // state; it survives a killed server at once, and a power loss once the next sync has run.
-  absl::Status update(const std::string& id, const Scene& state, const Epochs& epochs);
+  // Stores `state`'s lights, emission, camera and settings, the meshes moved since upload
+  // (Engine::placements) and `epochs` as scene `id`'s current state; it survives a killed server
+  // at once, and a power loss once the next sync has run.
+  absl::Status update(const std::string& id, const Scene& state,
+                      const std::vector<MeshChange>& placements, const Epochs& epochs);
   // Removes the row, then its blob once no row references it. A missing id is not an error.
   absl::Status remove(const std::string& id);
   // Whether an update waits for the background sync.

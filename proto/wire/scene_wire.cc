@@ -790,6 +790,9 @@ absl::StatusOr<uint32_t> SceneAssembler::decode_medium_ref(uint32_t value,
 }
 
 absl::Status SceneAssembler::add_header(const v1::SceneHeader& header) {
+  if (header.placements_size() != 0) {
+    return invalid("placements", "are a stored scene's state, never part of an upload");
+  }
   if (has_header_) return invalid("header", "a second header (the header comes once, first)");
   name_ = header.name();
   if (size_t(header.textures_size()) > kMaxTextures) {
@@ -1192,6 +1195,74 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
       scene_.meshes[m].material_ids.assign(counts_[m].triangles, counts_[m].material);
   }
   return std::move(scene_);
+}
+
+v1::MeshUpdate encode_mesh_change(const MeshChange& change) {
+  v1::MeshUpdate out;
+  out.set_mesh(change.mesh);
+  if (change.transform) {
+    for (const auto& row : change.transform->m)
+      for (const double x : row) out.add_transform(x);
+  }
+  const auto add_vectors = [](const std::vector<Vec3f>& vectors,
+                              google::protobuf::RepeatedField<float>* to) {
+    to->Reserve(int(3 * vectors.size()));
+    for (const Vec3f& v : vectors) {
+      to->Add(v.x);
+      to->Add(v.y);
+      to->Add(v.z);
+    }
+  };
+  if (change.positions) add_vectors(*change.positions, out.mutable_positions());
+  if (change.normals) add_vectors(*change.normals, out.mutable_normals());
+  return out;
+}
+
+absl::StatusOr<std::vector<MeshChange>> decode_mesh_changes(
+    const google::protobuf::RepeatedPtrField<v1::MeshUpdate>& meshes, std::string_view field) {
+  std::vector<MeshChange> changes;
+  for (int i = 0; i < meshes.size(); ++i) {
+    const v1::MeshUpdate& in = meshes[i];
+    const std::string at = absl::StrCat(std::string(field), "[", i, "]");
+    MeshChange& change = changes.emplace_back();
+    if (in.mesh().empty()) return invalid(join_field(at, "mesh"), "is missing");
+    change.mesh = in.mesh();
+    if (in.transform_size() != 0) {
+      if (in.transform_size() != 12) {
+        return invalid(join_field(at, "transform"),
+                       absl::StrCat("has ", in.transform_size(), " numbers; it takes 12"));
+      }
+      Affine t;
+      for (int k = 0; k < 12; ++k) {
+        if (!std::isfinite(in.transform(k))) {
+          return invalid(join_field(at, "transform"),
+                         absl::StrCat("number ", k, " is ", in.transform(k), ", not finite"));
+        }
+        t.m[k / 4][k % 4] = in.transform(k);
+      }
+      change.transform = t;
+    }
+    for (const auto& [values, name, out] :
+         {std::tuple{&in.positions(), "positions", &change.positions},
+          std::tuple{&in.normals(), "normals", &change.normals}}) {
+      if (values->empty()) continue;
+      if (values->size() % 3 != 0) {
+        return invalid(join_field(at, name),
+                       absl::StrCat("has ", values->size(), " numbers, not three per vertex"));
+      }
+      std::vector<Vec3f>& vectors = out->emplace();
+      vectors.reserve(size_t(values->size()) / 3);
+      for (int k = 0; k < values->size(); k += 3) {
+        const Vec3f v{values->Get(k), values->Get(k + 1), values->Get(k + 2)};
+        if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+          return invalid(absl::StrCat(join_field(at, name), "[", k / 3, "]"),
+                         absl::StrFormat("(%g, %g, %g) is not finite", v.x, v.y, v.z));
+        }
+        vectors.push_back(v);
+      }
+    }
+  }
+  return changes;
 }
 
 }  // namespace caustica::wire

@@ -46,6 +46,7 @@ v1::Structure encode_structure(StructureKind kind);
 v1::Integrator encode_integrator(Integrator integrator);
 v1::Estimator encode_estimator(EstimatorKind estimator);
 v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name);
+v1::MeshUpdate encode_mesh_change(const MeshChange& change);
 // Bytes the mesh and grid chunks of `scene` carry in total.
 size_t upload_bytes(const Scene& scene);
 // Calls `emit` with every chunk after the header: the mesh chunks mesh by mesh and array by
@@ -67,6 +68,11 @@ absl::StatusOr<Camera> decode_camera_at(const v1::Camera& camera, std::string_vi
                                         int height);
 // nullopt for STRUCTURE_UNSPECIFIED and for values this build does not know.
 std::optional<StructureKind> decode_structure(v1::Structure structure);
+// UpdateGeometry's changes: names non-empty, transforms of 12 finite numbers, vertex arrays whole
+// (three numbers each) and finite; whether the mesh exists and the counts fit it is the
+// engine's to check.
+absl::StatusOr<std::vector<MeshChange>> decode_mesh_changes(
+    const google::protobuf::RepeatedPtrField<v1::MeshUpdate>& meshes, std::string_view field);
 // Applies the fields set in `settings` on top of `current`.
 absl::StatusOr<RenderSettings> apply_settings(const v1::RenderSettings& settings,
                                               const RenderSettings& current,

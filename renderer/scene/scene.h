@@ -171,6 +171,20 @@ struct EmitterChange {
   std::optional<bool> off;
 };
 
+// A change to one mesh (UpdateGeometry, Engine::set_geometry): where it stands and what its
+// vertices are. Unset fields keep theirs.
+struct MeshChange {
+  std::string mesh;  // the mesh's name (Mesh::name), as SceneInfo lists it
+  // Where the mesh stands now: the map from its vertices as uploaded (or as last replaced) to the
+  // scene, replacing the one before (identity at upload). Normals turn with it.
+  std::optional<Affine> transform;
+  // New vertices, as many as the mesh has, in the same order (the triangles stay). They drop the
+  // mesh's tangents, and its shading normals unless `normals` come with them: neither fits any
+  // more.
+  std::optional<std::vector<Vec3f>> positions;
+  std::optional<std::vector<Vec3f>> normals;
+};
+
 enum class MediumType : uint32_t { kHomogeneous = 0, kGrid = 1 };
 
 // Bytes kept 32-byte aligned, as NanoVDB wants the buffer of a grid.

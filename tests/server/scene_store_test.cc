@@ -110,7 +110,7 @@ TEST(SceneStore, IndexKeepsStateAcrossReopen) {
     scene.lights = {light};
     scene.camera.width = 40;
     scene.settings.k_nearest = 33;
-    ASSERT_TRUE((*store)->update("s-2", scene, {5, 6, 7, 8}).ok());
+    ASSERT_TRUE((*store)->update("s-2", scene, {}, {5, 6, 7, 8}).ok());
   }
   auto store = SceneStore::open(dir);
   ASSERT_TRUE(store.ok());
@@ -188,7 +188,7 @@ TEST(SceneStore, AnUpdateReachesTheDiskWithinItsSyncDelay) {
   const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::milliseconds(20));
   ASSERT_NE(store, nullptr);
   EXPECT_FALSE(store->sync_pending());  // an upload is synced before it returns
-  ASSERT_TRUE(store->update("s-1", scene, {1, 9, 3, 4}).ok());
+  ASSERT_TRUE(store->update("s-1", scene, {}, {1, 9, 3, 4}).ok());
   EXPECT_TRUE(synced_within(*store, std::chrono::seconds(20)));
   // The checkpoint that synced the log also moved the update into the database file.
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 9);
@@ -202,7 +202,7 @@ TEST(SceneStore, UpdatesGoOnWhileTheSyncerCheckpoints) {
   const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::milliseconds(1));
   ASSERT_NE(store, nullptr);
   for (uint32_t epoch = 10; epoch < 400; ++epoch) {
-    ASSERT_TRUE(store->update("s-1", scene, {1, epoch, 3, 4}).ok()) << epoch;
+    ASSERT_TRUE(store->update("s-1", scene, {}, {1, epoch, 3, 4}).ok()) << epoch;
   }
   EXPECT_TRUE(synced_within(*store, std::chrono::seconds(20)));
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 399);
@@ -214,13 +214,42 @@ TEST(SceneStore, AnUnsyncedUpdateIsReadBackAndSyncedOnClose) {
   {
     const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::hours(1));
     ASSERT_NE(store, nullptr);
-    ASSERT_TRUE(store->update("s-1", scene, {1, 9, 3, 4}).ok());
+    ASSERT_TRUE(store->update("s-1", scene, {}, {1, 9, 3, 4}).ok());
     EXPECT_TRUE(store->sync_pending());
     EXPECT_NE(lights_epoch_on_disk(dir, "s-1"), 9);  // in the log only
     // The store's own reader sees the log.
     EXPECT_EQ(store->list()->at(0).epochs.lights, 9u);
   }  // closing does not wait an hour
   EXPECT_EQ(lights_epoch_on_disk(dir, "s-1"), 9);
+}
+
+// The meshes UpdateGeometry moved are part of the state: transforms, and vertices where they were
+// replaced, read back as they were stored.
+TEST(SceneStore, MovedMeshesAreReadBack) {
+  const fs::path dir = make_temp_dir("scene-store");
+  const Scene scene = cornell_box(8, 8, 100, 4, 1);
+  const std::unique_ptr<SceneStore> store = store_with_one_scene(dir, std::chrono::hours(1));
+  ASSERT_NE(store, nullptr);
+  Affine turned = rotation_y_deg(30);
+  turned.m[0][3] = 12.5;
+  const std::vector<MeshChange> placements = {
+      {"shapes[0] 'floor'", turned, std::nullopt, std::nullopt},
+      {"shapes[1]", Affine(), std::vector<Vec3f>{{1, 2, 3}, {4, 5, 6}},
+       std::vector<Vec3f>{{0, 1, 0}, {0, 0, 1}}}};
+  ASSERT_TRUE(store->update("s-1", scene, placements, {2, 2, 1, 1}).ok());
+  const absl::StatusOr<std::vector<StoredScene>> listed = store->list();
+  ASSERT_TRUE(listed.ok()) << listed.status();
+  const std::vector<MeshChange>& back = listed->at(0).placements;
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].mesh, "shapes[0] 'floor'");
+  ASSERT_TRUE(back[0].transform.has_value());
+  EXPECT_EQ(back[0].transform->m, turned.m);
+  EXPECT_FALSE(back[0].positions || back[0].normals);
+  EXPECT_EQ(back[1].mesh, "shapes[1]");
+  ASSERT_TRUE(back[1].positions && back[1].normals);
+  EXPECT_EQ(back[1].positions->size(), 2u);
+  EXPECT_EQ(back[1].positions->at(1).z, 6.0f);
+  EXPECT_EQ(back[1].normals->at(1).z, 1.0f);
 }
 
 TEST(SceneStore, LeftoversOfAKilledServerAreCollected) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -963,6 +964,56 @@ TEST(SceneWire, DamagedUploadedGridsAreRefusedByValidation) {
                 upper->data()->mTable[upper->beginChild().pos()].child = 0x0aaaaaaaaaaaaaa0;
               }),
               HasSubstr("media.fog.grid: a lower node lies outside the grid's buffer"));
+}
+
+// UpdateGeometry's changes round-trip; malformed ones are refused naming the change and field,
+// and an upload that carries a stored scene's placements is refused.
+TEST(SceneWire, MeshChangesRoundTripAndBadOnesAreNamed) {
+  Affine turned = rotation_y_deg(30);
+  turned.m[2][3] = -4.25;
+  const MeshChange change{"shapes[2] 'box'", turned, std::vector<Vec3f>{{1, 2, 3}, {4, 5, 6}},
+                          std::nullopt};
+  google::protobuf::RepeatedPtrField<v1::MeshUpdate> wire_changes;
+  *wire_changes.Add() = encode_mesh_change(change);
+  *wire_changes.Add() = encode_mesh_change(
+      {"only normals", std::nullopt, std::nullopt, std::vector<Vec3f>{{0, 1, 0}}});
+  absl::StatusOr<std::vector<MeshChange>> back = decode_mesh_changes(wire_changes, "meshes");
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->size(), 2u);
+  EXPECT_EQ((*back)[0].mesh, change.mesh);
+  ASSERT_TRUE((*back)[0].transform.has_value());
+  EXPECT_EQ((*back)[0].transform->m, turned.m);
+  ASSERT_TRUE((*back)[0].positions.has_value());
+  EXPECT_EQ((*back)[0].positions->at(1).y, 5.0f);
+  EXPECT_FALSE((*back)[0].normals.has_value());
+  EXPECT_FALSE((*back)[1].transform || (*back)[1].positions);
+  EXPECT_EQ((*back)[1].normals->size(), 1u);
+
+  const std::pair<std::function<void(v1::MeshUpdate&)>, const char*> bad[] = {
+      {[](v1::MeshUpdate& m) { m.clear_mesh(); }, "meshes[0].mesh: is missing"},
+      {[](v1::MeshUpdate& m) { m.add_transform(1); }, "meshes[0].transform: has 13 numbers"},
+      {[](v1::MeshUpdate& m) { m.set_transform(3, INFINITY); },
+       "meshes[0].transform: number 3 is inf, not finite"},
+      {[](v1::MeshUpdate& m) { m.add_positions(7); },
+       "meshes[0].positions: has 7 numbers, not three per vertex"},
+      {[](v1::MeshUpdate& m) { m.set_positions(5, NAN); },
+       "meshes[0].positions[1]: (4, 5, nan) is not finite"},
+  };
+  for (const auto& [spoil, message] : bad) {
+    google::protobuf::RepeatedPtrField<v1::MeshUpdate> spoiled;
+    *spoiled.Add() = encode_mesh_change(change);
+    spoil(spoiled[0]);
+    const absl::StatusOr<std::vector<MeshChange>> refused = decode_mesh_changes(spoiled, "meshes");
+    ASSERT_FALSE(refused.ok()) << message;
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+    EXPECT_THAT(std::string(refused.status().message()), HasSubstr(message));
+  }
+
+  std::vector<v1::SceneChunk> chunks = encode(bundled("cornell-box"), 1024);
+  *chunks[0].mutable_header()->add_placements() = encode_mesh_change(change);
+  const absl::StatusOr<Scene> upload = assemble(chunks);
+  ASSERT_FALSE(upload.ok());
+  EXPECT_THAT(std::string(upload.status().message()), HasSubstr("placements: are a stored scene"));
 }
 
 }  // namespace

@@ -1,0 +1,170 @@
+// Meshes moved and reshaped on a loaded scene (Engine::set_geometry): the image is bit for bit the
+// one of the scene uploaded that way, for a rigid transform, replaced vertices and both; a
+// transform places the mesh as uploaded, not where the last one left it; a refused change names
+// its field and changes nothing.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "renderer/scene/transform.h"
+#include "tests/renderer/render/analytic_scenes.h"
+
+namespace caustica {
+namespace {
+
+// The bundled caustics box, small: its glass sphere focuses the light, so that moving it moves
+// the caustic as well as the sphere (photons and structure both follow).
+Scene caustics_box() {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-caustics" / "scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  scene->camera.width = scene->camera.height = 48;
+  scene->settings.photons_per_pass = 20000;
+  return *scene;
+}
+
+const std::string kSphere = "shapes[6] 'glass sphere'";
+
+size_t mesh_index(const Scene& scene, const std::string& name) {
+  for (size_t i = 0; i < scene.meshes.size(); ++i)
+    if (scene.meshes[i].name == name) return i;
+  ADD_FAILURE() << "no mesh " << name;
+  return 0;
+}
+
+std::vector<float> rendered(Engine& engine, uint32_t passes = 2) {
+  EXPECT_TRUE(engine.render(passes).ok());
+  const std::span<const float> image = engine.image_linear();
+  return {image.begin(), image.end()};
+}
+
+// The same scene uploaded with `change` applied by the scene's own transform_mesh.
+std::vector<float> uploaded_moved(Scene scene, const std::string& name, const Affine* transform,
+                                  const std::vector<Vec3f>* positions) {
+  Mesh& mesh = scene.meshes[mesh_index(scene, name)];
+  if (positions != nullptr) {
+    mesh.positions = *positions;
+    mesh.normals.clear();
+    mesh.tangents.clear();
+  }
+  if (transform != nullptr) transform_mesh(*transform, &mesh);
+  auto engine = engine_with(scene);
+  return rendered(*engine);
+}
+
+TEST(MovingGeometry, ATransformedMeshRendersAsTheSceneUploadedMoved) {
+  const Scene scene = caustics_box();
+  const Affine moved =
+      translation(Vec3f(-60, 20, 40)) * rotation_y_deg(30) * scaling(Vec3f(0.8f, 0.8f, 0.8f));
+  auto engine = engine_with(scene);
+  const std::vector<float> before = rendered(*engine);
+  const MeshChange change{kSphere, moved, std::nullopt, std::nullopt};
+  absl::StatusOr<RebuildReport> report = engine->set_geometry({&change, 1});
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_EQ(report->rebuilt,
+            (std::vector<std::string>{"geometry", "lights", "film", "photon_maps"}));
+  EXPECT_EQ(report->epochs.geometry, 2u);
+  EXPECT_EQ(report->epochs.lights, 2u);
+  EXPECT_GT(report->photons_emitted, 0u);
+  const std::vector<float> after = rendered(*engine);
+  EXPECT_EQ(after, uploaded_moved(scene, kSphere, &moved, nullptr));
+  EXPECT_NE(after, before);
+}
+
+// A second transform replaces the first: it places the mesh as uploaded.
+TEST(MovingGeometry, ATransformPlacesTheMeshAsUploaded) {
+  const Scene scene = caustics_box();
+  const Affine first = translation(Vec3f(100, 0, 0)), second = translation(Vec3f(-50, 30, 0));
+  auto engine = engine_with(scene);
+  for (const Affine& t : {first, second}) {
+    const MeshChange change{kSphere, t, std::nullopt, std::nullopt};
+    ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
+  }
+  EXPECT_EQ(rendered(*engine), uploaded_moved(scene, kSphere, &second, nullptr));
+}
+
+// New vertices (the sphere squashed) under a transform: as uploading the squashed sphere moved.
+TEST(MovingGeometry, ReplacedVerticesRenderAsTheSceneUploadedWithThem) {
+  const Scene scene = caustics_box();
+  const Mesh& sphere = scene.meshes[mesh_index(scene, kSphere)];
+  std::vector<Vec3f> squashed = sphere.positions;
+  const Vec3f centre = [&] {
+    Vec3f sum(0.0f);
+    for (const Vec3f& p : squashed) sum += p;
+    return sum / float(squashed.size());
+  }();
+  for (Vec3f& p : squashed) p.y = centre.y + 0.5f * (p.y - centre.y);
+  const Affine moved = translation(Vec3f(0, -40, 0));
+  auto engine = engine_with(scene);
+  const MeshChange change{kSphere, moved, squashed, std::nullopt};
+  ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
+  EXPECT_EQ(rendered(*engine), uploaded_moved(scene, kSphere, &moved, &squashed));
+}
+
+// Each refused change names its field, and the engine renders as it did.
+TEST(MovingGeometry, ARefusedChangeNamesItsFieldAndChangesNothing) {
+  const Scene scene = caustics_box();
+  auto engine = engine_with(scene);
+  const std::vector<float> before = rendered(*engine);
+  const Epochs epochs = engine->epochs();
+  const size_t vertices = scene.meshes[mesh_index(scene, kSphere)].positions.size();
+  std::vector<Vec3f> nan_vertex(vertices, Vec3f(1.0f));
+  nan_vertex[7].y = std::numeric_limits<float>::quiet_NaN();
+  const struct {
+    MeshChange change;
+    absl::StatusCode code;
+    const char* message;
+  } refused[] = {
+      {{"shapes[6] 'no such sphere'", Affine(), std::nullopt, std::nullopt},
+       absl::StatusCode::kNotFound,
+       "meshes[1].mesh: the scene has no mesh named"},
+      {{kSphere, scaling(Vec3f(1, 0, 1)), std::nullopt, std::nullopt},
+       absl::StatusCode::kInvalidArgument,
+       "meshes[1].transform: is not an invertible map of finite numbers"},
+      {{kSphere, std::nullopt, std::vector<Vec3f>(3, Vec3f(0.0f)), std::nullopt},
+       absl::StatusCode::kInvalidArgument,
+       "meshes[1].positions: 3 vertices, but the mesh has"},
+      {{kSphere, std::nullopt, nan_vertex, std::nullopt},
+       absl::StatusCode::kInvalidArgument,
+       "meshes[1].positions[7]: (1, nan, 1) is not finite"},
+      {{kSphere, std::nullopt, std::nullopt, std::vector<Vec3f>(vertices + 1, Vec3f(0, 1, 0))},
+       absl::StatusCode::kInvalidArgument,
+       "meshes[1].normals:"},
+  };
+  for (const auto& [change, code, message] : refused) {
+    // A valid change first: all or nothing, it must not be applied either.
+    const MeshChange both[] = {{kSphere, translation(Vec3f(10, 0, 0)), std::nullopt, std::nullopt},
+                               change};
+    const absl::StatusOr<RebuildReport> report = engine->set_geometry(both);
+    ASSERT_FALSE(report.ok()) << message;
+    EXPECT_EQ(report.status().code(), code) << report.status();
+    EXPECT_THAT(std::string(report.status().message()), ::testing::HasSubstr(message));
+  }
+  EXPECT_EQ(engine->epochs().geometry, epochs.geometry);
+  EXPECT_EQ(engine->epochs().lights, epochs.lights);
+  auto fresh = engine_with(scene);
+  EXPECT_EQ(rendered(*fresh), before);
+  ASSERT_TRUE(engine->set_camera(scene.camera).ok());  // restarts the film
+  EXPECT_EQ(rendered(*engine), before);
+}
+
+// Moving the light's own quad moves the area light: the image is the scene uploaded with it
+// moved, and the light's triangles are still its lights.
+TEST(MovingGeometry, AnAreaLightFollowsItsTriangles) {
+  const Scene scene = caustics_box();
+  const Affine lowered = translation(Vec3f(0, -100, 0));
+  const std::string light = "shapes[5] 'light'";
+  auto engine = engine_with(scene);
+  const MeshChange change{light, lowered, std::nullopt, std::nullopt};
+  ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
+  EXPECT_EQ(rendered(*engine), uploaded_moved(scene, light, &lowered, nullptr));
+}
+
+}  // namespace
+}  // namespace caustica
