@@ -45,6 +45,26 @@ std::string join_field(std::string_view field, std::string_view member) {
   return absl::StrCat(as_absl(field), ".", as_absl(member));
 }
 
+// An affine map as 12 numbers, the top three rows of its 4x4 matrix row by row (a grid medium's
+// placement, a mesh's transform).
+void encode_affine(const Affine& a, google::protobuf::RepeatedField<double>* out) {
+  for (const auto& row : a.m)
+    for (const double x : row) out->Add(x);
+}
+absl::StatusOr<Affine> decode_affine(const google::protobuf::RepeatedField<double>& numbers,
+                                     std::string_view field) {
+  if (numbers.size() != 12) {
+    return invalid(field, absl::StrCat("has ", numbers.size(), " numbers; it takes 12"));
+  }
+  Affine a;
+  for (int i = 0; i < 12; ++i) {
+    if (!std::isfinite(numbers[i])) {
+      return invalid(field, absl::StrCat("number ", i, " is ", numbers[i], ", not finite"));
+    }
+    a.m[i / 4][i % 4] = numbers[i];
+  }
+  return a;
+}
 
 // Appends a chunk's elements to `out` (room for the whole array's `total` reserved with the first
 // chunk) and checks each with `check(element, its index in the whole array)`; after a failure
@@ -309,7 +329,7 @@ absl::StatusOr<std::vector<EmitterChange>> decode_emitters(
   std::vector<EmitterChange> out;
   for (int i = 0; i < emitters.size(); ++i) {
     const v1::Emitter& in = emitters[i];
-    const std::string at = absl::StrCat(std::string(field), "[", i, "]");
+    const std::string at = absl::StrCat(as_absl(field), "[", i, "]");
     if (in.material().empty()) return invalid(join_field(at, "material"), "is empty");
     EmitterChange change;
     change.material = in.material();
@@ -337,8 +357,7 @@ v1::Medium encode_medium(const Medium& m) {
   out.set_g(m.asymmetry);
   if (m.type == MediumType::kGrid) {
     out.set_grid_bytes(m.grid != nullptr ? m.grid->size() : 0);
-    for (const auto& row : m.grid_to_scene.m)
-      for (double x : row) out.add_grid_to_scene(x);
+    encode_affine(m.grid_to_scene, out.mutable_grid_to_scene());
     out.set_grid_source(m.grid_source);
   }
   return out;
@@ -1014,18 +1033,10 @@ absl::StatusOr<uint64_t> SceneAssembler::decode_grid_header(const v1::Medium& in
     return absl::ResourceExhaustedError(absl::StrCat(field, ".grid_bytes: ", in.grid_bytes(),
                                                      " exceeds the limit of ", kMaxGridBytes));
   }
-  if (in.grid_to_scene_size() != 12) {
-    return invalid(join_field(field, "grid_to_scene"),
-                   absl::StrCat("has ", in.grid_to_scene_size(), " numbers; it takes 12"));
-  }
-  for (int i = 0; i < 12; ++i) {
-    const double x = in.grid_to_scene(i);
-    if (!std::isfinite(x)) {
-      return invalid(join_field(field, "grid_to_scene"),
-                     absl::StrCat("number ", i, " is ", x, ", not finite"));
-    }
-    m->grid_to_scene.m[i / 4][i % 4] = x;
-  }
+  absl::StatusOr<Affine> placed =
+      decode_affine(in.grid_to_scene(), join_field(field, "grid_to_scene"));
+  if (!placed.ok()) return placed.status();
+  m->grid_to_scene = *placed;
   m->grid_source = in.grid_source();
   return in.grid_bytes();
 }
@@ -1200,10 +1211,7 @@ absl::StatusOr<Scene> SceneAssembler::finish() {
 v1::MeshUpdate encode_mesh_change(const MeshChange& change) {
   v1::MeshUpdate out;
   out.set_mesh(change.mesh);
-  if (change.transform) {
-    for (const auto& row : change.transform->m)
-      for (const double x : row) out.add_transform(x);
-  }
+  if (change.transform) encode_affine(*change.transform, out.mutable_transform());
   const auto add_vectors = [](const std::vector<Vec3f>& vectors,
                               google::protobuf::RepeatedField<float>* to) {
     to->Reserve(int(3 * vectors.size()));
@@ -1223,24 +1231,14 @@ absl::StatusOr<std::vector<MeshChange>> decode_mesh_changes(
   std::vector<MeshChange> changes;
   for (int i = 0; i < meshes.size(); ++i) {
     const v1::MeshUpdate& in = meshes[i];
-    const std::string at = absl::StrCat(std::string(field), "[", i, "]");
+    const std::string at = absl::StrCat(as_absl(field), "[", i, "]");
     MeshChange& change = changes.emplace_back();
     if (in.mesh().empty()) return invalid(join_field(at, "mesh"), "is missing");
     change.mesh = in.mesh();
     if (in.transform_size() != 0) {
-      if (in.transform_size() != 12) {
-        return invalid(join_field(at, "transform"),
-                       absl::StrCat("has ", in.transform_size(), " numbers; it takes 12"));
-      }
-      Affine t;
-      for (int k = 0; k < 12; ++k) {
-        if (!std::isfinite(in.transform(k))) {
-          return invalid(join_field(at, "transform"),
-                         absl::StrCat("number ", k, " is ", in.transform(k), ", not finite"));
-        }
-        t.m[k / 4][k % 4] = in.transform(k);
-      }
-      change.transform = t;
+      absl::StatusOr<Affine> t = decode_affine(in.transform(), join_field(at, "transform"));
+      if (!t.ok()) return t.status();
+      change.transform = *t;
     }
     for (const auto& [values, name, out] :
          {std::tuple{&in.positions(), "positions", &change.positions},
