@@ -553,6 +553,55 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     report.line("gather_requests_per_pixel", label, double(requests) / (double(o.width) * o.height),
                 "requests");
   }
+  if (wanted(o, "geometry_change")) {
+    // A mesh moved, to the finished frame: the scene's largest mesh turned a little further
+    // about its centre each run (set_geometry: the geometry uploaded, the structure built again,
+    // the photons traced and their maps built), then one pass; with the engine's stage times.
+    Scene moving = *scene;
+    moving.camera.width = o.width;
+    moving.camera.height = o.height;
+    moving.settings.k_nearest = o.k;
+    moving.settings.photons_per_pass = o.photons;
+    moving.settings.estimator = o.estimator;
+    size_t largest = 0;
+    for (size_t i = 0; i < moving.meshes.size(); ++i) {
+      if (moving.meshes[i].indices.size() > moving.meshes[largest].indices.size()) largest = i;
+    }
+    const Mesh& mesh = moving.meshes[largest];
+    Vec3f centre(0.0f);
+    for (const Vec3f& p : mesh.positions) centre += p;
+    centre = centre / float(std::max<size_t>(mesh.positions.size(), 1));
+    auto engine = Engine::create({.backend = *made, .photons_per_leaf = o.photons_per_leaf});
+    if (!engine.ok()) return engine.status();
+    if (auto loaded = (*engine)->load(moving); !loaded.ok()) return loaded.status();
+    std::vector<double> build_ms, trace_ms, map_ms, render_ms;
+    int step = 0;
+    Measurement change = measure(o, (*engine)->backend(), [&] {
+      const MeshChange turned{
+          mesh.name,
+          translation(centre) * rotation_y_deg(++step) * translation(Vec3f(0.0f) - centre),
+          std::nullopt, std::nullopt};
+      const absl::StatusOr<RebuildReport> rebuilt = (*engine)->set_geometry({&turned, 1});
+      const absl::StatusOr<PassReport> pass = (*engine)->render(1);
+      if (!rebuilt.ok() || !pass.ok()) return;
+      build_ms.push_back(rebuilt->timings.structure_build_ms);
+      trace_ms.push_back(rebuilt->timings.photon_trace_ms + pass->timings.photon_trace_ms);
+      map_ms.push_back(rebuilt->timings.photon_map_build_ms + pass->timings.photon_map_build_ms);
+      render_ms.push_back(pass->timings.render_ms);
+    });
+    const std::string label =
+        name + absl::StrFormat(" %zu of %zu triangles moved, %dx%d k=%d %s",
+                               mesh.indices.size() / 3, resident.triangle_count(), o.width,
+                               o.height, o.k, kind_name(o.estimator));
+    report.line("geometry_change_to_frame", label, change.median, "ms", &change, o.runs);
+    for (auto* times : {&build_ms, &trace_ms, &map_ms, &render_ms})
+      times->erase(times->begin(), times->begin() + std::min<size_t>(o.warmup, times->size()));
+    if (build_ms.empty()) return absl::InternalError("the geometry change or its pass failed");
+    report.line("geometry_change_upload_and_build", label, summarize(build_ms).median, "ms");
+    report.line("geometry_change_photon_trace", label, summarize(trace_ms).median, "ms");
+    report.line("geometry_change_photon_map_build", label, summarize(map_ms).median, "ms");
+    report.line("geometry_change_render", label, summarize(render_ms).median, "ms");
+  }
   if (wanted(o, "path_pass")) {
     // One pass of the path integrator (settings.integrator "path"): a path a pixel.
     Camera camera = scene->camera;
@@ -634,9 +683,9 @@ void apply_final_gather_options(const BenchOptions& o, RenderSettings& settings)
 }
 
 std::vector<std::string> benchmark_names() {
-  std::vector<std::string> names = {"lbvh_build",      "primary_rays", "shadow_rays",
-                                    "incoherent_rays", "photon_pass",  "frame",
-                                    "photon_gather",   "path_pass",    "convergence"};
+  std::vector<std::string> names = {
+      "lbvh_build", "primary_rays",    "shadow_rays",   "incoherent_rays", "photon_pass",
+      "frame",      "geometry_change", "photon_gather", "path_pass",       "convergence"};
   for (std::string& name : serving_benchmark_names()) names.push_back(std::move(name));
   for (std::string& name : multi_device_benchmark_names()) names.push_back(std::move(name));
   names.push_back("seed_tables");
@@ -665,7 +714,8 @@ absl::Status run_benchmarks(const BenchOptions& o, std::ostream& out) {
   if (!o.mesh.empty() && any_of({"lbvh_build", "primary_rays", "shadow_rays", "incoherent_rays"})) {
     if (absl::Status s = mesh_benchmarks(o, report); !s.ok()) return s;
   }
-  if (!o.photon_scene.empty() && any_of({"photon_pass", "frame", "photon_gather", "path_pass"})) {
+  if (!o.photon_scene.empty() &&
+      any_of({"photon_pass", "frame", "geometry_change", "photon_gather", "path_pass"})) {
     for (StructureKind kind : o.structures) {
       Reporter with_structure = report.for_structure(structure_kind_name(kind));
       if (absl::Status s = photon_benchmarks(o, kind, with_structure); !s.ok()) return s;

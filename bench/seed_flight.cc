@@ -12,7 +12,7 @@ absl::StatusOr<std::vector<FlightFrame>> load_flight(const std::filesystem::path
   const absl::StatusOr<std::string> text = read_file(path);
   if (!text.ok()) return text.status();
   absl::StatusOr<std::vector<v1::Keyframe>> keyframes =
-      client::parse_light_script(*text, path.string());
+      client::parse_animation_script(*text, path.string());
   if (!keyframes.ok()) return keyframes.status();
   std::vector<FlightFrame> frames;
   Camera camera = start;

@@ -1,12 +1,15 @@
-// animate SCENE --script LIGHTS.json -o DIR [--video OUT.mp4]: the server plays the keyframed
-// light script (PlayAnimation) and streams one frame per keyframe; each becomes
+// animate SCENE --script SCRIPT.json | --gltf-animation NAME -o DIR [--video OUT.mp4]: the server
+// plays the keyframed script, or the scene's glTF animation sampled at --fps, or both together
+// (PlayAnimation) and streams one frame per keyframe; each becomes
 // DIR/frame_NNNN.<format>, and ffmpeg, when on PATH, joins them into a video.
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/animate_fleet.h"
 #include "client/frame_session.h"
+#include "client/gltf_keyframes.h"
 #include "client/light_json.h"
 #include "client/result_output.h"
+#include "client/scene_source.h"
 #include "client/subprocess.h"
 #include "renderer/scene/file_io.h"
 
@@ -32,11 +35,26 @@ absl::Status encode_video(const std::filesystem::path& ffmpeg, const AnimateOpti
 absl::Status run_animate(const GlobalOptions& global, const AnimateOptions& options,
                          std::ostream& out) {
   // Everything that can fail without the server fails before any rendering.
-  absl::StatusOr<std::string> text = read_file(options.script);
-  if (!text.ok()) return text.status();
-  absl::StatusOr<std::vector<v1::Keyframe>> keyframes =
-      parse_light_script(*text, options.script.string());
-  if (!keyframes.ok()) return keyframes.status();
+  if (options.script.empty() && options.gltf_animation.empty()) {
+    return absl::InvalidArgumentError("give --script, --gltf-animation or both");
+  }
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = std::vector<v1::Keyframe>();
+  if (!options.script.empty()) {
+    absl::StatusOr<std::string> text = read_file(options.script);
+    if (!text.ok()) return text.status();
+    keyframes = parse_animation_script(*text, options.script.string());
+    if (!keyframes.ok()) return keyframes.status();
+  }
+  if (!options.gltf_animation.empty()) {
+    if (!is_scene_file(options.job.scene)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--gltf-animation reads the models of a scene file, and '",
+                       options.job.scene, "' is a scene id: give the scene's file"));
+    }
+    keyframes = gltf_keyframes(options.job.scene, options.gltf_animation, options.fps,
+                               *std::move(keyframes));
+    if (!keyframes.ok()) return keyframes.status();
+  }
   std::optional<std::filesystem::path> ffmpeg;
   if (!options.video.empty() && !(ffmpeg = find_on_path("ffmpeg"))) {
     return absl::FailedPreconditionError(

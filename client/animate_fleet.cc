@@ -371,6 +371,62 @@ class Fleet {
   double wall_s_ = 0;
 };
 
+// Each replica sees only the keyframes it renders, but what a keyframe sets (the camera, the
+// lights, emitters, the environment, where meshes stand) stays until another keyframe changes
+// it: so each keyframe is made to carry the whole state it is seen in.
+void carry_state(const Scene& scene, std::vector<v1::Keyframe>& keyframes) {
+  v1::Camera camera = wire::encode_camera(scene.camera);
+  camera.clear_width();
+  camera.clear_height();
+  google::protobuf::RepeatedPtrField<v1::Light> lights;
+  for (const Light& light : scene.lights) *lights.Add() = wire::encode_light(light);
+  google::protobuf::RepeatedPtrField<v1::Emitter> emitters;
+  google::protobuf::RepeatedPtrField<v1::MeshUpdate> meshes;
+  std::optional<float> intensity, rotation;
+  // The entry of `list` whose `key` is `name`, added when there is none.
+  const auto entry = [](auto& list, const std::string& name, auto key) {
+    for (auto& e : list)
+      if ((e.*key)() == name) return &e;
+    return list.Add();
+  };
+  for (v1::Keyframe& keyframe : keyframes) {
+    if (keyframe.has_camera()) {
+      camera = keyframe.camera();
+    } else {
+      *keyframe.mutable_camera() = camera;
+    }
+    if (keyframe.keep_lights()) {
+      *keyframe.mutable_lights() = lights;
+      keyframe.set_keep_lights(false);
+    } else {
+      lights = keyframe.lights();
+    }
+    for (const v1::Emitter& change : keyframe.emitters()) {
+      v1::Emitter& kept = *entry(emitters, change.material(), &v1::Emitter::material);
+      kept.set_material(change.material());
+      if (change.has_radiance()) *kept.mutable_radiance() = change.radiance();
+      if (change.has_off()) kept.set_off(change.off());
+    }
+    *keyframe.mutable_emitters() = emitters;
+    if (keyframe.has_environment_intensity()) intensity = keyframe.environment_intensity();
+    if (keyframe.has_environment_rotation_deg()) rotation = keyframe.environment_rotation_deg();
+    if (intensity) keyframe.set_environment_intensity(*intensity);
+    if (rotation) keyframe.set_environment_rotation_deg(*rotation);
+    for (const v1::MeshUpdate& change : keyframe.meshes()) {
+      v1::MeshUpdate& kept = *entry(meshes, change.mesh(), &v1::MeshUpdate::mesh);
+      kept.set_mesh(change.mesh());
+      if (change.transform_size() > 0) *kept.mutable_transform() = change.transform();
+      // New positions drop the normals that came before them (MeshUpdate).
+      if (change.positions_size() > 0) {
+        *kept.mutable_positions() = change.positions();
+        kept.clear_normals();
+      }
+      if (change.normals_size() > 0) *kept.mutable_normals() = change.normals();
+    }
+    *keyframe.mutable_meshes() = meshes;
+  }
+}
+
 }  // namespace
 
 absl::Status run_animate_fleet(const GlobalOptions& global, const AnimateOptions& options,
@@ -391,18 +447,7 @@ absl::Status run_animate_fleet(const GlobalOptions& global, const AnimateOptions
   absl::StatusOr<Scene> scene = load_scene_file(options.job.scene);
   if (!scene.ok()) return scene.status();
   options.job.overrides.apply(*scene);
-  // A keyframe's camera stays until another keyframe moves it, but each replica sees only the
-  // keyframes it renders: each keyframe carries the camera it is seen through.
-  v1::Camera camera = wire::encode_camera(scene->camera);
-  camera.clear_width();
-  camera.clear_height();
-  for (v1::Keyframe& keyframe : keyframes) {
-    if (keyframe.has_camera()) {
-      camera = keyframe.camera();
-    } else {
-      *keyframe.mutable_camera() = camera;
-    }
-  }
+  carry_state(*scene, keyframes);
   Fleet fleet(global, options, *std::move(format), std::move(keyframes), *std::move(scene),
               default_scene_name(options.job.scene));
   if (absl::Status opened = fleet.open_replicas(); !opened.ok()) return opened;

@@ -165,9 +165,11 @@ struct AnimateOptions {
   FrameJobOptions job;
   std::filesystem::path directory;
   std::string format = "png";
-  std::filesystem::path script;
+  std::filesystem::path script;  // empty: none
+  // The glTF animation of the scene's models to play (a name, or a number as "0"); empty: none.
+  std::string gltf_animation;
   std::filesystem::path video;  // empty: no video
-  int fps = 12;
+  int fps = 12;  // the video's frame rate, and the rate a glTF animation is sampled at
   // --servers: replicas ("host:port") that share the keyframes, instead of the one --server. The
   // scene (a file) goes to each; a replica down at the start, or lost on the way, is probed until
   // it answers and then takes keyframes again.

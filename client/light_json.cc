@@ -1,4 +1,4 @@
-// Lights files and light scripts (see light_json.h).
+// Lights files and animation scripts (see light_json.h).
 #include "client/light_json.h"
 
 #include <cmath>
@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "proto/wire/scene_wire.h"
+#include "renderer/scene/json_fields.h"
 #include "renderer/scene/scene_json.h"
 
 namespace caustica::client {
@@ -107,6 +108,69 @@ absl::StatusOr<uint32_t> read_passes(const Json& value, std::string_view source,
   return static_cast<uint32_t>(value.get<double>());
 }
 
+// A JsonObject's errors ("keyframes[3].meshes[0].mesh: ...") after the source's name.
+absl::Status sourced(std::string_view source, const absl::Status& status) {
+  if (status.ok()) return status;
+  return absl::Status(status.code(), absl::StrCat(as_absl(source), ": ", status.message()));
+}
+
+// A keyframe's "emitters": [{"material": name, "radiance": [r, g, b], "off": bool}, ...].
+absl::Status read_emitters(const Json& emitters, const std::string& path, v1::Keyframe* out) {
+  SCENE_RETURN_IF_ERROR(json_expect_array(emitters, path));
+  for (size_t i = 0; i < emitters.size(); ++i) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(emitters[i], element_path(path, i)));
+    v1::Emitter& emitter = *out->add_emitters();
+    std::string material;
+    SCENE_RETURN_IF_ERROR(object.read("material", Presence::kRequired, &material));
+    emitter.set_material(material);
+    if (object.has("radiance")) {
+      Vec3f radiance;
+      SCENE_RETURN_IF_ERROR(object.read("radiance", Presence::kRequired, &radiance));
+      *emitter.mutable_radiance() = wire::encode_vec3(radiance);
+    }
+    if (object.has("off")) {
+      bool off = false;
+      SCENE_RETURN_IF_ERROR(object.read("off", Presence::kRequired, &off));
+      emitter.set_off(off);
+    }
+    SCENE_RETURN_IF_ERROR(object.finish());
+  }
+  return absl::OkStatus();
+}
+
+// A keyframe's "meshes": [{"mesh": name, "transform": {...}}, ...], each transform a scene file's
+// shape transform placing the mesh as uploaded.
+absl::Status read_meshes(const Json& meshes, const std::string& path, v1::Keyframe* out) {
+  SCENE_RETURN_IF_ERROR(json_expect_array(meshes, path));
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(meshes[i], element_path(path, i)));
+    MeshChange change;
+    SCENE_RETURN_IF_ERROR(object.read("mesh", Presence::kRequired, &change.mesh));
+    SCENE_ASSIGN_OR_RETURN(const Json* transform, object.find("transform", Presence::kRequired));
+    SCENE_ASSIGN_OR_RETURN(change.transform,
+                           read_transform(*transform, object.field_path("transform")));
+    SCENE_RETURN_IF_ERROR(object.finish());
+    *out->add_meshes() = wire::encode_mesh_change(change);
+  }
+  return absl::OkStatus();
+}
+
+// A keyframe's "environment": {"intensity": x, "rotation": degrees}, each optional.
+absl::Status read_environment(const Json& environment, const std::string& path, v1::Keyframe* out) {
+  SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(environment, path));
+  if (object.has("intensity")) {
+    float intensity = 0;
+    SCENE_RETURN_IF_ERROR(object.read("intensity", Presence::kRequired, &intensity));
+    out->set_environment_intensity(intensity);
+  }
+  if (object.has("rotation")) {
+    float rotation = 0;
+    SCENE_RETURN_IF_ERROR(object.read("rotation", Presence::kRequired, &rotation));
+    out->set_environment_rotation_deg(rotation);
+  }
+  return object.finish();
+}
+
 }  // namespace
 
 absl::StatusOr<std::vector<v1::Light>> parse_lights_file(std::string_view text,
@@ -122,8 +186,8 @@ absl::StatusOr<std::vector<v1::Light>> parse_lights_file(std::string_view text,
   return read_lights((*root)["lights"], source_name);
 }
 
-absl::StatusOr<std::vector<v1::Keyframe>> parse_light_script(std::string_view text,
-                                                             std::string_view source_name) {
+absl::StatusOr<std::vector<v1::Keyframe>> parse_animation_script(std::string_view text,
+                                                                 std::string_view source_name) {
   absl::StatusOr<Json> root = parse_json(text, source_name);
   if (!root.ok()) return root.status();
   if (!root->is_object()) {
@@ -142,19 +206,36 @@ absl::StatusOr<std::vector<v1::Keyframe>> parse_light_script(std::string_view te
     if (!entry.is_object()) {
       return invalid(source_name, path, absl::StrCat("expected an object, got ", entry.dump()));
     }
-    if (absl::Status s = check_keys(entry, {"lights", "passes", "camera"}, source_name, path);
+    if (absl::Status s =
+            check_keys(entry, {"lights", "passes", "camera", "emitters", "environment", "meshes"},
+                       source_name, path);
         !s.ok()) {
       return s;
     }
-    if (!entry.contains("lights")) {
-      return invalid(source_name, absl::StrCat(path, ".lights"),
-                     "is required (an empty array keeps only the scene's area lights)");
-    }
     v1::Keyframe keyframe;
-    absl::StatusOr<std::vector<v1::Light>> lights =
-        read_lights(entry["lights"], absl::StrCat(as_absl(source_name), ": ", path));
-    if (!lights.ok()) return lights.status();
-    for (v1::Light& light : *lights) *keyframe.add_lights() = std::move(light);
+    // Without "lights" the keyframe keeps those the one before left; an empty array keeps only
+    // the scene's area lights.
+    if (entry.contains("lights")) {
+      absl::StatusOr<std::vector<v1::Light>> lights =
+          read_lights(entry["lights"], absl::StrCat(as_absl(source_name), ": ", path));
+      if (!lights.ok()) return lights.status();
+      for (v1::Light& light : *lights) *keyframe.add_lights() = std::move(light);
+    } else {
+      keyframe.set_keep_lights(true);
+    }
+    if (entry.contains("emitters")) {
+      if (absl::Status s = read_emitters(entry["emitters"], path + ".emitters", &keyframe); !s.ok())
+        return sourced(source_name, s);
+    }
+    if (entry.contains("environment")) {
+      if (absl::Status s = read_environment(entry["environment"], path + ".environment", &keyframe);
+          !s.ok())
+        return sourced(source_name, s);
+    }
+    if (entry.contains("meshes")) {
+      if (absl::Status s = read_meshes(entry["meshes"], path + ".meshes", &keyframe); !s.ok())
+        return sourced(source_name, s);
+    }
     if (entry.contains("passes")) {
       absl::StatusOr<uint32_t> passes =
           read_passes(entry["passes"], source_name, absl::StrCat(path, ".passes"));

@@ -283,16 +283,25 @@ int main(int argc, char** argv) {
   on(view_cmd, "view", [&] { return run_view(global, view, std::cout); });
 
   AnimateOptions animate;
-  CLI::App* animate_cmd =
-      app.add_subcommand("animate", "play a keyframed light script; one image per keyframe");
+  CLI::App* animate_cmd = app.add_subcommand(
+      "animate",
+      "play a keyframed script (lights, camera, emitters, meshes) or a glTF animation; one "
+      "image per keyframe");
   add_frame_job(animate_cmd, animate.job);
   add_frame_files(animate_cmd, animate.directory, animate.format);
-  animate_cmd
-      ->add_option("--script", animate.script,
-                   "{\"keyframes\": [{\"lights\": [...], \"passes\": N}, ...]}")
-      ->required();
+  animate_cmd->add_option("--script", animate.script,
+                          "{\"keyframes\": [{\"lights\": [...], \"camera\": {...}, \"emitters\": "
+                          "[...], \"environment\": {...}, \"meshes\": [{\"mesh\": NAME, "
+                          "\"transform\": {...}}], \"passes\": N}, ...]} (docs/server.md)");
+  animate_cmd->add_option("--gltf-animation", animate.gltf_animation,
+                          "play the glTF animation of this name (or number, \"0\" the first) of "
+                          "the scene file's models, sampled at --fps; with --script, frame i "
+                          "is keyframe i");
   animate_cmd->add_option("--video", animate.video, "also join the frames into a video (ffmpeg)");
-  animate_cmd->add_option("--fps", animate.fps, "video frame rate")->check(CLI::PositiveNumber);
+  animate_cmd
+      ->add_option("--fps", animate.fps,
+                   "frames a second: the video's, and the glTF animation's sampling")
+      ->check(CLI::PositiveNumber);
   animate_cmd
       ->add_option("--servers", animate.servers,
                    "replicas HOST:PORT,... that share the keyframes (instead of --server): the "

@@ -7,7 +7,7 @@
 #include "client/commands.h"
 #include "client/result_output.h"
 #include "proto/wire/scene_wire.h"
-#include "renderer/scene/affine.h"
+#include "renderer/scene/transform.h"
 
 namespace caustica::client {
 
@@ -29,9 +29,7 @@ absl::StatusOr<v1::UpdateGeometryRequest> mesh_move_request(const MeshMoveOption
   if (s.x == 0 || s.y == 0 || s.z == 0) {
     return absl::InvalidArgumentError("--scale: must not be zero: it would flatten the mesh");
   }
-  // A scene file's order (scene-format.md, "Mesh"): scale, rotate about x, y, z, translate.
-  const Affine transform =
-      translation(t) * rotation_z_deg(r.z) * rotation_y_deg(r.y) * rotation_x_deg(r.x) * scaling(s);
+  const Affine transform = placement(t, r, s);
   v1::UpdateGeometryRequest request;
   request.set_scene_id(o.scene);
   *request.add_meshes() = wire::encode_mesh_change({o.mesh, transform, std::nullopt, std::nullopt});

@@ -22,6 +22,7 @@
 #include "renderer/render/whitted.h"
 #include "renderer/resident/resident_scene.h"
 #include "renderer/scene/emitters.h"
+#include "renderer/scene/scene_json.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/texture_decode.h"
 #include "renderer/scene/transform.h"
@@ -472,75 +473,39 @@ absl::StatusOr<RebuildReport> Engine::load(const Scene& given) {
   return report;
 }
 
-absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights,
-                                                 const std::vector<EmitterChange>& emitters,
-                                                 const EnvironmentChange& environment_change) {
-  State& st = *state_;
-  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
-  if (absl::Status s = validate_lights(lights, st.first().resident->view().area_light_count,
-                                       st.scene.environment.present);
-      !s.ok())
-    return s;
-  if (absl::Status s = validate_environment_change(environment_change); !s.ok()) return s;
-  Environment environment = st.scene.environment;
-  if (environment_change.intensity || environment_change.rotation_deg) {
-    if (!environment.present) {
-      return absl::FailedPreconditionError(
-          "environment: the scene has no environment to change (add one to the scene)");
-    }
-    environment.intensity = environment_change.intensity.value_or(environment.intensity);
-    environment.rotation_deg = environment_change.rotation_deg.value_or(environment.rotation_deg);
-  }
-  absl::StatusOr<std::vector<Material>> materials =
-      apply_emitter_changes(st.scene.materials, emitters);
-  if (!materials.ok()) return materials.status();
-  RebuildReport report;
-  absl::Status status = guarded([&]() -> absl::Status {
-    st.drop_maps();  // frees the old maps before the new lighting is allocated
-    std::vector<ResidentScene::Lighting> lighting =
-        st.new_lighting(lights, *materials, environment);
-    // The photons are traced in the new lighting before the films restart; when that fails, the
-    // old lighting goes back.
-    st.swap_lighting(lighting);
-    report.rebuilt = {"lights", "film"};
-    try {
-      st.prepare_photons(st.scene.settings, report);
-    } catch (...) {
-      st.swap_lighting(lighting);
-      throw;
-    }
-    st.clear_films();
-    st.scene.materials = *std::move(materials);
-    st.scene.lights = lights;
-    st.scene.environment = environment;
-    ++st.epochs.lights;
-    return absl::OkStatus();
-  });
-  if (!status.ok()) return status;
-  report.epochs = st.epochs;
-  return report;
-}
-
 namespace {
 
-// The index of the mesh named `name` in `scene`, or the error naming `field`.
-absl::StatusOr<size_t> mesh_named(const Scene& scene, const std::string& name,
-                                  const std::string& field) {
-  std::optional<size_t> found;
+// The meshes `name` names in `scene`, or the error naming `field`: the one mesh of that name, or
+// else every mesh of the one scene-file shape the scene calls so (a model file's parts move as
+// one).
+absl::StatusOr<std::vector<size_t>> meshes_named(const Scene& scene, const std::string& name,
+                                                 const std::string& field) {
+  std::vector<size_t> exact, shape;
+  absl::string_view shape_path;
   for (size_t i = 0; i < scene.meshes.size(); ++i) {
-    if (scene.meshes[i].name != name) continue;
-    if (found) {
-      return absl::InvalidArgumentError(absl::StrCat(field, ": '", name,
-                                                     "' names more than one mesh (meshes[", *found,
-                                                     "] and meshes[", i, "])"));
+    const std::string& mesh = scene.meshes[i].name;
+    if (mesh == name) exact.push_back(i);
+    const ShapeLabel label = parse_shape_label(mesh);
+    if (label.name != name) continue;
+    if (!shape.empty() && label.path != shape_path) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": '", name, "' names two shapes (",
+                                                     shape_path, " and ", label.path,
+                                                     "): give the mesh's whole name"));
     }
-    found = i;
+    shape_path = label.path;
+    shape.push_back(i);
   }
-  if (!found) {
+  if (exact.size() > 1) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": '", name,
+                                                   "' names more than one mesh (meshes[", exact[0],
+                                                   "] and meshes[", exact[1], "])"));
+  }
+  if (!exact.empty()) return exact;
+  if (shape.empty()) {
     return absl::NotFoundError(absl::StrCat(field, ": the scene has no mesh named '", name, "' (",
                                             scene.meshes.size(), " meshes)"));
   }
-  return *found;
+  return shape;
 }
 
 // `vectors` as the new value of a mesh's `count` vertices' attribute `field`, or why not.
@@ -562,78 +527,185 @@ absl::Status check_vertices(const std::vector<Vec3f>& vectors, size_t count,
 
 }  // namespace
 
+absl::StatusOr<RebuildReport> Engine::set_lights(const std::vector<Light>& lights,
+                                                 const std::vector<EmitterChange>& emitters,
+                                                 const EnvironmentChange& environment) {
+  return apply(SceneChange{lights, emitters, environment, {}});
+}
+
 absl::StatusOr<RebuildReport> Engine::set_geometry(std::span<const MeshChange> changes) {
+  return apply(SceneChange{std::nullopt, {}, {}, {changes.begin(), changes.end()}});
+}
+
+namespace {
+
+// A mesh change checked against `scene`: the meshes it changes, or the error naming the field.
+absl::StatusOr<std::vector<size_t>> check_mesh_change(const Scene& scene, const MeshChange& change,
+                                                      const std::string& field) {
+  absl::StatusOr<std::vector<size_t>> meshes = meshes_named(scene, change.mesh, field + ".mesh");
+  if (!meshes.ok()) return meshes.status();
+  const size_t count = scene.meshes[meshes->front()].positions.size();
+  for (const auto& [vertices, name] :
+       {std::pair{&change.positions, ".positions"}, std::pair{&change.normals, ".normals"}}) {
+    if (!*vertices) continue;
+    if (meshes->size() > 1) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          field, name, ": '", change.mesh, "' is a shape of ", meshes->size(),
+          " meshes; new vertices go to one of them, named whole, as SceneInfo lists it"));
+    }
+    if (absl::Status s = check_vertices(**vertices, count, field + name); !s.ok()) return s;
+  }
+  if (change.transform) {
+    bool finite = true;
+    for (const auto& row : change.transform->m)
+      for (const double x : row) finite &= std::isfinite(x);
+    const double det = change.transform->determinant();
+    if (!finite || !(std::fabs(det) > 0) || !std::isfinite(det)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".transform: is not an invertible map of finite numbers"));
+    }
+  }
+  return meshes;
+}
+
+// The lights, materials and environment of `scene` after `change`, or why not.
+struct LightingState {
+  std::vector<Light> lights;
+  std::vector<Material> materials;
+  Environment environment;
+};
+absl::StatusOr<LightingState> changed_lighting(const Scene& scene, uint32_t area_lights,
+                                               const SceneChange& change) {
+  LightingState out{scene.lights, {}, scene.environment};
+  if (change.lights) {
+    if (absl::Status s = validate_lights(*change.lights, area_lights, scene.environment.present);
+        !s.ok())
+      return s;
+    out.lights = *change.lights;
+  }
+  const EnvironmentChange& environment = change.environment;
+  if (absl::Status s = validate_environment_change(environment); !s.ok()) return s;
+  if (environment.intensity || environment.rotation_deg) {
+    if (!out.environment.present) {
+      return absl::FailedPreconditionError(
+          "environment: the scene has no environment to change (add one to the scene)");
+    }
+    out.environment.intensity = environment.intensity.value_or(out.environment.intensity);
+    out.environment.rotation_deg = environment.rotation_deg.value_or(out.environment.rotation_deg);
+  }
+  absl::StatusOr<std::vector<Material>> materials =
+      apply_emitter_changes(scene.materials, change.emitters);
+  if (!materials.ok()) return materials.status();
+  out.materials = *std::move(materials);
+  return out;
+}
+
+}  // namespace
+
+absl::Status Engine::check(const SceneChange& change) const {
+  const State& st = *state_;
+  if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
+  absl::StatusOr<LightingState> lighting =
+      changed_lighting(st.scene, st.first().resident->view().area_light_count, change);
+  if (!lighting.ok()) return lighting.status();
+  for (size_t c = 0; c < change.meshes.size(); ++c) {
+    absl::StatusOr<std::vector<size_t>> meshes =
+        check_mesh_change(st.scene, change.meshes[c], absl::StrCat("meshes[", c, "]"));
+    if (!meshes.ok()) return meshes.status();
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<RebuildReport> Engine::apply(const SceneChange& change) {
   State& st = *state_;
   if (!st.loaded()) return absl::FailedPreconditionError("no scene loaded");
-  // The scene as it will be, checked whole before anything changes.
-  Scene next = st.scene;
-  std::map<size_t, State::Placement> placements = st.placements;
-  for (size_t c = 0; c < changes.size(); ++c) {
-    const MeshChange& change = changes[c];
-    const std::string field = absl::StrCat("meshes[", c, "]");
-    absl::StatusOr<size_t> index = mesh_named(st.scene, change.mesh, field + ".mesh");
-    if (!index.ok()) return index.status();
-    // A mesh placed for the first time stands where it was uploaded.
-    State::Placement& placed =
-        placements.try_emplace(*index, State::Placement{st.scene.meshes[*index], Affine()})
-            .first->second;
-    Mesh& rest = placed.rest;
-    if (change.positions) {
-      if (absl::Status s =
-              check_vertices(*change.positions, rest.positions.size(), field + ".positions");
-          !s.ok())
-        return s;
-      rest.positions = *change.positions;
-      rest.tangents.clear();
-      if (!change.normals) rest.normals.clear();
-      placed.positions_replaced = true;
-    }
-    if (change.normals) {
-      if (absl::Status s =
-              check_vertices(*change.normals, rest.positions.size(), field + ".normals");
-          !s.ok())
-        return s;
-      rest.normals = *change.normals;
-      placed.normals_replaced = true;
-    }
-    if (change.transform) {
-      const Affine& t = *change.transform;
-      bool finite = true;
-      for (const auto& row : t.m)
-        for (const double x : row) finite &= std::isfinite(x);
-      const double det = t.determinant();
-      if (!finite || !(std::fabs(det) > 0) || !std::isfinite(det)) {
-        return absl::InvalidArgumentError(
-            absl::StrCat(field, ".transform: is not an invertible map of finite numbers"));
-      }
-      placed.transform = t;
-    }
-    Mesh moved = rest;
-    transform_mesh(placed.transform, &moved);
-    next.meshes[*index] = std::move(moved);
+  absl::StatusOr<LightingState> lighting =
+      changed_lighting(st.scene, st.first().resident->view().area_light_count, change);
+  if (!lighting.ok()) return lighting.status();
+  // A geometry change checks the scene as it will be, whole, before anything changes; a light
+  // change leaves the meshes alone and copies none of them.
+  const bool geometry = !change.meshes.empty();
+  std::optional<Scene> next;
+  std::map<size_t, State::Placement> placements;
+  if (geometry) {
+    next = st.scene;
+    placements = st.placements;
   }
-  if (absl::Status s = validate_scene(next); !s.ok()) return s;
+  for (size_t c = 0; c < change.meshes.size(); ++c) {
+    const MeshChange& mesh_change = change.meshes[c];
+    absl::StatusOr<std::vector<size_t>> meshes =
+        check_mesh_change(st.scene, mesh_change, absl::StrCat("meshes[", c, "]"));
+    if (!meshes.ok()) return meshes.status();
+    for (const size_t index : *meshes) {
+      // A mesh placed for the first time stands where it was uploaded.
+      State::Placement& placed =
+          placements.try_emplace(index, State::Placement{st.scene.meshes[index], Affine()})
+              .first->second;
+      Mesh& rest = placed.rest;
+      if (mesh_change.positions) {
+        rest.positions = *mesh_change.positions;
+        rest.tangents.clear();
+        if (!mesh_change.normals) rest.normals.clear();
+        placed.positions_replaced = true;
+      }
+      if (mesh_change.normals) {
+        rest.normals = *mesh_change.normals;
+        placed.normals_replaced = true;
+      }
+      if (mesh_change.transform) placed.transform = *mesh_change.transform;
+      Mesh moved = rest;
+      transform_mesh(placed.transform, &moved);
+      next->meshes[index] = std::move(moved);
+    }
+  }
+  if (geometry) {
+    next->lights = lighting->lights;
+    next->materials = lighting->materials;
+    next->environment = lighting->environment;
+    if (absl::Status s = validate_scene(*next); !s.ok()) return s;
+  }
   RebuildReport report;
   absl::Status status = guarded([&]() -> absl::Status {
-    st.drop_maps();  // frees the old maps before the new geometry is allocated
-    const auto start = std::chrono::steady_clock::now();
-    std::vector<std::optional<ResidentScene>> residents = st.new_residents(next);
-    report.timings.structure_build_ms = elapsed_ms(start);
-    // The photons are traced through the new geometry before the films restart; when that fails,
-    // the old geometry goes back.
-    st.swap_residents(residents);
-    report.rebuilt = {"geometry", "lights", "film"};
+    st.drop_maps();  // frees the old maps before the new scene state is allocated
+    // The photons are traced in the new state before the films restart; when that fails, the
+    // old state goes back.
+    std::vector<std::optional<ResidentScene>> residents;
+    std::vector<ResidentScene::Lighting> resident_lighting;
+    if (geometry) {
+      const auto start = std::chrono::steady_clock::now();
+      residents = st.new_residents(*next);
+      report.timings.structure_build_ms = elapsed_ms(start);
+      report.rebuilt = {"geometry", "lights", "film"};
+    } else {
+      resident_lighting =
+          st.new_lighting(lighting->lights, lighting->materials, lighting->environment);
+      report.rebuilt = {"lights", "film"};
+    }
+    const auto swap = [&] {
+      if (geometry) {
+        st.swap_residents(residents);
+      } else {
+        st.swap_lighting(resident_lighting);
+      }
+    };
+    swap();
     try {
-      st.prepare_photons(next.settings, report);
+      st.prepare_photons(st.scene.settings, report);
     } catch (...) {
-      st.swap_residents(residents);
+      swap();
       throw;
     }
     st.clear_films();
-    st.scene = std::move(next);
-    st.placements = std::move(placements);
-    st.last_build_ms = report.timings.structure_build_ms;
-    ++st.epochs.geometry;
+    if (geometry) {
+      st.scene = *std::move(next);
+      st.placements = std::move(placements);
+      st.last_build_ms = report.timings.structure_build_ms;
+      ++st.epochs.geometry;
+    } else {
+      st.scene.lights = std::move(lighting->lights);
+      st.scene.materials = std::move(lighting->materials);
+      st.scene.environment = lighting->environment;
+    }
     ++st.epochs.lights;
     return absl::OkStatus();
   });

@@ -108,6 +108,14 @@ struct SceneStats {
   double last_structure_build_ms = 0;
 };
 
+// What Engine::apply changes at once; unset or empty parts keep theirs.
+struct SceneChange {
+  std::optional<std::vector<Light>> lights;  // the complete list of non-geometry lights
+  std::vector<EmitterChange> emitters;
+  EnvironmentChange environment;
+  std::vector<MeshChange> meshes;
+};
+
 // Not thread-safe: callers serialise every call on one engine. With several devices, each call
 // works on all of them at once, from a thread per device, and returns when all are done.
 // A change (set_lights, set_camera, set_settings, set_geometry) is all or nothing: refused by its
@@ -143,6 +151,13 @@ class Engine {
   // traced, as after a light change. The geometry and lights epochs move. NOT_FOUND for a mesh
   // the scene does not have; INVALID_ARGUMENT naming the change's field for the rest.
   absl::StatusOr<RebuildReport> set_geometry(std::span<const MeshChange> changes);
+  // Lights, emitters, the environment and meshes changed together, as one keyframe of an
+  // animation changes them: one structure build when meshes change, and one photon trace. The
+  // epochs of what changed move; set_lights and set_geometry are its parts.
+  absl::StatusOr<RebuildReport> apply(const SceneChange& change);
+  // apply's checks without the change: what apply would refuse, as it would say it, judged on the
+  // scene as it stands (an animation checks every keyframe before it plays the first).
+  absl::Status check(const SceneChange& change) const;
 
   // What set_geometry changed since the scene was loaded, as changes that redo it on the scene
   // as loaded: per moved mesh, in scene order, its transform, and its vertices (and normals) where

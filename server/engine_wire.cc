@@ -1,5 +1,6 @@
 #include "server/engine_wire.h"
 
+#include "absl/strings/str_cat.h"
 #include "proto/wire/scene_wire.h"
 
 namespace caustica::server {
@@ -95,6 +96,46 @@ void describe_state(const Engine& engine, v1::SceneInfo* info) {
   info->set_photon_map_bytes(stats.photon_map_bytes);
   info->set_device_bytes(stats.device_bytes);
   info->set_passes(engine.film_passes());
+}
+
+namespace {
+
+// The parts UpdateLightsRequest and Keyframe share.
+template <typename Message>
+absl::StatusOr<SceneChange> decode_light_change(const Message& m, const std::string& prefix) {
+  SceneChange change;
+  absl::StatusOr<std::vector<Light>> lights = wire::decode_lights(m.lights(), prefix + "lights");
+  if (!lights.ok()) return lights.status();
+  if (!m.keep_lights()) {
+    change.lights = *std::move(lights);
+  } else if (!lights->empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(prefix, "lights: must be empty with keep_lights, which keeps the lights"));
+  }
+  absl::StatusOr<std::vector<EmitterChange>> emitters =
+      wire::decode_emitters(m.emitters(), prefix + "emitters");
+  if (!emitters.ok()) return emitters.status();
+  change.emitters = *std::move(emitters);
+  if (m.has_environment_intensity()) change.environment.intensity = m.environment_intensity();
+  if (m.has_environment_rotation_deg())
+    change.environment.rotation_deg = m.environment_rotation_deg();
+  return change;
+}
+
+}  // namespace
+
+absl::StatusOr<SceneChange> decode_change(const v1::UpdateLightsRequest& request) {
+  return decode_light_change(request, "");
+}
+
+absl::StatusOr<SceneChange> decode_change(const v1::Keyframe& keyframe, const std::string& prefix) {
+  absl::StatusOr<SceneChange> change = decode_light_change(keyframe, prefix);
+  if (!change.ok()) return change.status();
+  absl::StatusOr<std::vector<MeshChange>> meshes =
+      wire::decode_mesh_changes(keyframe.meshes(), prefix + "meshes");
+  if (!meshes.ok()) return meshes.status();
+  change->meshes = *std::move(meshes);
+  return change;
 }
 
 }  // namespace caustica::server

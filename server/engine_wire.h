@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
+#include "absl/status/statusor.h"
 #include "caustica/v1/render_service.pb.h"
 #include "renderer/engine.h"
 
@@ -22,5 +24,11 @@ void describe_geometry(const Scene& scene, v1::SceneInfo* info);
 void describe_state(const Engine& engine, v1::SceneInfo* info);
 // The lights and the emissive materials' emission, which change only with updates.
 void describe_lights(const Scene& scene, v1::SceneInfo* info);
+
+// The change an UpdateLightsRequest asks for: the lights (none with keep_lights), the emitters and
+// the environment.
+absl::StatusOr<SceneChange> decode_change(const v1::UpdateLightsRequest& request);
+// A keyframe's change, those and its meshes, with fields named under `prefix` ("keyframes[3].").
+absl::StatusOr<SceneChange> decode_change(const v1::Keyframe& keyframe, const std::string& prefix);
 
 }  // namespace caustica::server

@@ -734,19 +734,8 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
   return serve_update(
       context, "UpdateLights", request->scene_id(), response,
       [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
-        absl::StatusOr<std::vector<Light>> lights =
-            wire::decode_lights(request->lights(), "lights");
-        if (!lights.ok()) return lights.status();
-        absl::StatusOr<std::vector<EmitterChange>> emitters =
-            wire::decode_emitters(request->emitters(), "emitters");
-        if (!emitters.ok()) return emitters.status();
-        if (request->keep_lights()) {
-          if (!lights->empty()) {
-            return absl::InvalidArgumentError(
-                "lights: must be empty with keep_lights, which keeps the scene's lights");
-          }
-          *lights = engine.scene().lights;
-        }
+        absl::StatusOr<SceneChange> change = decode_change(*request);
+        if (!change.ok()) return change.status();
         // Checked under the lease so no other update can slip in between check and change.
         if (request->has_expected_lights_epoch() &&
             engine.epochs().lights != request->expected_lights_epoch()) {
@@ -755,12 +744,7 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
               "changed the lights)",
               engine.epochs().lights, request->expected_lights_epoch()));
         }
-        EnvironmentChange environment;
-        if (request->has_environment_intensity())
-          environment.intensity = request->environment_intensity();
-        if (request->has_environment_rotation_deg())
-          environment.rotation_deg = request->environment_rotation_deg();
-        return engine.set_lights(*lights, *emitters, environment);
+        return engine.apply(*change);
       });
 }
 
@@ -911,26 +895,36 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
         if (!call.ok()) return call.status();
         SceneEntry& entry = *call->entry;
         const FrameSpec& spec = call->spec;
-        // Every keyframe is decoded before the first one plays: a bad script changes nothing.
+        // Every keyframe is decoded, and checked against the scene, before the first one plays:
+        // a bad script changes nothing.
         struct Step {
-          std::vector<Light> lights;
+          SceneChange change;
           std::optional<Camera> camera;
         };
         std::vector<Step> keyframes;
         for (int i = 0; i < request->keyframes_size(); ++i) {
           const v1::Keyframe& keyframe = request->keyframes(i);
-          absl::StatusOr<std::vector<Light>> lights =
-              wire::decode_lights(keyframe.lights(), absl::StrCat("keyframes[", i, "].lights"));
-          if (!lights.ok()) return lights.status();
-          Step step{*std::move(lights), std::nullopt};
+          const std::string prefix = absl::StrCat("keyframes[", i, "].");
+          absl::StatusOr<SceneChange> change = decode_change(keyframe, prefix);
+          if (!change.ok()) return change.status();
+          Step step{*std::move(change), std::nullopt};
           if (keyframe.has_camera()) {
             // Its size is the scene's, set when it plays.
-            absl::StatusOr<Camera> camera = wire::decode_camera_at(
-                keyframe.camera(), absl::StrCat("keyframes[", i, "].camera"), 0, 0);
+            absl::StatusOr<Camera> camera =
+                wire::decode_camera_at(keyframe.camera(), prefix + "camera", 0, 0);
             if (!camera.ok()) return camera.status();
             step.camera = *camera;
           }
           keyframes.push_back(std::move(step));
+        }
+        {
+          absl::StatusOr<Leases> lease = acquire(context, entry, nullptr);
+          if (!lease.ok()) return lease.status();
+          for (size_t i = 0; i < keyframes.size(); ++i) {
+            if (absl::Status s = entry.engine->check(keyframes[i].change); !s.ok()) {
+              return absl::Status(s.code(), absl::StrCat("keyframes[", i, "].", s.message()));
+            }
+          }
         }
         const size_t chunk = chunk_bytes(request->max_chunk_bytes());
         for (size_t i = 0; i < keyframes.size(); ++i) {
@@ -942,7 +936,7 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
                   absl::StatusOr<RebuildReport> moved = engine.set_camera(*camera);
                   if (!moved.ok()) return moved.status();
                 }
-                return engine.set_lights(keyframes[i].lights);
+                return engine.apply(keyframes[i].change);
               });
           if (!report.ok()) return report.status();
           const uint32_t passes = std::max(request->keyframes(static_cast<int>(i)).passes(), 1u);

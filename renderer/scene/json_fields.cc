@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "renderer/scene/transform.h"
 
 namespace caustica {
 namespace {
@@ -153,6 +154,25 @@ absl::Status JsonObject::finish() const {
     }
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<Affine> read_transform(const Json& value, std::string path) {
+  SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
+  Vec3f scale{1, 1, 1}, rotate{0, 0, 0}, translate{0, 0, 0};
+  SCENE_ASSIGN_OR_RETURN(const Json* scale_value, object.find("scale", Presence::kOptional));
+  if (scale_value != nullptr && scale_value->is_number()) {
+    SCENE_ASSIGN_OR_RETURN(const float s, json_to_float(*scale_value, object.field_path("scale")));
+    scale = Vec3f(s);
+  } else if (scale_value != nullptr) {
+    SCENE_ASSIGN_OR_RETURN(scale, json_to_vec3(*scale_value, object.field_path("scale")));
+  }
+  if (scale.x == 0 || scale.y == 0 || scale.z == 0) {
+    return invalid_field(object.field_path("scale"), "must not be zero: it would flatten the mesh");
+  }
+  SCENE_RETURN_IF_ERROR(object.read("rotate", Presence::kOptional, &rotate));
+  SCENE_RETURN_IF_ERROR(object.read("translate", Presence::kOptional, &translate));
+  SCENE_RETURN_IF_ERROR(object.finish());
+  return placement(translate, rotate, scale);
 }
 
 }  // namespace caustica

@@ -1,6 +1,6 @@
 // Reading JSON scene fields together with their paths, so that every error can say exactly which
 // field is wrong ("shapes[3].vertices[2]: expected [x, y, z] ...") and leftover keys (typos) are
-// reported instead of silently ignored. Internal to the scene module.
+// reported instead of silently ignored. The scene module's, and the client's for its scripts.
 #pragma once
 
 #include <cstdint>
@@ -13,6 +13,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "renderer/base/vec.h"
+#include "renderer/scene/affine.h"
 #include "renderer/scene/status_util.h"
 
 namespace caustica {
@@ -32,6 +33,9 @@ absl::StatusOr<Vec3f> json_to_vec3(const Json& value, absl::string_view path);
 absl::StatusOr<std::string> json_to_string(const Json& value, absl::string_view path);
 // Fails unless `value` is an array.
 absl::Status json_expect_array(const Json& value, absl::string_view path);
+// A "transform" object, {"translate": [x, y, z], "rotate": [x, y, z], "scale": s or [x, y, z]},
+// every key optional, as transform.h's placement() makes it.
+absl::StatusOr<Affine> read_transform(const Json& value, std::string path);
 
 // One JSON object being read field by field.
 class JsonObject {

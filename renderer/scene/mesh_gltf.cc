@@ -1,12 +1,5 @@
 #include "renderer/scene/mesh_gltf.h"
 
-// The Debian package ships tinygltf as a compiled library, so no TINYGLTF_IMPLEMENTATION here.
-// No stb_image: images travel to the server as their files' bytes (texture_decode.h decodes them
-// there), so the image callback only keeps the bytes.
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#include <tiny_gltf.h>
-
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -27,6 +20,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/strip.h"
 #include "renderer/scene/file_io.h"
+#include "renderer/scene/gltf_model.h"
 #include "renderer/scene/scene_limits.h"
 #include "renderer/scene/status_util.h"
 #include "renderer/scene/texture_files.h"
@@ -38,22 +32,7 @@ namespace {
 
 using Json = nlohmann::json;
 
-// glTF buffers are little-endian, and we read them with memcpy.
-static_assert(std::endian::native == std::endian::little);
-
 constexpr double kRadiansToDegrees = 180.0 / 3.14159265358979323846;
-
-// The bytes of every image of the file (embedded, in a buffer view or beside it), by index.
-using ImageBytes = std::vector<std::string>;
-
-bool keep_image_bytes(tinygltf::Image*, const int index, std::string*, std::string*, int, int,
-                      const unsigned char* bytes, int size, void* user_data) {
-  auto& images = *static_cast<ImageBytes*>(user_data);
-  if (index < 0 || bytes == nullptr || size <= 0) return true;
-  if (images.size() <= size_t(index)) images.resize(size_t(index) + 1);
-  images[size_t(index)].assign(reinterpret_cast<const char*>(bytes), size_t(size));
-  return true;
-}
 
 TextureWrap wrap_mode(int gltf) {
   switch (gltf) {
@@ -190,118 +169,6 @@ std::vector<uint32_t> triangulate_strip_or_fan(const std::vector<uint32_t>& v, i
   return triangles;
 }
 
-bool checked_add(size_t a, size_t b, size_t* sum) { return !__builtin_add_overflow(a, b, sum); }
-bool checked_mul(size_t a, size_t b, size_t* product) {
-  return !__builtin_mul_overflow(a, b, product);
-}
-
-// An accessor whose whole byte range has been checked to lie inside its buffer, so that reads
-// cannot leave it whatever the file claims.
-class AccessorView {
- public:
-  static absl::StatusOr<AccessorView> open(const tinygltf::Model& model, int index, int type,
-                                           std::initializer_list<int> component_types,
-                                           absl::string_view what) {
-    auto fail = [&](absl::string_view problem) {
-      return absl::InvalidArgumentError(absl::StrCat(what, " (accessor ", index, "): ", problem));
-    };
-    if (index < 0 || static_cast<size_t>(index) >= model.accessors.size()) {
-      return fail("no such accessor");
-    }
-    const tinygltf::Accessor& accessor = model.accessors[index];
-    if (accessor.sparse.isSparse) return fail("sparse accessors are not supported");
-    if (accessor.type != type) return fail("unexpected element type");
-    bool known_component = false;
-    for (int c : component_types) known_component |= accessor.componentType == c;
-    if (!known_component) {
-      return fail(absl::StrCat("unsupported component type ", accessor.componentType));
-    }
-    if (accessor.bufferView < 0 ||
-        static_cast<size_t>(accessor.bufferView) >= model.bufferViews.size()) {
-      return fail("has no valid bufferView");
-    }
-    const tinygltf::BufferView& view = model.bufferViews[accessor.bufferView];
-    if (view.buffer < 0 || static_cast<size_t>(view.buffer) >= model.buffers.size()) {
-      return fail("bufferView has no valid buffer");
-    }
-    const std::vector<unsigned char>& buffer = model.buffers[view.buffer].data;
-
-    AccessorView result;
-    result.component_type_ = accessor.componentType;
-    result.normalized_ = accessor.normalized;
-    result.components_ = tinygltf::GetNumComponentsInType(static_cast<uint32_t>(type));
-    result.component_size_ = tinygltf::GetComponentSizeInBytes(accessor.componentType);
-    result.count_ = accessor.count;
-    const size_t element_size = result.components_ * result.component_size_;
-    result.stride_ = view.byteStride != 0 ? view.byteStride : element_size;
-    if (result.stride_ < element_size) return fail("byteStride is smaller than an element");
-
-    size_t view_end = 0, start = 0, last = 0, end = 0;
-    if (!checked_add(view.byteOffset, view.byteLength, &view_end) || view_end > buffer.size()) {
-      return fail("bufferView runs past the end of its buffer");
-    }
-    if (!checked_add(view.byteOffset, accessor.byteOffset, &start)) return fail("bad byteOffset");
-    if (result.count_ > 0) {
-      if (!checked_mul(result.count_ - 1, result.stride_, &last) ||
-          !checked_add(start, last, &last) || !checked_add(last, element_size, &end) ||
-          end > view_end) {
-        return fail(absl::StrCat(result.count_, " elements run past the end of the bufferView"));
-      }
-    }
-    if (result.count_ > 0) result.data_ = buffer.data() + start;
-    return result;
-  }
-
-  size_t count() const { return count_; }
-
-  // Component c of element i; normalized integers map to [0, 1] or [-1, 1] as glTF specifies.
-  double get(size_t i, int c) const {
-    const unsigned char* p = data_ + i * stride_ + size_t(c) * component_size_;
-    switch (component_type_) {
-      case TINYGLTF_COMPONENT_TYPE_BYTE:
-        return scaled<int8_t>(p, 127.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-        return scaled<uint8_t>(p, 255.0);
-      case TINYGLTF_COMPONENT_TYPE_SHORT:
-        return scaled<int16_t>(p, 32767.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-        return scaled<uint16_t>(p, 65535.0);
-      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-        return load<uint32_t>(p);
-      case TINYGLTF_COMPONENT_TYPE_FLOAT:
-        return load<float>(p);
-      default:
-        return 0;
-    }
-  }
-
-  Vec3f get_vec3(size_t i) const {
-    return {static_cast<float>(get(i, 0)), static_cast<float>(get(i, 1)),
-            static_cast<float>(get(i, 2))};
-  }
-
- private:
-  template <typename T>
-  static double load(const unsigned char* p) {
-    T v;
-    std::memcpy(&v, p, sizeof(T));
-    return static_cast<double>(v);
-  }
-  template <typename T>
-  double scaled(const unsigned char* p, double max) const {
-    const double v = load<T>(p);
-    return normalized_ ? std::max(v / max, -1.0) : v;
-  }
-
-  const unsigned char* data_ = nullptr;
-  size_t count_ = 0;
-  size_t stride_ = 0;
-  size_t component_size_ = 0;
-  int components_ = 0;
-  int component_type_ = 0;
-  bool normalized_ = false;
-};
-
 class GltfReader {
  public:
   GltfReader(const tinygltf::Model& model, const std::filesystem::path& path, ImageBytes images)
@@ -348,7 +215,7 @@ class GltfReader {
     }
     file_.textures = textures_.take();
     node_seen_.assign(model_.nodes.size(), false);
-    for (const int root : root_nodes()) SCENE_RETURN_IF_ERROR(visit_tree(root));
+    for (const int root : gltf_root_nodes(model_)) SCENE_RETURN_IF_ERROR(visit_tree(root));
     if (file_.meshes.empty() && skipped_primitives_ > 0) {
       return absl::InvalidArgumentError(
           absl::StrCat("the default scene has only point and line primitives (",
@@ -490,46 +357,6 @@ class GltfReader {
     mesh->interior_medium = medium;
   }
 
-  // The default scene's roots; without scenes, every node that is nobody's child.
-  std::vector<int> root_nodes() const {
-    if (!model_.scenes.empty()) {
-      const size_t scene = model_.defaultScene >= 0 &&
-                                   static_cast<size_t>(model_.defaultScene) < model_.scenes.size()
-                               ? model_.defaultScene
-                               : 0;
-      return model_.scenes[scene].nodes;
-    }
-    std::vector<bool> is_child(model_.nodes.size(), false);
-    for (const tinygltf::Node& node : model_.nodes) {
-      for (const int child : node.children) {
-        if (child >= 0 && static_cast<size_t>(child) < is_child.size()) is_child[child] = true;
-      }
-    }
-    std::vector<int> roots;
-    for (size_t i = 0; i < model_.nodes.size(); ++i) {
-      if (!is_child[i]) roots.push_back(static_cast<int>(i));
-    }
-    return roots;
-  }
-
-  static Affine local_transform(const tinygltf::Node& node) {
-    if (node.matrix.size() == 16) {
-      std::array<double, 16> columns;
-      std::copy(node.matrix.begin(), node.matrix.end(), columns.begin());
-      return from_column_major(columns);
-    }
-    Affine t;
-    if (node.translation.size() == 3) {
-      t = translation(to_vec3(node.translation, Vec3f(0)));
-    }
-    if (node.rotation.size() == 4) {
-      t = t * rotation_quaternion(node.rotation[0], node.rotation[1], node.rotation[2],
-                                  node.rotation[3]);
-    }
-    if (node.scale.size() == 3) t = t * scaling(to_vec3(node.scale, Vec3f(1)));
-    return t;
-  }
-
   // Iterative, so a hostile chain of nodes cannot overflow the stack; glTF nodes form a forest,
   // so a node reached twice means a cycle or a shared child, both invalid.
   absl::Status visit_tree(int root) {
@@ -546,7 +373,7 @@ class GltfReader {
       }
       node_seen_[index] = true;
       const tinygltf::Node& node = model_.nodes[index];
-      const Affine world = parent * local_transform(node);
+      const Affine world = parent * gltf_local_transform(node);
       SCENE_RETURN_IF_ERROR(add_node_meshes(node, index, world));
       SCENE_RETURN_IF_ERROR(add_node_light(node, world));
       SCENE_RETURN_IF_ERROR(add_node_camera(node, index, world));
@@ -568,17 +395,14 @@ class GltfReader {
     for (size_t p = 0; p < gltf_mesh.primitives.size(); ++p) {
       const tinygltf::Primitive& primitive = gltf_mesh.primitives[p];
       // Errors get the file name from load_gltf; mesh names need it themselves.
-      const std::string name =
-          absl::StrCat("mesh '", gltf_mesh.name, "' primitive ", p, " at node '",
-                       node.name.empty() ? absl::StrCat(node_index) : node.name, "'");
+      const std::string name = gltf_primitive_name(model_, node_index, p);
       // tinygltf leaves mode at -1 when the file omits it; glTF's default is TRIANGLES.
       const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
       if (mode > TINYGLTF_MODE_TRIANGLE_FAN) {
         return absl::InvalidArgumentError(
             absl::StrCat(name, ": unknown primitive mode ", mode, " (glTF 2.0 defines 0 to 6)"));
       }
-      if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
-          mode != TINYGLTF_MODE_TRIANGLE_FAN) {
+      if (!gltf_draws_triangles(primitive)) {
         // Points and lines have no area to hit. Files often carry them as helpers (wireframes,
         // markers) next to the surfaces, so they are skipped with a warning; a file with nothing
         // else is an error in read().
@@ -789,87 +613,13 @@ class GltfReader {
   std::vector<uint32_t> volume_of_material_;  // each material's medium, or kNoMedium
 };
 
-// Why a file is glTF 1.0, or empty when it is not. tinygltf reads such files as glTF 2.0 and fails
-// on whatever 1.0 spells differently (dictionaries instead of arrays), with a message that does
-// not say what is wrong; this looks first.
-// Binary containers say their version in the header; only that is read of a large .glb.
-std::string binary_gltf1_evidence(const std::filesystem::path& path) {
-  char header[8] = {};
-  std::ifstream in(path, std::ios::binary);
-  in.read(header, sizeof(header));
-  if (in.gcount() == sizeof(header) && std::memcmp(header, "glTF", 4) == 0) {
-    uint32_t version = 0;
-    std::memcpy(&version, header + 4, 4);
-    if (version == 1) return "binary glTF (KHR_binary_glTF) container version 1";
-  }
-  return "";
-}
-
-// JSON files are looked at again only when tinygltf failed or found no meshes, so that the common
-// case does not parse its JSON twice.
-std::string json_gltf1_evidence(const std::filesystem::path& path) {
-  absl::StatusOr<std::string> bytes = read_file(path);
-  if (!bytes.ok()) return "";  // tinygltf reports unreadable files
-  const Json json = Json::parse(*bytes, /*cb=*/nullptr, /*allow_exceptions=*/false);
-  if (!json.is_object()) return "";  // not JSON: tinygltf says so
-  const auto asset = json.find("asset");
-  if (asset != json.end() && asset->is_object()) {
-    const auto version = asset->find("version");
-    if (version != asset->end() && version->is_string()) {
-      const std::string v = version->get<std::string>();
-      if (v == "1" || absl::StartsWith(v, "1.")) return absl::StrCat("asset.version \"", v, "\"");
-    }
-    return "";
-  }
-  for (const char* key : {"techniques", "programs", "shaders"}) {
-    if (json.contains(key)) {
-      return absl::StrCat("no asset object and a top-level \"", key, "\" object");
-    }
-  }
-  for (const char* key : {"meshes", "accessors", "nodes"}) {
-    const auto it = json.find(key);
-    if (it != json.end() && it->is_object()) {
-      return absl::StrCat("no asset object and \"", key, "\" is a dictionary, not an array");
-    }
-  }
-  return "";
-}
-
-absl::Status reject_gltf1(const std::filesystem::path& path, const std::string& evidence) {
-  if (evidence.empty()) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat(
-      path.string(), ": this is a glTF 1.0 file (", evidence,
-      "); only glTF 2.0 is supported. Convert it to glTF 2.0 with the Khronos/Cesium "
-      "glTF-Pipeline, which upgrades 1.0 files as it copies them: `npm install -g gltf-pipeline` "
-      "then `gltf-pipeline -i in.gltf -o out.gltf` (or `-o out.glb`)"));
-}
-
 }  // namespace
 
 absl::StatusOr<MeshFile> load_gltf(const std::filesystem::path& path) {
-  if (absl::Status file = check_regular_file(path); !file.ok()) return file;
-  SCENE_RETURN_IF_ERROR(reject_gltf1(path, binary_gltf1_evidence(path)));
-  tinygltf::TinyGLTF loader;
   ImageBytes images;
-  loader.SetImageLoader(&keep_image_bytes, &images);
-  tinygltf::Model model;
-  std::string error, warning;
-  bool loaded = false;
-  const bool binary = absl::AsciiStrToLower(path.extension().string()) == ".glb";
-  try {
-    loaded = binary ? loader.LoadBinaryFromFile(&model, &error, &warning, path.string())
-                    : loader.LoadASCIIFromFile(&model, &error, &warning, path.string());
-  } catch (const std::exception& e) {
-    error = e.what();
-  }
-  if (!loaded || model.meshes.empty() || absl::StartsWith(model.asset.version, "1")) {
-    SCENE_RETURN_IF_ERROR(reject_gltf1(path, json_gltf1_evidence(path)));
-  }
-  if (!loaded) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(path.string(), ": ", absl::StripTrailingAsciiWhitespace(error)));
-  }
-  absl::StatusOr<MeshFile> file = GltfReader(model, path, std::move(images)).read();
+  absl::StatusOr<tinygltf::Model> model = load_gltf_model(path, &images);
+  if (!model.ok()) return model.status();
+  absl::StatusOr<MeshFile> file = GltfReader(*model, path, std::move(images)).read();
   if (!file.ok()) return annotate(file.status(), path.string());
   return file;
 }

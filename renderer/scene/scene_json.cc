@@ -10,7 +10,9 @@
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "renderer/accel/build_options.h"
 #include "renderer/accel/structure_kind.h"
 #include "renderer/scene/density_grid.h"
@@ -71,28 +73,8 @@ absl::StatusOr<std::vector<Vec3f>> read_points(JsonObject& object, absl::string_
   return points;
 }
 
-// "transform": scale, then rotate about x, y, z (degrees, in that order), then translate.
-absl::StatusOr<Affine> read_transform(const Json& value, std::string path) {
-  SCENE_ASSIGN_OR_RETURN(JsonObject object, JsonObject::open(value, std::move(path)));
-  Vec3f scale{1, 1, 1}, rotate{0, 0, 0}, translate{0, 0, 0};
-  SCENE_ASSIGN_OR_RETURN(const Json* scale_value, object.find("scale", kOptional));
-  if (scale_value != nullptr && scale_value->is_number()) {
-    SCENE_ASSIGN_OR_RETURN(const float s, json_to_float(*scale_value, object.field_path("scale")));
-    scale = Vec3f(s);
-  } else if (scale_value != nullptr) {
-    SCENE_ASSIGN_OR_RETURN(scale, json_to_vec3(*scale_value, object.field_path("scale")));
-  }
-  if (scale.x == 0 || scale.y == 0 || scale.z == 0) {
-    return invalid_field(object.field_path("scale"), "must not be zero: it would flatten the mesh");
-  }
-  SCENE_RETURN_IF_ERROR(object.read("rotate", kOptional, &rotate));
-  SCENE_RETURN_IF_ERROR(object.read("translate", kOptional, &translate));
-  SCENE_RETURN_IF_ERROR(object.finish());
-  return translation(translate) * rotation_z_deg(rotate.z) * rotation_y_deg(rotate.y) *
-         rotation_x_deg(rotate.x) * scaling(scale);
-}
+}  // namespace
 
-// Shapes are named by their path, plus what the scene or the file calls them.
 std::string shape_label(absl::string_view path, absl::string_view scene_name,
                         absl::string_view file_part) {
   std::string label(path);
@@ -100,6 +82,24 @@ std::string shape_label(absl::string_view path, absl::string_view scene_name,
   if (!file_part.empty()) absl::StrAppend(&label, " (", file_part, ")");
   return label;
 }
+
+ShapeLabel parse_shape_label(absl::string_view label) {
+  ShapeLabel out;
+  if (!absl::StartsWith(label, "shapes[")) return out;
+  const size_t close = label.find(']');
+  if (close == absl::string_view::npos) return out;
+  out.path = label.substr(0, close + 1);
+  absl::string_view rest = label.substr(close + 1);
+  if (absl::ConsumePrefix(&rest, " '")) {
+    // The name runs to the last quote before the file's part, which may itself hold quotes.
+    const size_t part = rest.rfind("' (");
+    const size_t end = absl::EndsWith(rest, "'") ? rest.size() - 1 : part;
+    if (end != absl::string_view::npos) out.name = rest.substr(0, end);
+  }
+  return out;
+}
+
+namespace {
 
 // One of `choices` (a name and the value it stands for) by the name `key` holds; `what` names
 // the kind in the error, which lists the names.

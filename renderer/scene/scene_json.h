@@ -21,4 +21,14 @@ absl::StatusOr<Scene> scene_from_json(absl::string_view json_text,
                                       absl::string_view source_name,
                                       std::vector<std::string>* warnings = nullptr);
 
+// What a scene file's meshes are named: the shape's path, the name the scene gives it and the
+// file's name for the part, "shapes[2] 'dragon' (body)"; the last two where there are such.
+std::string shape_label(absl::string_view path, absl::string_view scene_name,
+                        absl::string_view file_part);
+// shape_label read back: "shapes[2]" and "dragon"; both empty for a name it did not write.
+struct ShapeLabel {
+  absl::string_view path, name;
+};
+ShapeLabel parse_shape_label(absl::string_view label);
+
 }  // namespace caustica

@@ -166,4 +166,9 @@ void transform_light(const Affine& transform, Light* light) {
   light->direction = normalized_or_zero(transform.apply_to_vector(light->direction));
 }
 
+Affine placement(Vec3f translate, Vec3f rotate_deg, Vec3f scale) {
+  return translation(translate) * rotation_z_deg(rotate_deg.z) * rotation_y_deg(rotate_deg.y) *
+         rotation_x_deg(rotate_deg.x) * scaling(scale);
+}
+
 }  // namespace caustica

@@ -1,5 +1,4 @@
-// Meshes and lights moved by an affine map (affine.h): JSON "transform" objects and glTF node
-// hierarchies.
+// Meshes and lights moved by an affine map (affine.h), and the scene format's placements.
 #pragma once
 
 #include "renderer/scene/affine.h"
@@ -12,5 +11,9 @@ namespace caustica {
 void transform_mesh(const Affine& transform, Mesh* mesh);
 // Moves a light's position and turns its direction (renormalised).
 void transform_light(const Affine& transform, Light* light);
+
+// A placement in the scene format's order (docs/scene-format.md, "Mesh"): scale, then rotate
+// about x, y and z (degrees, in that order), then translate.
+Affine placement(Vec3f translate, Vec3f rotate_deg, Vec3f scale);
 
 }  // namespace caustica

@@ -1,4 +1,4 @@
-// Lights files and light scripts: values as the scene format defines them, and errors that name
+// Lights files and animation scripts: values as the scene format defines them, and errors that name
 // the keyframe and the field.
 #include "client/light_json.h"
 
@@ -25,7 +25,8 @@ constexpr char kScript[] = R"json({
 })json";
 
 TEST(LightScript, ReadsEveryKeyframeWithTheSceneFormatsValues) {
-  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_light_script(kScript, "orbit.json");
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes =
+      parse_animation_script(kScript, "orbit.json");
   ASSERT_TRUE(keyframes.ok()) << keyframes.status();
   ASSERT_EQ(keyframes->size(), 3u);
 
@@ -56,7 +57,7 @@ TEST(LightScript, ReadsEveryKeyframeWithTheSceneFormatsValues) {
 }
 
 std::string error_of(const char* text) {
-  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_light_script(text, "s.json");
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_animation_script(text, "s.json");
   EXPECT_FALSE(keyframes.ok());
   EXPECT_EQ(keyframes.status().code(), absl::StatusCode::kInvalidArgument);
   return std::string(keyframes.status().message());
@@ -74,14 +75,12 @@ TEST(LightScript, ErrorsNameTheKeyframeAndTheField) {
   EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [{"type": "point", "position": [0, 0, 0],
       "intensity": [1, 1, 1], "colour": [1, 0, 0]}]}]})"),
               HasSubstr("keyframes[0]: lights[0].colour"));
-  EXPECT_THAT(
-      error_of(R"({"keyframes": [{"lights": [], "pases": 2}]})"),
-      HasSubstr("s.json: keyframes[0].pases: unknown key (expected lights, passes, camera)"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [], "pases": 2}]})"),
+              HasSubstr("s.json: keyframes[0].pases: unknown key (expected lights, passes, camera, "
+                        "emitters, environment, meshes)"));
   EXPECT_THAT(
       error_of(R"({"keyframes": [{"lights": []}, {"lights": []}, {"lights": [], "passes": 1.5}]})"),
       HasSubstr("s.json: keyframes[2].passes: expected an integer from 0 to 100000, got 1.5"));
-  EXPECT_THAT(error_of(R"({"keyframes": [{"passes": 1}]})"),
-              HasSubstr("s.json: keyframes[0].lights: is required"));
   EXPECT_THAT(error_of(R"({"keyframes": [{"lights": {}}]})"),
               HasSubstr("s.json: keyframes[0]: lights: expected an array"));
   EXPECT_THAT(error_of(R"({"keyframes": [3]})"),
@@ -93,7 +92,7 @@ TEST(LightScript, ErrorsNameTheKeyframeAndTheField) {
 
 // A keyframe may move the camera, read as a scene file's camera without its size.
 TEST(LightScript, AKeyframeMayMoveTheCamera) {
-  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_light_script(
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_animation_script(
       R"({"keyframes": [{"lights": []},
           {"lights": [], "camera": {"position": [1, 2, 3], "look_at": [1, 2, 4], "fov": 50}}]})",
       "flight.json");
@@ -117,6 +116,58 @@ TEST(LightScript, AKeyframeMayMoveTheCamera) {
               HasSubstr("s.json: keyframes[1]: camera.position"));
   EXPECT_THAT(error_of(R"({"keyframes": [{"lights": [], "camera": [0, 0, 0]}]})"),
               HasSubstr("s.json: keyframes[0].camera: expected an object"));
+}
+
+// A keyframe may move meshes (a scene file's shape transform), change area lights and the
+// environment; without "lights" it keeps those of the keyframe before.
+TEST(LightScript, AKeyframeMayMoveMeshesAndChangeEmittersAndTheEnvironment) {
+  absl::StatusOr<std::vector<v1::Keyframe>> keyframes = parse_animation_script(
+      R"({"keyframes": [
+          {"meshes": [{"mesh": "glass sphere", "transform": {"translate": [1, 2, 3]}},
+                      {"mesh": "dragon", "transform": {"rotate": [0, 90, 0], "scale": 2}}],
+           "emitters": [{"material": "light", "radiance": [4, 5, 6]}, {"material": "lamp",
+                         "off": true}],
+           "environment": {"intensity": 0.5, "rotation": 30}},
+          {"lights": []}]})",
+      "turn.json");
+  ASSERT_TRUE(keyframes.ok()) << keyframes.status();
+  const v1::Keyframe& k0 = (*keyframes)[0];
+  EXPECT_TRUE(k0.keep_lights());
+  EXPECT_FALSE((*keyframes)[1].keep_lights());  // an empty array: only the area lights
+  ASSERT_EQ(k0.meshes_size(), 2);
+  EXPECT_EQ(k0.meshes(0).mesh(), "glass sphere");
+  // The top three rows of the 4x4 matrix, row by row: a translation's last column.
+  ASSERT_EQ(k0.meshes(0).transform_size(), 12);
+  EXPECT_EQ(k0.meshes(0).transform(3), 1.0);
+  EXPECT_EQ(k0.meshes(0).transform(7), 2.0);
+  EXPECT_EQ(k0.meshes(0).transform(11), 3.0);
+  // Scale 2 then 90 degrees about y: x goes to -z, twice as long.
+  ASSERT_EQ(k0.meshes(1).transform_size(), 12);
+  EXPECT_NEAR(k0.meshes(1).transform(8), -2.0, 1e-12);
+  EXPECT_EQ(k0.meshes(1).positions_size(), 0);
+  ASSERT_EQ(k0.emitters_size(), 2);
+  EXPECT_EQ(k0.emitters(0).material(), "light");
+  EXPECT_EQ(k0.emitters(0).radiance().z(), 6.0f);
+  EXPECT_FALSE(k0.emitters(0).has_off());
+  EXPECT_TRUE(k0.emitters(1).off());
+  EXPECT_EQ(k0.environment_intensity(), 0.5f);
+  EXPECT_EQ(k0.environment_rotation_deg(), 30.0f);
+  EXPECT_FALSE((*keyframes)[1].has_environment_intensity());
+
+  EXPECT_THAT(
+      error_of(R"({"keyframes": [{"meshes": [{"mesh": "a", "transform": {"scale": 0}}]}]})"),
+      HasSubstr("s.json: keyframes[0].meshes[0].transform.scale: must not be zero"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{}, {"meshes": [{"mesh": "a"}]}]})"),
+              HasSubstr("s.json: keyframes[1].meshes[0].transform: is required"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"meshes": [{"mesh": "a", "transform": {},
+      "position": [1, 2, 3]}]}]})"),
+              HasSubstr("s.json: keyframes[0].meshes[0].position: unknown key"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"emitters": [{"radiance": [1, 1, 1]}]}]})"),
+              HasSubstr("s.json: keyframes[0].emitters[0].material: is required"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"environment": {"intensity": "high"}}]})"),
+              HasSubstr("s.json: keyframes[0].environment.intensity"));
+  EXPECT_THAT(error_of(R"({"keyframes": [{"meshes": {}}]})"),
+              HasSubstr("s.json: keyframes[0].meshes: expected an array"));
 }
 
 TEST(LightScript, SyntaxErrorsGiveLineAndColumn) {

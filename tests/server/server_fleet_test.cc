@@ -29,24 +29,30 @@ using std::chrono::steady_clock;
 constexpr int kKeyframes = 48;
 
 // A light circling under the ceiling, one keyframe per step; a few passes each so that the run
-// lasts long enough for a replica to die and another to join while keyframes remain. Halfway the
-// camera steps 200 mm closer and stays there: the replicas that render the later keyframes must
-// see them through it too.
+// lasts long enough for a replica to die and another to join while keyframes remain. A quarter of
+// the way the glass sphere rises, halfway the camera steps 200 mm closer, at three quarters the
+// ceiling's light dims, and each stays so: the replicas that render the later keyframes must see
+// them so too.
 fs::path write_orbit_script(const fs::path& dir) {
   std::ostringstream script;
   script << "{\"keyframes\": [";
   for (int i = 0; i < kKeyframes; ++i) {
     const double angle = 2 * M_PI * i / kKeyframes;
-    const char* camera =
+    const char* change =
         i == kKeyframes / 2
             ? ", \"camera\": {\"position\": [278, 273, -600], \"look_at\": [278, 273, 0], "
               "\"fov\": 39.3077}"
+        : i == kKeyframes / 4
+            ? ", \"meshes\": [{\"mesh\": \"glass sphere\", \"transform\": {\"translate\": "
+              "[0, 60, 0]}}]"
+        : i == 3 * kKeyframes / 4
+            ? ", \"emitters\": [{\"material\": \"light\", \"radiance\": [4, 4, 3]}]"
             : "";
     script << (i ? "," : "")
            << absl::StrFormat(
                   "{\"lights\": [{\"type\": \"point\", \"name\": \"orbit\", \"position\": [%.3f, "
                   "380, %.3f], \"intensity\": [60000, 52000, 42000]}], \"passes\": 3%s}",
-                  278 + 170 * std::cos(angle), 280 + 170 * std::sin(angle), camera);
+                  278 + 170 * std::cos(angle), 280 + 170 * std::sin(angle), change);
   }
   script << "]}";
   const fs::path path = dir / "orbit.json";

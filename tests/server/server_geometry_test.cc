@@ -193,5 +193,118 @@ TEST(ServerGeometry, TheCliMovesAMesh) {
       << run.output;
 }
 
+// Keyframes that move meshes: each frame is the scene uploaded with the meshes where that
+// keyframe puts them (a transform places a mesh as uploaded, so the second keyframe's does not
+// add to the first's), and the lights stay where keep_lights keeps them.
+TEST(ServerGeometry, AnimationKeyframesMoveMeshes) {
+  auto server = ServerProcess::start();
+  ASSERT_NE(server, nullptr);
+  auto stub = server->stub();
+  const std::string id = upload_scene(*stub, box(), "box");
+  const v1::SceneInfo info = get_scene(*stub, id);
+  const Affine placements[] = {block_moved(), translation(Vec3f(40, 0, 0))};
+  v1::PlayAnimationRequest request;
+  request.set_scene_id(id);
+  *request.mutable_format() = frame_format(v1::RGBA32F_LINEAR);
+  for (const Affine& placed : placements) {
+    v1::Keyframe& keyframe = *request.add_keyframes();
+    keyframe.set_keep_lights(true);
+    keyframe.set_passes(2);
+    for (const std::string& name : kTallBlock)
+      *keyframe.add_meshes() = wire::encode_mesh_change({name, placed, std::nullopt, std::nullopt});
+  }
+  std::vector<StreamedFrame> frames;
+  const grpc::Status status = play_animation(*stub, request, &frames);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(frames.size(), 2u);
+  for (size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_EQ(frames[i].header.epochs().geometry(), info.epochs().geometry() + 1 + i);
+    Scene moved = box();
+    for (Mesh& mesh : moved.meshes) {
+      for (const std::string& name : kTallBlock)
+        if (mesh.name == name) transform_mesh(placements[i], &mesh);
+    }
+    const std::string twin = upload_scene(*stub, moved, "moved");
+    EXPECT_EQ(frame_floats(frames[i].data), render_linear(*stub, twin, 2)) << "keyframe " << i;
+  }
+}
+
+// Every keyframe is checked before the first plays: a mesh the scene lacks in the last keyframe
+// is refused by its keyframe and field, no frame is sent and nothing changes.
+TEST(ServerGeometry, AnAnimationWithABadKeyframeChangesNothing) {
+  auto server = ServerProcess::start();
+  ASSERT_NE(server, nullptr);
+  auto stub = server->stub();
+  const std::string id = upload_scene(*stub, box(), "box");
+  const v1::SceneInfo info = get_scene(*stub, id);
+  const std::vector<float> before = render_linear(*stub, id, 2);
+  struct Case {
+    const char* what;
+    std::function<void(v1::Keyframe&)> spoil;
+    grpc::StatusCode code;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"unknown mesh", [](auto& k) { k.mutable_meshes(0)->set_mesh("no such mesh"); },
+       grpc::StatusCode::NOT_FOUND, "keyframes[2].meshes[0].mesh: the scene has no mesh named"},
+      {"short transform", [](auto& k) { k.mutable_meshes(0)->mutable_transform()->RemoveLast(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "keyframes[2].meshes[0].transform: has 11 numbers"},
+      {"lights with keep_lights", [](auto& k) { k.add_lights()->set_type(v1::Light::POINT); },
+       grpc::StatusCode::INVALID_ARGUMENT, "keyframes[2].lights: must be empty with keep_lights"},
+      {"unknown emitter",
+       [](auto& k) {
+         v1::Emitter& emitter = *k.add_emitters();
+         emitter.set_material("no such material");
+         emitter.set_off(true);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "keyframes[2].emitters[0]"},
+  };
+  for (const Case& c : cases) {
+    v1::PlayAnimationRequest request;
+    request.set_scene_id(id);
+    *request.mutable_format() = frame_format(v1::RGBA32F_LINEAR);
+    for (int i = 0; i < 3; ++i) {
+      v1::Keyframe& keyframe = *request.add_keyframes();
+      keyframe.set_keep_lights(true);
+      *keyframe.add_meshes() = wire::encode_mesh_change(
+          {kTallBlock[0], translation(Vec3f(10.0f * i, 0, 0)), std::nullopt, std::nullopt});
+    }
+    c.spoil(*request.mutable_keyframes(2));
+    std::vector<StreamedFrame> frames;
+    const grpc::Status status = play_animation(*stub, request, &frames);
+    EXPECT_EQ(status.error_code(), c.code) << c.what << ": " << status.error_message();
+    EXPECT_NE(status.error_message().find(c.message), std::string::npos)
+        << c.what << ": " << status.error_message();
+    EXPECT_TRUE(frames.empty()) << c.what;
+  }
+  EXPECT_EQ(get_scene(*stub, id).epochs().SerializeAsString(), info.epochs().SerializeAsString());
+  EXPECT_EQ(render_linear(*stub, id, 2), before);
+}
+
+// `caustica animate --gltf-animation` plays the bundled walking man: one frame a sample, each
+// showing him elsewhere in his stride.
+TEST(ServerGeometry, TheCliPlaysAGltfAnimation) {
+  auto server = ServerProcess::start();
+  ASSERT_NE(server, nullptr);
+  const std::filesystem::path dir = make_temp_dir("caustica-gltf-animate");
+  const std::string scene =
+      (std::filesystem::path(CAUSTICA_SCENES_DIR) / "cesium-man" / "scene.json").string();
+  const std::string cli = std::string("'") + CAUSTICA_CLIENT_BIN + "' --server " +
+                          server->address() + " animate '" + scene + "' -o '" + dir.string() +
+                          "' --format pfm --width 24 --height 16 --photons 3000 --fps 2 ";
+  CommandRun run = run_command(cli + "--gltf-animation 0");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const std::string first = read_text_file(dir / "frame_0000.pfm");
+  const std::string second = read_text_file(dir / "frame_0001.pfm");
+  ASSERT_FALSE(first.empty()) << run.output;
+  ASSERT_FALSE(second.empty()) << run.output;
+  EXPECT_NE(first, second);
+  EXPECT_TRUE(std::filesystem::exists(dir / "frame_0004.pfm")) << run.output;  // 2 s at 2 fps
+  run = run_command(cli + "--gltf-animation Run");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("no animation named 'Run'"), std::string::npos) << run.output;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace caustica::testing

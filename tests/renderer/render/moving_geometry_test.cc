@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "renderer/scene/emitters.h"
+#include "renderer/scene/scene_json.h"
 #include "renderer/scene/transform.h"
 #include "tests/renderer/render/analytic_scenes.h"
 
@@ -164,6 +166,82 @@ TEST(MovingGeometry, AnAreaLightFollowsItsTriangles) {
   const MeshChange change{light, lowered, std::nullopt, std::nullopt};
   ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
   EXPECT_EQ(rendered(*engine), uploaded_moved(scene, light, &lowered, nullptr));
+}
+
+// A shape is named by the name the scene file gives it as well; a shape of several meshes (a
+// model file's parts) moves as one.
+TEST(MovingGeometry, AShapeMovesByItsOwnNameWithAllItsParts) {
+  Scene scene = caustics_box();
+  scene.meshes[mesh_index(scene, kSphere)].name = "shapes[6] 'orbs' (glass)";
+  scene.meshes[mesh_index(scene, "shapes[7] 'mirror sphere'")].name = "shapes[6] 'orbs' (mirror)";
+  const Affine lifted = translation(Vec3f(0, 50, 0));
+  auto engine = engine_with(scene);
+  const MeshChange change{"orbs", lifted, std::nullopt, std::nullopt};
+  absl::StatusOr<RebuildReport> report = engine->set_geometry({&change, 1});
+  ASSERT_TRUE(report.ok()) << report.status();
+  Scene moved = scene;
+  for (Mesh& mesh : moved.meshes) {
+    if (parse_shape_label(mesh.name).name == "orbs") transform_mesh(lifted, &mesh);
+  }
+  auto fresh = engine_with(moved);
+  EXPECT_EQ(rendered(*engine), rendered(*fresh));
+  // New vertices go to one mesh, named whole.
+  const MeshChange reshaped{"orbs", std::nullopt, moved.meshes[0].positions, std::nullopt};
+  report = engine->set_geometry({&reshaped, 1});
+  ASSERT_FALSE(report.ok());
+  EXPECT_THAT(std::string(report.status().message()),
+              ::testing::HasSubstr("meshes[0].positions: 'orbs' is a shape of 2 meshes"));
+  // Two shapes of one name are refused rather than guessed between.
+  scene.meshes[mesh_index(scene, "shapes[6] 'orbs' (mirror)")].name = "shapes[7] 'orbs'";
+  auto two = engine_with(scene);
+  report = two->set_geometry({&change, 1});
+  ASSERT_FALSE(report.ok());
+  EXPECT_THAT(std::string(report.status().message()),
+              ::testing::HasSubstr("meshes[0].mesh: 'orbs' names two shapes (shapes[6] and "
+                                   "shapes[7])"));
+}
+
+// A keyframe's changes together (Engine::apply): an area light dimmed and the sphere moved in one
+// rebuild render as the scene uploaded that way; check() refuses what apply() would, as it would
+// say it, and changes nothing.
+TEST(MovingGeometry, LightsAndMeshesChangeTogether) {
+  const Scene scene = caustics_box();
+  const Affine moved = translation(Vec3f(-80, 0, -60));
+  auto engine = engine_with(scene);
+  SceneChange change;
+  change.emitters = {{"light", Vec3f(4, 3, 2), std::nullopt}};
+  change.meshes = {{"glass sphere", moved, std::nullopt, std::nullopt}};
+  ASSERT_TRUE(engine->check(change).ok());
+  absl::StatusOr<RebuildReport> report = engine->apply(change);
+  ASSERT_TRUE(report.ok()) << report.status();
+  EXPECT_EQ(report->rebuilt,
+            (std::vector<std::string>{"geometry", "lights", "film", "photon_maps"}));
+  EXPECT_EQ(report->epochs.geometry, 2u);
+  EXPECT_EQ(report->epochs.lights, 2u);
+  Scene expected = scene;
+  absl::StatusOr<std::vector<Material>> materials =
+      apply_emitter_changes(expected.materials, change.emitters);
+  ASSERT_TRUE(materials.ok()) << materials.status();
+  expected.materials = *materials;
+  transform_mesh(moved, &expected.meshes[mesh_index(expected, kSphere)]);
+  auto fresh = engine_with(expected);
+  EXPECT_EQ(rendered(*engine), rendered(*fresh));
+
+  const Epochs epochs = engine->epochs();
+  SceneChange bad = change;
+  bad.meshes.push_back({"no such mesh", Affine(), std::nullopt, std::nullopt});
+  for (const absl::Status& status : {engine->check(bad), engine->apply(bad).status()}) {
+    EXPECT_EQ(status.code(), absl::StatusCode::kNotFound) << status;
+    EXPECT_THAT(std::string(status.message()),
+                ::testing::HasSubstr("meshes[1].mesh: the scene has no mesh named 'no such "
+                                     "mesh'"));
+  }
+  bad = SceneChange{};
+  bad.emitters = {{"no such material", Vec3f(1), std::nullopt}};
+  EXPECT_FALSE(engine->check(bad).ok());
+  EXPECT_EQ(engine->check(bad).message(), engine->apply(bad).status().message());
+  EXPECT_EQ(engine->epochs().geometry, epochs.geometry);
+  EXPECT_EQ(engine->epochs().lights, epochs.lights);
 }
 
 }  // namespace

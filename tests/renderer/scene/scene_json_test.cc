@@ -1,4 +1,6 @@
 // Good scene files load into the values they spell out.
+#include "renderer/scene/scene_json.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -117,6 +119,26 @@ class MeshesSceneTest : public ::testing::Test {
   }
   Scene scene_;
 };
+
+// Mesh names read back into the shape's path and its own name, for every form shape_label
+// writes, and nothing for names it did not write.
+TEST(ShapeLabel, ReadsBackWhatItWrites) {
+  const struct {
+    const char* scene_name;
+    const char* file_part;
+  } cases[] = {{"", ""},     {"dragon", ""},      {"dragon", "body"},
+               {"", "body"}, {"it's", "o'clock"}, {"a (b)", "c"}};
+  for (const auto& [scene_name, file_part] : cases) {
+    const std::string label = shape_label("shapes[12]", scene_name, file_part);
+    const ShapeLabel read = parse_shape_label(label);
+    EXPECT_EQ(read.path, "shapes[12]") << label;
+    EXPECT_EQ(read.name, scene_name) << label;
+  }
+  for (const char* other : {"dragon", "Mesh 3", "shapes[", "shape[1] 'x'"}) {
+    EXPECT_TRUE(parse_shape_label(other).path.empty()) << other;
+    EXPECT_TRUE(parse_shape_label(other).name.empty()) << other;
+  }
+}
 
 TEST_F(MeshesSceneTest, TransformScalesThenRotatesThenTranslates) {
   const Mesh* moved = find_mesh(scene_, "'moved'");
