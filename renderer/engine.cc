@@ -238,16 +238,17 @@ struct Engine::State {
     for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_structure(structures[i]);
   }
   // The whole scene uploaded again beside what is in use: geometry, structure and lighting.
-  std::vector<std::optional<ResidentScene>> new_residents(const Scene& next) {
-    return make_on_every_device<std::optional<ResidentScene>>([&](DeviceSlice& d) {
-      std::optional<ResidentScene> resident;
-      resident.emplace(ResidentScene::upload(*d.backend, next));
+  // Moved and reshaped meshes: only the triangles' corners, area lights and structure, on every
+  // device; textures, materials and media stay.
+  std::vector<ResidentScene::Geometry> new_geometries(const Scene& next) {
+    return make_on_every_device<ResidentScene::Geometry>([&](DeviceSlice& d) {
+      ResidentScene::Geometry geometry = d.resident->new_geometry(next);
       d.backend->synchronize();
-      return resident;
+      return geometry;
     });
   }
-  void swap_residents(std::vector<std::optional<ResidentScene>>& residents) {
-    for (size_t i = 0; i < slices.size(); ++i) std::swap(slices[i].resident, residents[i]);
+  void swap_geometries(std::vector<ResidentScene::Geometry>& geometries) {
+    for (size_t i = 0; i < slices.size(); ++i) slices[i].resident->swap_geometry(geometries[i]);
   }
   std::vector<ResidentScene::Lighting> new_lighting(const std::vector<Light>& lights,
                                                     const std::vector<Material>& materials,
@@ -669,26 +670,30 @@ absl::StatusOr<RebuildReport> Engine::apply(const SceneChange& change) {
     st.drop_maps();  // frees the old maps before the new scene state is allocated
     // The photons are traced in the new state before the films restart; when that fails, the
     // old state goes back.
-    std::vector<std::optional<ResidentScene>> residents;
+    std::vector<ResidentScene::Geometry> geometries;
     std::vector<ResidentScene::Lighting> resident_lighting;
     if (geometry) {
       const auto start = std::chrono::steady_clock::now();
-      residents = st.new_residents(*next);
+      geometries = st.new_geometries(*next);
       report.timings.structure_build_ms = elapsed_ms(start);
+      // The lighting follows the new area lights and bounds, so it is made after the swap.
+      st.swap_geometries(geometries);
       report.rebuilt = {"geometry", "lights", "film"};
     } else {
-      resident_lighting =
-          st.new_lighting(lighting->lights, lighting->materials, lighting->environment);
       report.rebuilt = {"lights", "film"};
     }
+    try {
+      resident_lighting =
+          st.new_lighting(lighting->lights, lighting->materials, lighting->environment);
+    } catch (...) {
+      if (geometry) st.swap_geometries(geometries);
+      throw;
+    }
     const auto swap = [&] {
-      if (geometry) {
-        st.swap_residents(residents);
-      } else {
-        st.swap_lighting(resident_lighting);
-      }
+      st.swap_lighting(resident_lighting);
+      if (geometry) st.swap_geometries(geometries);
     };
-    swap();
+    st.swap_lighting(resident_lighting);
     try {
       st.prepare_photons(st.scene.settings, report);
     } catch (...) {

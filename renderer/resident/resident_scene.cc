@@ -177,92 +177,138 @@ DeviceMedium to_device_medium(const Medium& m, const uint8_t* grid) {
   return d;
 }
 
+namespace {
+
+// What a scene's meshes make of its triangles, in the original order: their corners, and what
+// changes when meshes move (positions, normals, tangents) apart from what does not (texture
+// coordinates, materials).
+struct TriangleArrays {
+  std::vector<TriangleVertices> triangles;
+  std::vector<Vec3f> corner_normals;   // empty when no mesh has normals
+  std::vector<Vec4f> corner_tangents;  // empty unless `with_tangents` and a mesh has them
+  std::vector<Vec2f> corner_uvs;       // only with `with_uvs`
+  std::vector<uint32_t> material_ids;  // only with `with_materials`
+  double surface_area = 0;
+};
+
+// Whether a mesh of `scene` has texture coordinates.
+bool any_uvs(const Scene& scene) {
+  return std::any_of(scene.meshes.begin(), scene.meshes.end(),
+                     [](const Mesh& m) { return !m.uvs.empty(); });
+}
+
+TriangleArrays triangle_arrays(const Scene& scene, bool with_uvs, bool with_materials,
+                               bool with_tangents) {
+  TriangleArrays out;
+  const size_t n = scene.triangle_count();
+  bool any_normals = false, any_tangents = false;
+  for (const Mesh& m : scene.meshes) {
+    any_normals |= !m.normals.empty();
+    any_tangents |= with_tangents && !m.tangents.empty();
+  }
+  out.triangles.reserve(n);
+  if (any_normals) out.corner_normals.reserve(3 * n);
+  if (with_uvs) out.corner_uvs.reserve(3 * n);
+  if (any_tangents) out.corner_tangents.reserve(3 * n);
+  if (with_materials) out.material_ids.reserve(n);
+  for (const Mesh& m : scene.meshes) {
+    for (size_t t = 0; t < m.triangle_count(); ++t) {
+      const uint32_t* idx = &m.indices[3 * t];
+      const TriangleVertices tri{m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
+      out.triangles.push_back(tri);
+      out.surface_area += 0.5 * double(length(cross(tri.p1 - tri.p0, tri.p2 - tri.p0)));
+      if (with_materials) out.material_ids.push_back(m.material_ids[t]);
+      for (int c = 0; c < 3; ++c) {
+        if (any_normals)
+          out.corner_normals.push_back(m.normals.empty() ? Vec3f(0.0f) : m.normals[idx[c]]);
+        if (with_uvs) out.corner_uvs.push_back(m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]]);
+        if (any_tangents) {
+          out.corner_tangents.push_back(m.tangents.empty() ? Vec4f{0.0f, 0.0f, 0.0f, 0.0f}
+                                                           : m.tangents[idx[c]]);
+        }
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void ResidentScene::set_area_lights(std::span<const TriangleVertices> triangles,
+                                    AreaLights& out) const {
+  out.triangle_area_light.assign(triangles.size(), kNoAreaLight);
+  out.records.clear();
+  out.materials.clear();
+  for (const Emitter& e : emitters_) {
+    const TriangleVertices& tri = triangles[e.triangle];
+    DeviceLight a{};
+    a.type = DeviceLightType::kArea;
+    a.position = tri.p0;
+    a.edge1 = tri.p1 - tri.p0;
+    a.edge2 = tri.p2 - tri.p0;
+    const Vec3f ng = cross(a.edge1, a.edge2);
+    a.area = 0.5f * length(ng);
+    a.direction = normalize(ng);
+    a.triangle = e.triangle;
+    a.emission_map = e.emission_map;
+    a.map_mean = e.map_mean;
+    // Area lights follow the other lights in `lights` in this order, and so keep it among
+    // themselves (rebuild_light_tables); new_lighting gives them their colour.
+    if (a.area > 0) {
+      out.triangle_area_light[e.triangle] = uint32_t(out.records.size());
+      out.records.push_back(a);
+      out.materials.push_back(e.material);
+    }
+  }
+}
+
 ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   ResidentScene r;
   r.backend_ = &backend;
   const size_t n = scene.triangle_count();
-  std::vector<TriangleVertices> triangles;
-  std::vector<uint32_t> material_ids;
-  std::vector<uint32_t> triangle_area_light;
-  std::vector<Vec3f> corner_normals;
-  triangles.reserve(n);
-  material_ids.reserve(n);
-  triangle_area_light.reserve(n);
-  bool any_normals = false;
-  for (const Mesh& m : scene.meshes) any_normals |= !m.normals.empty();
-  if (any_normals) corner_normals.reserve(3 * n);
-  // Texture coordinates go to the device only for a scene with a colour map to read.
-  std::vector<Vec2f> corner_uvs;
   const TextureMaps maps = r.upload_texture_maps(scene);
-  bool any_uvs = false;
-  for (const Mesh& m : scene.meshes) any_uvs |= !m.uvs.empty();
-  any_uvs = any_uvs && !maps.device.empty();
-  if (any_uvs) corner_uvs.reserve(3 * n);
+  // Texture coordinates go to the device only for a scene with a colour map to read, and tangents
+  // only for one with a normal map to read and a mesh that brings them; the other meshes'
+  // corners are zero, which says to derive the frame from the coordinates.
+  const bool with_uvs = !maps.device.empty() && any_uvs(scene);
+  TriangleArrays arrays =
+      triangle_arrays(scene, with_uvs, /*with_materials=*/true, with_uvs && r.has_normal_maps());
   for (size_t i = 0; i < scene.materials.size(); ++i) {
     const Material& m = scene.materials[i];
     r.has_cutouts_ |= m.alpha_mode != AlphaMode::kOpaque &&
-                      (m.opacity < 1.0f || (any_uvs && r.material_maps_[i].opacity != kNoTexture));
+                      (m.opacity < 1.0f || (with_uvs && r.material_maps_[i].opacity != kNoTexture));
   }
-  // Tangents only for a scene with a normal map to read and a mesh that brings them; the other
-  // meshes' corners are zero, which says to derive the frame from the coordinates.
-  std::vector<Vec4f> corner_tangents;
-  bool any_tangents = false;
-  if (any_uvs && r.has_normal_maps()) {
-    for (const Mesh& m : scene.meshes) any_tangents |= !m.tangents.empty();
-  }
-  if (any_tangents) corner_tangents.reserve(3 * n);
-
+  // The emitting triangles, which stay the area lights whatever later changes move them, each
+  // with its emission map's mean over its texture coordinates, which stay too.
+  size_t first = 0;
   for (const Mesh& m : scene.meshes) {
     for (size_t t = 0; t < m.triangle_count(); ++t) {
-      const uint32_t* idx = &m.indices[3 * t];
-      TriangleVertices tri{m.positions[idx[0]], m.positions[idx[1]], m.positions[idx[2]]};
       const uint32_t mat = m.material_ids[t];
-      uint32_t area_light = kNoAreaLight;
-      if (is_emitter(scene.materials[mat])) {
-        DeviceLight a{};
-        a.type = DeviceLightType::kArea;
-        a.position = tri.p0;
-        a.edge1 = tri.p1 - tri.p0;
-        a.edge2 = tri.p2 - tri.p0;
-        Vec3f ng = cross(a.edge1, a.edge2);
-        a.area = 0.5f * length(ng);
-        a.direction = normalize(ng);
-        a.color = emitted_radiance(scene.materials[mat]);
-        a.triangle = uint32_t(triangles.size());
-        a.emission_map = any_uvs ? r.material_maps_[mat].emission : kNoTexture;
-        if (a.emission_map != kNoTexture) {
-          Vec2f uv[3];
-          for (int c = 0; c < 3; ++c) uv[c] = m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]];
-          a.map_mean = triangle_map_mean(maps.host[a.emission_map],
-                                         maps.device[a.emission_map].transform, uv);
-        }
-        // Area lights follow the other lights in `lights` in this order, and so keep it among
-        // themselves (rebuild_light_tables).
-        if (a.area > 0) {
-          area_light = uint32_t(r.area_lights_host_.size());
-          r.area_lights_host_.push_back(a);
-          r.area_light_materials_.push_back(mat);
-        }
+      if (!is_emitter(scene.materials[mat])) continue;
+      Emitter e{uint32_t(first + t), mat, with_uvs ? r.material_maps_[mat].emission : kNoTexture,
+                Vec3f(1.0f)};
+      if (e.emission_map != kNoTexture) {
+        const uint32_t* idx = &m.indices[3 * t];
+        Vec2f uv[3];
+        for (int c = 0; c < 3; ++c) uv[c] = m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]];
+        e.map_mean =
+            triangle_map_mean(maps.host[e.emission_map], maps.device[e.emission_map].transform, uv);
       }
-      triangle_area_light.push_back(area_light);
-      triangles.push_back(tri);
-      r.surface_area_ += 0.5 * double(length(cross(tri.p1 - tri.p0, tri.p2 - tri.p0)));
-      material_ids.push_back(mat);
-      if (any_normals) {
-        for (int c = 0; c < 3; ++c)
-          corner_normals.push_back(m.normals.empty() ? Vec3f(0.0f) : m.normals[idx[c]]);
-      }
-      if (any_uvs) {
-        for (int c = 0; c < 3; ++c)
-          corner_uvs.push_back(m.uvs.empty() ? Vec2f{0.0f, 0.0f} : m.uvs[idx[c]]);
-      }
-      if (any_tangents) {
-        for (int c = 0; c < 3; ++c)
-          corner_tangents.push_back(m.tangents.empty() ? Vec4f{0.0f, 0.0f, 0.0f, 0.0f}
-                                                       : m.tangents[idx[c]]);
-      }
+      r.emitters_.push_back(e);
     }
+    first += m.triangle_count();
   }
+  AreaLights area;
+  r.set_area_lights(arrays.triangles, area);
+  r.area_lights_host_ = std::move(area.records);
+  r.area_light_materials_ = std::move(area.materials);
+  r.surface_area_ = arrays.surface_area;
+  std::vector<TriangleVertices>& triangles = arrays.triangles;
+  std::vector<uint32_t>& material_ids = arrays.material_ids;
+  std::vector<uint32_t>& triangle_area_light = area.triangle_area_light;
+  std::vector<Vec3f>& corner_normals = arrays.corner_normals;
+  std::vector<Vec2f>& corner_uvs = arrays.corner_uvs;
+  std::vector<Vec4f>& corner_tangents = arrays.corner_tangents;
   std::vector<DeviceMedium> media;
   for (const Medium& m : scene.media) {
     const uint8_t* grid = nullptr;
@@ -452,6 +498,39 @@ TriangleStructure ResidentScene::new_structure(StructureKind kind,
 
 void ResidentScene::swap_structure(TriangleStructure& structure) noexcept {
   std::swap(structure_, structure);
+}
+
+ResidentScene::Geometry ResidentScene::new_geometry(const Scene& next) const {
+  Geometry g;
+  const bool tangents = !corner_uvs_.empty() && has_normal_maps();
+  TriangleArrays arrays = triangle_arrays(next, false, false, tangents);
+  AreaLights area;
+  set_area_lights(arrays.triangles, area);
+  g.triangles.bind(*backend_);
+  g.triangles.upload(arrays.triangles);
+  g.corner_normals.bind(*backend_);
+  g.corner_normals.upload(arrays.corner_normals);
+  g.corner_tangents.bind(*backend_);
+  g.corner_tangents.upload(arrays.corner_tangents);
+  g.triangle_area_light.bind(*backend_);
+  g.triangle_area_light.upload(area.triangle_area_light);
+  g.area_lights_host = std::move(area.records);
+  g.area_light_materials = std::move(area.materials);
+  g.surface_area = arrays.surface_area;
+  g.structure = build_structure(*backend_, next.settings.structure, g.triangles.data(),
+                                uint32_t(g.triangles.size()), next.settings.build);
+  return g;
+}
+
+void ResidentScene::swap_geometry(Geometry& g) noexcept {
+  std::swap(triangles_, g.triangles);
+  std::swap(corner_normals_, g.corner_normals);
+  std::swap(corner_tangents_, g.corner_tangents);
+  std::swap(triangle_area_light_, g.triangle_area_light);
+  std::swap(area_lights_host_, g.area_lights_host);
+  std::swap(area_light_materials_, g.area_light_materials);
+  std::swap(surface_area_, g.surface_area);
+  std::swap(structure_, g.structure);
 }
 
 ResidentScene::Lighting ResidentScene::new_lighting(std::span<const Light> lights,

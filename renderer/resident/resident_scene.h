@@ -345,6 +345,22 @@ class ResidentScene {
   // A structure of `kind`, its builder told `options`, over the same triangles.
   TriangleStructure new_structure(StructureKind kind, const BuildOptions& options) const;
   void swap_structure(TriangleStructure& structure) noexcept;
+  // The triangles where a geometry change that keeps every triangle, its material and its
+  // texture coordinates puts them (Engine::apply's meshes): their corners, area lights and
+  // structure, built beside what is in use. The lighting must be made again after the swap, for
+  // the area lights and the bounds it weighs lights by.
+  struct Geometry {
+    Buffer<TriangleVertices> triangles;
+    Buffer<Vec3f> corner_normals;
+    Buffer<Vec4f> corner_tangents;
+    Buffer<uint32_t> triangle_area_light;
+    std::vector<DeviceLight> area_lights_host;
+    std::vector<uint32_t> area_light_materials;
+    double surface_area = 0;
+    TriangleStructure structure;
+  };
+  Geometry new_geometry(const Scene& next) const;
+  void swap_geometry(Geometry& geometry) noexcept;
   // `lights` (area lights follow the geometry and stay) with the emission of `materials`, the
   // materials given at upload with their emission changed or not, and `environment`, the one
   // given at upload with its intensity and rotation changed or not.
@@ -382,6 +398,21 @@ class ResidentScene {
   }
   // Whether a material lets rays through (set by upload).
   bool has_cutouts_ = false;
+  // An emitting triangle of the scene as uploaded (original order), its material and emission
+  // map and the map's mean over its texture coordinates: what stays when the triangle moves.
+  struct Emitter {
+    uint32_t triangle, material, emission_map;
+    Vec3f map_mean;
+  };
+  std::vector<Emitter> emitters_;
+  // The area lights of the emitters at `triangles`: those of some area, in emitter order, and
+  // each triangle's index among them (or kNoAreaLight).
+  struct AreaLights {
+    std::vector<DeviceLight> records;
+    std::vector<uint32_t> materials;
+    std::vector<uint32_t> triangle_area_light;
+  };
+  void set_area_lights(std::span<const TriangleVertices> triangles, AreaLights& out) const;
 
   Backend* backend_ = nullptr;
   // From emitting triangles, fixed with the geometry but for their colour, the emission of their

@@ -244,5 +244,31 @@ TEST(MovingGeometry, LightsAndMeshesChangeTogether) {
   EXPECT_EQ(engine->epochs().lights, epochs.lights);
 }
 
+// The helmet: colour, normal, metallic-roughness and emission maps under an HDR sky, its
+// glowing parts area lights weighed by their emission map. Moved, and with new vertices, it
+// renders as the scene uploaded that way: a geometry change keeps the textures and the area
+// lights' map means, and rebuilds the corners, tangents and area lights the new triangles need.
+TEST(MovingGeometry, ATexturedEmissiveModelMovesAsUploadedMoved) {
+  absl::StatusOr<Scene> loaded =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "damaged-helmet" / "scene.json");
+  ASSERT_TRUE(loaded.ok()) << loaded.status();
+  Scene scene = *loaded;
+  scene.camera.width = scene.camera.height = 24;
+  scene.settings.photons_per_pass = 5000;
+  ASSERT_EQ(scene.meshes.size(), 1u);
+  const std::string helmet = scene.meshes[0].name;
+  const Affine turned = translation(Vec3f(0.1f, 0, 0)) * rotation_y_deg(40);
+  auto engine = engine_with(scene);
+  ASSERT_GT(engine->scene_stats().lights, 1u);  // the sky and the glowing parts
+  MeshChange change{"helmet", turned, std::nullopt, std::nullopt};
+  ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
+  EXPECT_EQ(rendered(*engine), uploaded_moved(scene, helmet, &turned, nullptr));
+  std::vector<Vec3f> swollen = scene.meshes[0].positions;
+  for (Vec3f& p : swollen) p = p * 1.05f;
+  change = {"helmet", turned, swollen, std::nullopt};
+  ASSERT_TRUE(engine->set_geometry({&change, 1}).ok());
+  EXPECT_EQ(rendered(*engine), uploaded_moved(scene, helmet, &turned, &swollen));
+}
+
 }  // namespace
 }  // namespace caustica
