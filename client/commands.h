@@ -112,6 +112,17 @@ absl::StatusOr<v1::UpdateGeometryRequest> mesh_move_request(const MeshMoveOption
 absl::Status run_mesh_move(const GlobalOptions& global, const MeshMoveOptions& options,
                            std::ostream& out);
 
+// mesh reshape SCENE MESH --from FILE: the mesh's vertices (and normals) replaced by those of a
+// model file's one mesh, streamed in chunks (StreamGeometry); prints the rebuild report.
+struct MeshReshapeOptions {
+  std::string scene;
+  std::string mesh;
+  std::filesystem::path file;
+  std::optional<uint64_t> expect_epoch;
+};
+absl::Status run_mesh_reshape(const GlobalOptions& global, const MeshReshapeOptions& options,
+                              std::ostream& out);
+
 // view SCENE: the scene (a file is uploaded) in the server's browser viewer; prints the URL and
 // opens it on a desktop. With the embedded server, serves until SIGINT or SIGTERM.
 struct ViewOptions {

@@ -228,7 +228,7 @@ int main(int argc, char** argv) {
   on(environment_cmd, "light environment",
      [&] { return run_light_environment(global, environment, std::cout); });
 
-  CLI::App* mesh = app.add_subcommand("mesh", "move a scene's meshes");
+  CLI::App* mesh = app.add_subcommand("mesh", "move and reshape a scene's meshes");
   mesh->require_subcommand(1);
   MeshMoveOptions move;
   CLI::App* move_cmd = mesh->add_subcommand(
@@ -243,6 +243,22 @@ int main(int argc, char** argv) {
   move_cmd->add_option("--expect-epoch", move.expect_epoch,
                        "apply only if the scene's geometry epoch is still N");
   on(move_cmd, "mesh move", [&] { return run_mesh_move(global, move, std::cout); });
+  MeshReshapeOptions reshape;
+  CLI::App* reshape_cmd = mesh->add_subcommand(
+      "reshape",
+      "replace a mesh's vertices (and normals) by those of a model file's one mesh, streamed in "
+      "chunks, and print what was rebuilt");
+  reshape_cmd->add_option("scene", reshape.scene, "scene id")->required();
+  reshape_cmd->add_option("mesh", reshape.mesh, "the mesh's name, as scene info lists it")
+      ->required();
+  reshape_cmd
+      ->add_option("--from", reshape.file,
+                   "a model file (OBJ, PLY, glTF, ...) of one mesh with as many vertices, "
+                   "in the same order")
+      ->required();
+  reshape_cmd->add_option("--expect-epoch", reshape.expect_epoch,
+                          "apply only if the scene's geometry epoch is still N");
+  on(reshape_cmd, "mesh reshape", [&] { return run_mesh_reshape(global, reshape, std::cout); });
 
   RenderOptions render;
   CLI::App* render_cmd = app.add_subcommand("render", "render one image");

@@ -33,4 +33,30 @@ absl::StatusOr<v1::SceneInfo> upload_scene(v1::RenderService::StubInterface& stu
   return info;
 }
 
+std::vector<v1::GeometryChunk> geometry_chunks(const std::string& scene, const MeshChange& change,
+                                               std::optional<uint64_t> expect_epoch,
+                                               size_t max_chunk_bytes) {
+  std::vector<v1::GeometryChunk> chunks(1);
+  v1::UpdateGeometryRequest& request = *chunks[0].mutable_request();
+  request.set_scene_id(scene);
+  if (expect_epoch) request.set_expected_geometry_epoch(*expect_epoch);
+  MeshChange named = change;
+  named.positions.reset();
+  named.normals.reset();
+  *request.add_meshes() = wire::encode_mesh_change(named);
+  const std::pair<v1::MeshChunk::Array, const std::optional<std::vector<Vec3f>>*> arrays[] = {
+      {v1::MeshChunk::POSITIONS, &change.positions}, {v1::MeshChunk::NORMALS, &change.normals}};
+  for (const auto& [array, vertices] : arrays) {
+    if (!*vertices) continue;
+    const std::string_view bytes(reinterpret_cast<const char*>((*vertices)->data()),
+                                 (*vertices)->size() * sizeof(Vec3f));
+    v1::GeometryChunk chunk;
+    wire::for_each_array_chunk(0, array, bytes, max_chunk_bytes, *chunk.mutable_mesh(), [&] {
+      chunks.push_back(chunk);
+      return true;
+    });
+  }
+  return chunks;
+}
+
 }  // namespace caustica::client

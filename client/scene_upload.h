@@ -1,12 +1,15 @@
 // Scene upload: a loaded scene streamed to UploadScene as its header and then mesh chunks of at
-// most wire::kMaxChunkBytes, as the API requires for meshes larger than one message.
+// most wire::kMaxChunkBytes, as the API requires for meshes larger than one message; and a
+// mesh's new vertices so chunked for StreamGeometry.
 #pragma once
 
 #include <grpcpp/client_context.h>
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "caustica/v1/render_service.grpc.pb.h"
@@ -22,5 +25,11 @@ absl::StatusOr<v1::SceneInfo> upload_scene(v1::RenderService::StubInterface& stu
                                            grpc::ClientContext& context, const Scene& scene,
                                            const std::string& name,
                                            const UploadProgress& progress = nullptr);
+
+// The StreamGeometry messages that replace `change`'s mesh's vertices: the request, then its
+// positions and normals in chunks of at most `max_chunk_bytes`.
+std::vector<v1::GeometryChunk> geometry_chunks(const std::string& scene, const MeshChange& change,
+                                               std::optional<uint64_t> expect_epoch,
+                                               size_t max_chunk_bytes);
 
 }  // namespace caustica::client

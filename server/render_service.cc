@@ -16,6 +16,7 @@
 #include "renderer/scene/texture_decode.h"
 #include "server/auth.h"
 #include "server/engine_wire.h"
+#include "server/geometry_stream.h"
 #include "server/heap.h"
 #include "server/log.h"
 
@@ -748,25 +749,58 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
       });
 }
 
+namespace {
+
+// The change an UpdateGeometryRequest asks for, checked against the epoch it expects under the
+// lease, so that no other update can slip in between check and change.
+absl::StatusOr<RebuildReport> change_geometry(Engine& engine,
+                                              const v1::UpdateGeometryRequest& request) {
+  absl::StatusOr<std::vector<MeshChange>> changes =
+      wire::decode_mesh_changes(request.meshes(), "meshes");
+  if (!changes.ok()) return changes.status();
+  if (request.has_expected_geometry_epoch() &&
+      engine.epochs().geometry != request.expected_geometry_epoch()) {
+    return absl::FailedPreconditionError(absl::StrFormat(
+        "expected_geometry_epoch: the scene's geometry epoch is %d, not %d (another call "
+        "changed the geometry)",
+        engine.epochs().geometry, request.expected_geometry_epoch()));
+  }
+  return engine.set_geometry(*changes);
+}
+
+}  // namespace
+
 grpc::Status RenderService::UpdateGeometry(grpc::ServerContext* context,
                                            const v1::UpdateGeometryRequest* request,
                                            v1::RebuildReport* response) {
-  return serve_update(
-      context, "UpdateGeometry", request->scene_id(), response,
-      [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
-        absl::StatusOr<std::vector<MeshChange>> changes =
-            wire::decode_mesh_changes(request->meshes(), "meshes");
-        if (!changes.ok()) return changes.status();
-        // Checked under the lease so no other update can slip in between check and change.
-        if (request->has_expected_geometry_epoch() &&
-            engine.epochs().geometry != request->expected_geometry_epoch()) {
-          return absl::FailedPreconditionError(absl::StrFormat(
-              "expected_geometry_epoch: the scene's geometry epoch is %d, not %d (another call "
-              "changed the geometry)",
-              engine.epochs().geometry, request->expected_geometry_epoch()));
-        }
-        return engine.set_geometry(*changes);
-      });
+  return serve_update(context, "UpdateGeometry", request->scene_id(), response,
+                      [&](Engine& engine) { return change_geometry(engine, *request); });
+}
+
+grpc::Status RenderService::StreamGeometry(grpc::ServerContext* context,
+                                           grpc::ServerReader<v1::GeometryChunk>* reader,
+                                           v1::RebuildReport* response) {
+  std::string scene_id;
+  return serve(context, "StreamGeometry", scene_id, [&](const std::string& tenant) -> absl::Status {
+    GeometryAssembler assembler;
+    v1::GeometryChunk chunk;
+    while (reader->Read(&chunk)) {
+      if (absl::Status added = assembler.add(chunk); !added.ok()) return added;
+      if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+    }
+    // Read() also ends when the client goes away; a broken stream changes nothing.
+    if (absl::Status stop = stop_status(context); !stop.ok()) return stop;
+    absl::StatusOr<v1::UpdateGeometryRequest> request = assembler.finish();
+    if (!request.ok()) return request.status();
+    scene_id = request->scene_id();
+    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id, tenant);
+    if (!entry.ok()) return entry.status();
+    absl::StatusOr<v1::RebuildReport> report = rebuild(
+        context, **entry, [&](Engine& engine) { return change_geometry(engine, *request); });
+    if (!report.ok()) return report.status();
+    *response = *std::move(report);
+    return absl::OkStatus();
+  });
 }
 
 grpc::Status RenderService::UpdateCamera(grpc::ServerContext* context,

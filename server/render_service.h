@@ -93,6 +93,9 @@ class RenderService final : public v1::RenderService::Service {
   grpc::Status UpdateGeometry(grpc::ServerContext* context,
                               const v1::UpdateGeometryRequest* request,
                               v1::RebuildReport* response) override;
+  grpc::Status StreamGeometry(grpc::ServerContext* context,
+                              grpc::ServerReader<v1::GeometryChunk>* reader,
+                              v1::RebuildReport* response) override;
   grpc::Status UpdateSettings(grpc::ServerContext* context,
                               const v1::UpdateSettingsRequest* request,
                               v1::RebuildReport* response) override;

@@ -557,6 +557,24 @@ size_t upload_bytes(const Scene& scene) {
   return total;
 }
 
+bool for_each_array_chunk(uint32_t mesh, v1::MeshChunk::Array array, std::string_view bytes,
+                          size_t max_chunk_bytes, v1::MeshChunk& chunk,
+                          const std::function<bool()>& emit) {
+  max_chunk_bytes = std::clamp<size_t>(max_chunk_bytes, 16 * sizeof(float), kMaxChunkBytes);
+  // Whole elements per chunk, so the receiver can check each chunk on its own.
+  const size_t step = max_chunk_bytes / kElementBytes[array] * kElementBytes[array];
+  for (size_t offset = 0; offset < bytes.size(); offset += step) {
+    const std::string_view piece = bytes.substr(offset, step);
+    chunk.set_mesh(mesh);
+    chunk.set_array(array);
+    chunk.set_offset(offset);
+    chunk.set_data(piece.data(), piece.size());
+    chunk.set_crc32(chunk_crc32(piece));
+    if (!emit()) return false;
+  }
+  return true;
+}
+
 bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
                     const std::function<bool(v1::SceneChunk& chunk)>& emit) {
   max_chunk_bytes = std::clamp<size_t>(max_chunk_bytes, 16 * sizeof(float), kMaxChunkBytes);
@@ -564,18 +582,10 @@ bool for_each_chunk(const Scene& scene, size_t max_chunk_bytes,
   for (size_t m = 0; m < scene.meshes.size(); ++m) {
     const std::array<std::string_view, kMeshArrays> arrays = mesh_arrays(scene.meshes[m]);
     for (int a = 1; a < kMeshArrays; ++a) {
-      std::string_view bytes = arrays[a];
-      // Whole elements per chunk, so the receiver can check each chunk on its own.
-      const size_t step = max_chunk_bytes / kElementBytes[a] * kElementBytes[a];
-      for (size_t offset = 0; offset < bytes.size(); offset += step) {
-        std::string_view piece = bytes.substr(offset, step);
-        v1::MeshChunk* mc = chunk.mutable_mesh();
-        mc->set_mesh(static_cast<uint32_t>(m));
-        mc->set_array(static_cast<v1::MeshChunk::Array>(a));
-        mc->set_offset(offset);
-        mc->set_data(piece.data(), piece.size());
-        mc->set_crc32(chunk_crc32(piece));
-        if (!emit(chunk)) return false;
+      if (!for_each_array_chunk(uint32_t(m), static_cast<v1::MeshChunk::Array>(a), arrays[a],
+                                max_chunk_bytes, *chunk.mutable_mesh(),
+                                [&] { return emit(chunk); })) {
+        return false;
       }
     }
   }

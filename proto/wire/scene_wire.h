@@ -49,6 +49,12 @@ v1::SceneHeader encode_scene_header(const Scene& scene, const std::string& name)
 v1::MeshUpdate encode_mesh_change(const MeshChange& change);
 // Bytes the mesh and grid chunks of `scene` carry in total.
 size_t upload_bytes(const Scene& scene);
+// Fills `chunk` with each piece of one array of one mesh (its raw bytes, `bytes`), whole
+// elements of at most `max_chunk_bytes`, and calls `emit` after each; stops early, returning
+// false, when `emit` returns false.
+bool for_each_array_chunk(uint32_t mesh, v1::MeshChunk::Array array, std::string_view bytes,
+                          size_t max_chunk_bytes, v1::MeshChunk& chunk,
+                          const std::function<bool()>& emit);
 // Calls `emit` with every chunk after the header: the mesh chunks mesh by mesh and array by
 // array, then each grid medium's grid chunks, then each texture's file, each at most
 // `max_chunk_bytes` of data. Stops early, returning false, when `emit` returns false.

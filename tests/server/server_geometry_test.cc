@@ -4,12 +4,17 @@
 // acknowledged change comes back with it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "client/scene_upload.h"
 #include "proto/wire/scene_wire.h"
+#include "renderer/scene/load_scene.h"
 #include "renderer/scene/transform.h"
 #include "tests/client/client_run.h"
 #include "tests/server/server_harness.h"
@@ -303,6 +308,131 @@ TEST(ServerGeometry, TheCliPlaysAGltfAnimation) {
   run = run_command(cli + "--gltf-animation Run");
   EXPECT_NE(run.exit_code, 0);
   EXPECT_NE(run.output.find("no animation named 'Run'"), std::string::npos) << run.output;
+  std::filesystem::remove_all(dir);
+}
+
+// The caustics box, small, whose glass sphere has thousands of vertices: many chunks.
+Scene caustics_box() {
+  absl::StatusOr<Scene> scene =
+      load_scene(std::filesystem::path(CAUSTICA_SCENES_DIR) / "cornell-caustics" / "scene.json");
+  EXPECT_TRUE(scene.ok()) << scene.status();
+  scene->camera.width = 24;
+  scene->camera.height = 16;
+  scene->settings.photons_per_pass = 3000;
+  return *scene;
+}
+
+grpc::Status stream_geometry(v1::RenderService::Stub& stub,
+                             const std::vector<v1::GeometryChunk>& chunks,
+                             v1::RebuildReport* report) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  std::unique_ptr<grpc::ClientWriter<v1::GeometryChunk>> writer =
+      stub.StreamGeometry(&context, report);
+  for (const v1::GeometryChunk& chunk : chunks) {
+    if (!writer->Write(chunk)) break;
+  }
+  writer->WritesDone();
+  return writer->Finish();
+}
+
+// A sphere's vertices streamed in 1 KiB chunks render as the scene uploaded with them; broken
+// streams are refused by name and change nothing.
+TEST(ServerGeometry, StreamedVerticesRenderAsTheSceneUploadedWithThem) {
+  auto server = ServerProcess::start();
+  ASSERT_NE(server, nullptr);
+  auto stub = server->stub();
+  const Scene scene = caustics_box();
+  const std::string id = upload_scene(*stub, scene, "caustics");
+  const v1::SceneInfo info = get_scene(*stub, id);
+  const std::vector<float> before = render_linear(*stub, id, 2);
+  size_t sphere = 0;
+  while (scene.meshes[sphere].name != "shapes[6] 'glass sphere'") ++sphere;
+  std::vector<Vec3f> squashed = scene.meshes[sphere].positions;
+  for (Vec3f& p : squashed) p.y = 0.5f * p.y;
+  const MeshChange change{"glass sphere", std::nullopt, squashed, std::nullopt};
+  const std::vector<v1::GeometryChunk> chunks =
+      client::geometry_chunks(id, change, std::nullopt, 1024);
+  ASSERT_GT(chunks.size(), 10u);
+
+  struct Case {
+    const char* what;
+    std::function<void(std::vector<v1::GeometryChunk>&)> spoil;
+    const char* message;
+  };
+  const Case cases[] = {
+      {"bad checksum", [](auto& c) { c[3].mutable_mesh()->set_crc32(c[3].mesh().crc32() ^ 1); },
+       "meshes[0].positions: checksum"},
+      {"a chunk left out", [](auto& c) { c.erase(c.begin() + 4); }, "meshes[0].positions: offset"},
+      {"the request last", [](auto& c) { std::rotate(c.begin(), c.begin() + 1, c.end()); },
+       "mesh: arrives before the request"},
+      {"inline and chunked",
+       [](auto& c) { c[0].mutable_request()->mutable_meshes(0)->add_positions(1); },
+       "meshes[0].positions: comes both in the request and in chunks"},
+      {"too few vertices", [](auto& c) { c.pop_back(); }, "meshes[0].positions: "},
+      {"not a vertex array",
+       [](auto& c) { c[2].mutable_mesh()->set_array(v1::MeshChunk::INDICES); },
+       "mesh.array: INDICES does not change"},
+  };
+  for (const Case& c : cases) {
+    std::vector<v1::GeometryChunk> spoilt = chunks;
+    c.spoil(spoilt);
+    v1::RebuildReport report;
+    const grpc::Status status = stream_geometry(*stub, spoilt, &report);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+        << c.what << ": " << status.error_message();
+    EXPECT_NE(status.error_message().find(c.message), std::string::npos)
+        << c.what << ": " << status.error_message();
+  }
+  EXPECT_EQ(get_scene(*stub, id).epochs().SerializeAsString(), info.epochs().SerializeAsString());
+  EXPECT_EQ(render_linear(*stub, id, 2), before);
+
+  v1::RebuildReport report;
+  const grpc::Status status = stream_geometry(*stub, chunks, &report);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(report.epochs().geometry(), info.epochs().geometry() + 1);
+  Scene reshaped = scene;
+  reshaped.meshes[sphere].positions = squashed;
+  reshaped.meshes[sphere].normals.clear();
+  reshaped.meshes[sphere].tangents.clear();
+  const std::string twin = upload_scene(*stub, reshaped, "squashed");
+  EXPECT_EQ(render_linear(*stub, id, 2), render_linear(*stub, twin, 2));
+}
+
+// `caustica mesh reshape` streams a model file's vertices: the box's floor raised by a PLY file
+// of its four corners.
+TEST(ServerGeometry, TheCliReshapesAMeshFromAFile) {
+  auto server = ServerProcess::start();
+  ASSERT_NE(server, nullptr);
+  auto stub = server->stub();
+  const std::string id = upload_scene(*stub, box(), "box");
+  const std::filesystem::path dir = make_temp_dir("caustica-reshape");
+  const std::vector<Vec3f> raised = floor_raised();
+  {
+    std::ofstream ply(dir / "floor.ply");
+    ply << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+           "end_header\n";
+    for (const Vec3f& p : raised) ply << p.x << " " << p.y << " " << p.z << "\n";
+    ply << "4 0 1 2 3\n";
+  }
+  const std::string cli =
+      std::string("'") + CAUSTICA_CLIENT_BIN + "' --server " + server->address() + " ";
+  CommandRun run = run_command(cli + "mesh reshape " + id + " floor --from '" +
+                               (dir / "floor.ply").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  EXPECT_NE(run.output.find("geometry"), std::string::npos) << run.output;
+  Scene expected = box();
+  expected.meshes[0].positions = raised;
+  expected.meshes[0].normals.clear();
+  expected.meshes[0].tangents.clear();
+  const std::string twin = upload_scene(*stub, expected, "raised");
+  EXPECT_EQ(render_linear(*stub, id, 1), render_linear(*stub, twin, 1));
+  run = run_command(cli + "mesh reshape " + id + " nothing --from '" +
+                    (dir / "floor.ply").string() + "'");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_NE(run.output.find("the scene has no mesh named 'nothing'"), std::string::npos)
+      << run.output;
   std::filesystem::remove_all(dir);
 }
 
