@@ -303,12 +303,6 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.area_lights_host_ = std::move(area.records);
   r.area_light_materials_ = std::move(area.materials);
   r.surface_area_ = arrays.surface_area;
-  std::vector<TriangleVertices>& triangles = arrays.triangles;
-  std::vector<uint32_t>& material_ids = arrays.material_ids;
-  std::vector<uint32_t>& triangle_area_light = area.triangle_area_light;
-  std::vector<Vec3f>& corner_normals = arrays.corner_normals;
-  std::vector<Vec2f>& corner_uvs = arrays.corner_uvs;
-  std::vector<Vec4f>& corner_tangents = arrays.corner_tangents;
   std::vector<DeviceMedium> media;
   for (const Medium& m : scene.media) {
     const uint8_t* grid = nullptr;
@@ -328,17 +322,17 @@ ResidentScene ResidentScene::upload(Backend& backend, const Scene& scene) {
   r.scene_medium_ = media.empty() ? kVacuum : scene.medium;
 
   r.triangles_.bind(backend);
-  r.triangles_.upload(triangles);
+  r.triangles_.upload(arrays.triangles);
   r.material_ids_.bind(backend);
-  r.material_ids_.upload(material_ids);
+  r.material_ids_.upload(arrays.material_ids);
   r.triangle_area_light_.bind(backend);
-  r.triangle_area_light_.upload(triangle_area_light);
+  r.triangle_area_light_.upload(area.triangle_area_light);
   r.corner_normals_.bind(backend);
-  r.corner_normals_.upload(corner_normals);
+  r.corner_normals_.upload(arrays.corner_normals);
   r.corner_uvs_.bind(backend);
-  r.corner_uvs_.upload(corner_uvs);
+  r.corner_uvs_.upload(arrays.corner_uvs);
   r.corner_tangents_.bind(backend);
-  r.corner_tangents_.upload(corner_tangents);
+  r.corner_tangents_.upload(arrays.corner_tangents);
   r.texture_maps_.bind(backend);
   r.texture_maps_.upload(maps.device);
   r.media_.bind(backend);
