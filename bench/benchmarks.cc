@@ -575,6 +575,7 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     if (!engine.ok()) return engine.status();
     if (auto loaded = (*engine)->load(moving); !loaded.ok()) return loaded.status();
     std::vector<double> build_ms, trace_ms, map_ms, render_ms;
+    size_t refitted = 0;
     int step = 0;
     Measurement change = measure(o, (*engine)->backend(), [&] {
       const MeshChange turned{
@@ -584,15 +585,17 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
       const absl::StatusOr<RebuildReport> rebuilt = (*engine)->set_geometry({&turned, 1});
       const absl::StatusOr<PassReport> pass = (*engine)->render(1);
       if (!rebuilt.ok() || !pass.ok()) return;
+      refitted += std::ranges::count(rebuilt->rebuilt, "structure_refit");
       build_ms.push_back(rebuilt->timings.structure_build_ms);
       trace_ms.push_back(rebuilt->timings.photon_trace_ms + pass->timings.photon_trace_ms);
       map_ms.push_back(rebuilt->timings.photon_map_build_ms + pass->timings.photon_map_build_ms);
       render_ms.push_back(pass->timings.render_ms);
     });
     const std::string label =
-        name + absl::StrFormat(" %zu of %zu triangles moved, %dx%d k=%d %s",
+        name + absl::StrFormat(" %zu of %zu triangles moved, %dx%d k=%d %s refit=%s",
                                mesh.indices.size() / 3, resident.triangle_count(), o.width,
-                               o.height, o.k, kind_name(o.estimator));
+                               o.height, o.k, kind_name(o.estimator),
+                               kind_name(moving.settings.build.refit));
     report.line("geometry_change_to_frame", label, change.median, "ms", &change, o.runs);
     for (auto* times : {&build_ms, &trace_ms, &map_ms, &render_ms})
       times->erase(times->begin(), times->begin() + std::min<size_t>(o.warmup, times->size()));
@@ -601,6 +604,9 @@ absl::Status photon_benchmarks(const BenchOptions& o, StructureKind structure, R
     report.line("geometry_change_photon_trace", label, summarize(trace_ms).median, "ms");
     report.line("geometry_change_photon_map_build", label, summarize(map_ms).median, "ms");
     report.line("geometry_change_render", label, summarize(render_ms).median, "ms");
+    // The share of changes, warm-up included, that refitted the structure rather than built it.
+    report.line("geometry_change_refitted", label,
+                double(refitted) / double(std::max<size_t>(step, 1)), "share");
   }
   if (wanted(o, "path_pass")) {
     // One pass of the path integrator (settings.integrator "path"): a path a pixel.

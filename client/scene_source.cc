@@ -56,6 +56,10 @@ v1::UpdateSettingsRequest SceneOverrides::request(const std::string& scene_id) c
         build.set_binned_sah_reorder(all.binned_sah_reorder());
       } else if (name == "kd-traversal") {
         build.set_kd_traversal(all.kd_traversal());
+      } else if (name == "refit") {
+        build.set_refit(all.refit());
+      } else if (name == "refit-sah-bound") {
+        build.set_refit_sah_bound(all.refit_sah_bound());
       }
     }
   }

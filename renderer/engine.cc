@@ -126,6 +126,13 @@ bool same_structure(const RenderSettings& a, const RenderSettings& b) {
          options_read_by(a.structure, a.build) == options_read_by(b.structure, b.build);
 }
 
+// What a geometry change did to the structure, as its report names it: "structure_refit" for a
+// refit (RefitPolicy), "structure" for a new build, and nothing for dacrt, which keeps none.
+std::vector<std::string> geometry_change_rebuilt(const StructureStats& structure) {
+  if (structure.kind == StructureKind::kDacrt) return {"geometry", "lights", "film"};
+  return {"geometry", structure.refits > 0 ? "structure_refit" : "structure", "lights", "film"};
+}
+
 // Rows per band when an image is dealt to several devices (RowBands): a multiple of the 8 x 4
 // pixel blocks the camera rays go in, and small enough that a bright region spans every device.
 constexpr int kBandRows = 32;
@@ -676,9 +683,9 @@ absl::StatusOr<RebuildReport> Engine::apply(const SceneChange& change) {
       const auto start = std::chrono::steady_clock::now();
       geometries = st.new_geometries(*next);
       report.timings.structure_build_ms = elapsed_ms(start);
+      report.rebuilt = geometry_change_rebuilt(geometries.front().structure.stats());
       // The lighting follows the new area lights and bounds, so it is made after the swap.
       st.swap_geometries(geometries);
-      report.rebuilt = {"geometry", "lights", "film"};
     } else {
       report.rebuilt = {"lights", "film"};
     }
@@ -930,6 +937,8 @@ SceneStats Engine::scene_stats() const {
   s.structure_nodes = structure.nodes;
   s.structure_bytes = structure.bytes;
   s.structure_sah_cost = structure.sah_cost;
+  s.structure_refits = structure.refits;
+  s.structure_built_sah_cost = structure.built_sah_cost;
   s.photon_map_bytes = st.last_photon_map_bytes;
   for (const DeviceSlice& d : st.slices) {
     s.device_bytes += d.resident->bytes() + (d.film ? d.film->bytes() : 0) +

@@ -88,7 +88,9 @@ struct PassReport {
 
 // What a change (load, lights, camera, settings) rebuilt and what it cost.
 struct RebuildReport {
-  std::vector<std::string> rebuilt;  // "geometry", "lights", "photon_maps", "film"
+  // "geometry", "lights", "photon_maps", "film"; a geometry change adds "structure" when the
+  // structure was built anew and "structure_refit" when it was refitted (dacrt: neither).
+  std::vector<std::string> rebuilt;
   StageTimings timings;
   uint64_t photons_emitted = 0;
   uint64_t caustic_photons = 0;  // stored
@@ -102,6 +104,9 @@ struct SceneStats {
   size_t structure_nodes = 0;  // nodes of the triangle structure, in its own layout
   size_t structure_bytes = 0;
   double structure_sah_cost = 0;  // SAH cost of the structure, C_T = C_I = 1 (accel/structure.h)
+  // Refits since it was built, and its SAH cost then (StructureStats).
+  uint32_t structure_refits = 0;
+  double structure_built_sah_cost = 0;
   size_t photon_map_bytes = 0;
   size_t device_bytes = 0;  // everything this engine holds: structure, lights, photon maps, film
   size_t lights = 0;

@@ -93,6 +93,8 @@ void describe_state(const Engine& engine, v1::SceneInfo* info) {
   info->set_structure_bytes(stats.structure_bytes);
   info->set_structure_build_ms(stats.last_structure_build_ms);
   info->set_structure_sah_cost(stats.structure_sah_cost);
+  info->set_structure_refits(stats.structure_refits);
+  info->set_structure_built_sah_cost(stats.structure_built_sah_cost);
   info->set_photon_map_bytes(stats.photon_map_bytes);
   info->set_device_bytes(stats.device_bytes);
   info->set_passes(engine.film_passes());

@@ -212,6 +212,7 @@ static_assert(kinds_match_proto<SppmRadius>(v1::SppmRadius_ARRAYSIZE));
 static_assert(kinds_match_proto<DensityKernel>(v1::DensityKernel_ARRAYSIZE));
 static_assert(kinds_match_proto<BinnedSahReorder>(v1::BinnedSahReorder_ARRAYSIZE));
 static_assert(kinds_match_proto<KdTraversal>(v1::KdTraversal_ARRAYSIZE));
+static_assert(kinds_match_proto<RefitPolicy>(v1::Refit_ARRAYSIZE));
 
 template <typename Proto, typename Enum>
 Proto encode_kind(Enum value) {
@@ -456,6 +457,8 @@ v1::RenderSettings encode_settings(const RenderSettings& s) {
   }
   build.set_binned_sah_reorder(encode_kind<v1::BinnedSahReorder>(s.build.binned_sah.reorder));
   build.set_kd_traversal(encode_kind<v1::KdTraversal>(s.build.kd_traversal));
+  build.set_refit(encode_kind<v1::Refit>(s.build.refit));
+  build.set_refit_sah_bound(s.build.refit_sah_bound);
   return out;
 }
 
@@ -729,7 +732,13 @@ absl::Status apply_build_options(const v1::BuildOptions& in, const std::string& 
       !status.ok()) {
     return status;
   }
-  return decode_kind(in.kd_traversal(), field, "kd_traversal", &options.kd_traversal);
+  if (absl::Status status =
+          decode_kind(in.kd_traversal(), field, "kd_traversal", &options.kd_traversal);
+      !status.ok()) {
+    return status;
+  }
+  if (in.has_refit_sah_bound()) options.refit_sah_bound = in.refit_sah_bound();
+  return decode_kind(in.refit(), field, "refit", &options.refit);
 }
 
 }  // namespace

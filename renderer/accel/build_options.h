@@ -80,14 +80,34 @@ struct SettingKinds<KdTraversal> {
                                                        {KdTraversal::kStackless, "stackless", 2}};
 };
 
+// What a geometry change does to a structure that can be refitted (refits, structure_kind.h):
+// kAuto refits it (its boxes recomputed bottom-up over the moved triangles, its topology kept)
+// while the refitted SAH cost stays within refit_sah_bound times the cost it had when last built,
+// and builds it anew otherwise; kAlways refits it whatever its cost; kNever builds it anew. A
+// structure that cannot be refitted is built anew under every policy. docs/dynamic.md says which.
+enum class RefitPolicy : uint8_t { kAuto = 0, kAlways = 1, kNever = 2 };
+template <>
+struct SettingKinds<RefitPolicy> {
+  static constexpr const char* what = "refit policy";
+  static constexpr SettingKind<RefitPolicy> kinds[] = {{RefitPolicy::kAuto, "auto", 1},
+                                                       {RefitPolicy::kAlways, "always", 2},
+                                                       {RefitPolicy::kNever, "never", 3}};
+};
+constexpr float kDefaultRefitSahBound = 1.5f;
+constexpr float kMaxRefitSahBound = 1000.0f;
+
 struct BuildOptions {
   BinnedSahSchedule binned_sah;                    // binned-sah, and hybrid below its cut
   KdTraversal kd_traversal = KdTraversal::kStack;  // kd-sah and kd-siroh
+  RefitPolicy refit = RefitPolicy::kAuto;          // lbvh4, binned-sah and hybrid
+  float refit_sah_bound = kDefaultRefitSahBound;   // >= 1: kAuto's bound
   bool operator==(const BuildOptions&) const = default;
 };
 
-// The options a structure of `kind` reads, every other at its default: two settings build the same
-// structure when their kinds agree and so do these, whatever the options other kinds read.
+// The options a structure of `kind` reads when it is built, every other at its default: two
+// settings build the same structure when their kinds agree and so do these, whatever the options
+// other kinds read. The refit policy is not among them: it decides what a geometry change does,
+// never how a build goes.
 inline BuildOptions options_read_by(StructureKind kind, const BuildOptions& options) {
   BuildOptions read;
   switch (kind) {
@@ -186,9 +206,16 @@ inline std::string binned_sah_stages_text(const BinnedSahSchedule& schedule) {
   return text;
 }
 
+// The problem of a refit bound from outside (a scene, the wire); nullopt for a good one.
+inline std::optional<std::string> refit_sah_bound_problem(float bound) {
+  if (!(bound >= 1.0f && bound <= kMaxRefitSahBound))
+    return std::string("must be within [1, 1000]: the refitted cost over the built one");
+  return std::nullopt;
+}
+
 // One option as the command line names it, NAME=VALUE with NAME one of binned-sah-stages,
-// binned-sah-reorder or kd-traversal, applied to `options`; the problem, naming the option,
-// otherwise.
+// binned-sah-reorder, kd-traversal, refit or refit-sah-bound, applied to `options`; the problem,
+// naming the option, otherwise.
 inline std::optional<std::string> apply_structure_option(std::string_view option,
                                                          BuildOptions& options) {
   const size_t equals = option.find('=');
@@ -200,7 +227,8 @@ inline std::optional<std::string> apply_structure_option(std::string_view option
   };
   if (equals == std::string_view::npos)
     return quoted(option,
-                  ": expected NAME=VALUE (binned-sah-stages, binned-sah-reorder or kd-traversal)");
+                  ": expected NAME=VALUE (binned-sah-stages, binned-sah-reorder, kd-traversal, "
+                  "refit or refit-sah-bound)");
   const std::string_view name = option.substr(0, equals);
   const std::string_view value = option.substr(equals + 1);
   if (name == "binned-sah-stages") {
@@ -220,9 +248,25 @@ inline std::optional<std::string> apply_structure_option(std::string_view option
     options.kd_traversal = *traversal;
     return std::nullopt;
   }
+  if (name == "refit") {
+    const std::optional<RefitPolicy> policy = parse_kind<RefitPolicy>(value);
+    if (!policy) return "refit: " + unknown_kind_message<RefitPolicy>(value);
+    options.refit = *policy;
+    return std::nullopt;
+  }
+  if (name == "refit-sah-bound") {
+    float bound = 0;
+    const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), bound);
+    if (value.empty() || error != std::errc() || end != value.data() + value.size())
+      return "refit-sah-bound: '" + std::string(value) + "' is not a number";
+    if (std::optional<std::string> problem = refit_sah_bound_problem(bound))
+      return "refit-sah-bound: " + *problem;
+    options.refit_sah_bound = bound;
+    return std::nullopt;
+  }
   return quoted(name,
-                " is not a structure option (expected binned-sah-stages, binned-sah-reorder or "
-                "kd-traversal)");
+                " is not a structure option (expected binned-sah-stages, binned-sah-reorder, "
+                "kd-traversal, refit or refit-sah-bound)");
 }
 
 // `given` options (NAME=VALUE each, checked before, as the command-line tools check them) in
@@ -233,11 +277,19 @@ inline BuildOptions apply_structure_options(const std::vector<std::string>& give
   return options;
 }
 
+// The shortest text that reads back as `value` ("1.5", not "1.500000").
+inline std::string shortest_float_text(float value) {
+  char text[32];
+  const auto [end, error] = std::to_chars(text, text + sizeof(text), value);
+  return error == std::errc() ? std::string(text, end) : std::to_string(value);
+}
+
 // The options as --structure-option and `caustica scene info` show them.
 inline std::string build_options_text(const BuildOptions& options) {
   return "binned-sah-stages=" + binned_sah_stages_text(options.binned_sah) +
          " binned-sah-reorder=" + kind_name(options.binned_sah.reorder) +
-         " kd-traversal=" + kind_name(options.kd_traversal);
+         " kd-traversal=" + kind_name(options.kd_traversal) + " refit=" + kind_name(options.refit) +
+         " refit-sah-bound=" + shortest_float_text(options.refit_sah_bound);
 }
 
 }  // namespace caustica

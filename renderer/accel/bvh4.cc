@@ -81,6 +81,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
   Bvh4Node* wide = out.nodes.data();
   uint32_t level_base = 0, level_size = 1;
   while (level_size > 0) {
+    out.level_starts.push_back(level_base);
     counts.resize_discard(level_size);
     const Subtree* front = frontier.data();
     uint32_t* count = counts.data();
@@ -100,13 +101,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
       Bvh4Node& w = wide[base + i];
       uint32_t slot = count[i];
       for (int c = 0; c < 4; ++c) {
-        Aabb b = c < o.count ? o.box[c] : Aabb{};
-        w.lower_x[c] = b.lower.x;
-        w.lower_y[c] = b.lower.y;
-        w.lower_z[c] = b.lower.z;
-        w.upper_x[c] = b.upper.x;
-        w.upper_y[c] = b.upper.y;
-        w.upper_z[c] = b.upper.z;
+        w.set_child_bounds(c, c < o.count ? o.box[c] : Aabb{});
         if (c >= o.count) {
           w.child[c] = kEmptyChild;
         } else if (o.child[c].leaf) {
@@ -122,6 +117,7 @@ Bvh4 collapse_to_bvh4(Backend& backend, const Bvh& binary) {
     level_base = next_base;
     level_size = next_size;
   }
+  out.level_starts.push_back(level_base);
   // Copy into a buffer of the exact size, so the structure holds no slack.
   Buffer<Bvh4Node> tight(backend, level_base);
   backend.copy_on_device(tight.data(), out.nodes.data(), level_base * sizeof(Bvh4Node));

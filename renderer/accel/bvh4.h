@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "renderer/accel/bvh.h"
 #include "renderer/base/morton.h"
@@ -80,12 +81,24 @@ struct alignas(16) Bvh4Node {
   CAUSTICA_HDI Aabb child_bounds(int i) const {
     return {Vec3f(lower_x[i], lower_y[i], lower_z[i]), Vec3f(upper_x[i], upper_y[i], upper_z[i])};
   }
+  CAUSTICA_HDI void set_child_bounds(int i, const Aabb& box) {
+    lower_x[i] = box.lower.x;
+    lower_y[i] = box.lower.y;
+    lower_z[i] = box.lower.z;
+    upper_x[i] = box.upper.x;
+    upper_y[i] = box.upper.y;
+    upper_z[i] = box.upper.z;
+  }
 };
 
 struct Bvh4 {
   Buffer<Bvh4Node> nodes;  // node 0 is the root (when there are >= 2 triangles)
   Aabb bounds;
   uint32_t triangle_count = 0;
+  // Nodes are laid out level by level from the root, a node's children after it: level i is
+  // nodes [level_starts[i], level_starts[i + 1]), the last entry being the node count. A refit
+  // (triangle_bvh.h) recomputes the boxes a level at a time from the deepest.
+  std::vector<uint32_t> level_starts;
 };
 
 // Collapses `binary` (a radix tree: internal node k splits its range between sorted leaves k and

@@ -29,6 +29,7 @@ TriangleStructure measured(Backend& backend, StructureKind kind, Build build) {
   stats.nodes = layout.node_count();
   stats.bytes = layout.bytes();
   stats.sah_cost = sah_cost(backend, layout);
+  stats.built_sah_cost = stats.sah_cost;
   return TriangleStructure(std::move(layout), stats);
 }
 
@@ -77,6 +78,23 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
       return measured(backend, kind, [&] { return build_bvh8(backend, triangles, count, curve); });
   }
   throw DeviceError("build_structure: unknown structure kind");
+}
+
+std::optional<TriangleStructure> refit_structure(Backend& backend,
+                                                 const TriangleStructure& structure,
+                                                 const TriangleVertices* triangles,
+                                                 uint32_t count) {
+  const TriangleBvh* bvh = structure.layout_if<TriangleBvh>();
+  if (!refits(structure.kind()) || bvh == nullptr) return std::nullopt;
+  const auto start = std::chrono::steady_clock::now();
+  TriangleBvh refitted = refit_triangle_bvh(backend, *bvh, triangles, count);
+  backend.synchronize();
+  StructureStats stats = structure.stats();
+  stats.build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  stats.sah_cost = sah_cost(backend, refitted);
+  ++stats.refits;
+  return TriangleStructure(std::move(refitted), stats);
 }
 
 namespace {

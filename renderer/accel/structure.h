@@ -18,6 +18,7 @@
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <type_traits>
 #include <variant>
 
@@ -74,6 +75,10 @@ struct StructureStats {
   // their cells' areas and its leaves by their references.
   double sah_cost = 0;
   double build_ms = 0;  // wall clock from the triangles in memory to the finished structure
+  // Refits since the structure was built (refit_structure), build_ms being the last one's time,
+  // and the SAH cost it had when built, which a refit's cost is held against (RefitPolicy).
+  uint32_t refits = 0;
+  double built_sah_cost = 0;
 };
 
 namespace detail {
@@ -106,6 +111,11 @@ class TriangleStructure {
       : layout_(std::move(kd_tree)), stats_(stats) {}
 
   const StructureStats& stats() const { return stats_; }
+  // The layout, when it is a `Layout` (triangle_bvh.h, kd_tree.h, ...); null otherwise.
+  template <typename Layout>
+  const Layout* layout_if() const {
+    return std::get_if<Layout>(&layout_);
+  }
   StructureKind kind() const { return stats_.kind; }
 
   // Calls f(view) with this structure's device view: the one dispatch on the kind a launch makes.
@@ -144,6 +154,13 @@ TriangleStructure build_structure(Backend& backend, StructureKind kind,
 TriangleStructure build_structure(Backend& backend, StructureKind kind,
                                   const TriangleVertices* triangles, uint32_t count, Curve curve,
                                   const BuildOptions& options = {});
+
+// `structure` refitted over `triangles` (as many as it was built over, in the same order, moved
+// with their topology kept), in new buffers beside it and measured as a build is, its stats'
+// refits counted up; nullopt when its kind cannot be refitted (refits, structure_kind.h).
+std::optional<TriangleStructure> refit_structure(Backend& backend,
+                                                 const TriangleStructure& structure,
+                                                 const TriangleVertices* triangles, uint32_t count);
 
 // The SAH cost (StructureStats::sah_cost) of a 4-wide BVH, computed on the backend; the other
 // layouts' are with them (sibling_pair_bvh.h, kd_tree.h, bvh8.h).

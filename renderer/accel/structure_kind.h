@@ -68,6 +68,15 @@ constexpr const char* structure_kind_name(StructureKind kind) {
 // ray at a time: what the path integrator needs.
 constexpr bool answers_batches_only(StructureKind kind) { return kind == StructureKind::kDacrt; }
 
+// Whether a geometry change may refit the structure (refit_structure, structure.h): its boxes
+// recomputed from the moved triangles up, its topology kept. The 4-wide BVHs can; dacrt keeps
+// nothing to refit, a kd-tree's planes cut space rather than bound triangles, and bvh8's and
+// sibling-pair's boxes are stored relative to their parents' and are built anew.
+constexpr bool refits(StructureKind kind) {
+  return kind == StructureKind::kLbvh4 || kind == StructureKind::kBinnedSah ||
+         kind == StructureKind::kHybrid;
+}
+
 inline std::optional<StructureKind> parse_structure_kind(std::string_view name) {
   for (StructureKind kind : kStructureKinds) {
     if (name == structure_kind_name(kind)) return kind;

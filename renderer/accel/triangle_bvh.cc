@@ -102,4 +102,60 @@ TriangleBvh collapse_triangle_bvh(Backend& backend, BinaryTriangleBvh binary) {
   return out;
 }
 
+TriangleBvh refit_triangle_bvh(Backend& backend, const TriangleBvh& bvh,
+                               const TriangleVertices* triangles, uint32_t count) {
+  if (count != bvh.bvh.triangle_count)
+    throw DeviceError("refit_triangle_bvh: the triangle count differs from the structure's");
+  TriangleBvh out;
+  out.triangles = Buffer<TriangleVertices>(backend, count);
+  out.triangle_ids = Buffer<uint32_t>(backend, count);
+  out.bvh.nodes = Buffer<Bvh4Node>(backend, bvh.bvh.nodes.size());
+  out.bvh.triangle_count = count;
+  out.bvh.level_starts = bvh.bvh.level_starts;
+  if (count == 0) return out;
+  backend.copy_on_device(out.triangle_ids.data(), bvh.triangle_ids.data(),
+                         out.triangle_ids.bytes());
+  const uint32_t* ids = bvh.triangle_ids.data();
+  TriangleVertices* sorted = out.triangles.data();
+  parallel_for(backend, "refit_gather_triangles", count,
+               [=] CAUSTICA_HD(size_t i) { sorted[i] = triangles[ids[i]]; });
+  if (bvh.bvh.nodes.empty()) {
+    TriangleVertices only;
+    backend.copy_to_host(&only, sorted, sizeof(only));
+    out.bvh.bounds = triangle_bounds(only);
+    return out;
+  }
+  // The deepest level first, so that a node's children are done when it reads their boxes.
+  const Bvh4Node* old_nodes = bvh.bvh.nodes.data();
+  Bvh4Node* nodes = out.bvh.nodes.data();
+  const std::vector<uint32_t>& levels = bvh.bvh.level_starts;
+  for (size_t level = levels.size() - 1; level-- > 0;) {
+    const uint32_t first = levels[level];
+    parallel_for(backend, "refit_bvh4_level", levels[level + 1] - first, [=] CAUSTICA_HD(size_t i) {
+      const uint32_t index = first + uint32_t(i);
+      Bvh4Node node = old_nodes[index];
+      for (int c = 0; c < 4; ++c) {
+        const uint32_t child = node.child[c];
+        Aabb box;
+        if (child == kEmptyChild) {
+        } else if (is_leaf(child)) {
+          const uint32_t begin = leaf_first(child), end = begin + leaf_count(child);
+          for (uint32_t t = begin; t < end; ++t) box.extend(triangle_bounds(sorted[t]));
+        } else {
+          const Bvh4Node& below = nodes[child];
+          for (int g = 0; g < 4; ++g)
+            if (below.child[g] != kEmptyChild) box.extend(below.child_bounds(g));
+        }
+        node.set_child_bounds(c, box);
+      }
+      nodes[index] = node;
+    });
+  }
+  Bvh4Node root;
+  backend.copy_to_host(&root, nodes, sizeof(root));
+  for (int c = 0; c < 4; ++c)
+    if (root.child[c] != kEmptyChild) out.bvh.bounds.extend(root.child_bounds(c));
+  return out;
+}
+
 }  // namespace caustica

@@ -68,6 +68,13 @@ BinaryTriangleBvh build_sah_refined_lbvh(Backend& backend, const TriangleVertice
 // `binary` collapsed to 4-wide nodes (bvh4.h), taking over its triangles and their ids.
 TriangleBvh collapse_triangle_bvh(Backend& backend, BinaryTriangleBvh binary);
 
+// `bvh` refitted over `triangles`, as many as it was built over and in the same (original)
+// order, moved but with their topology kept: the same nodes and leaf order with every box
+// recomputed from the leaves up, a level at a time from the deepest (Bvh4::level_starts), in new
+// buffers beside `bvh`. Over triangles that did not move, the result is byte for byte `bvh`.
+TriangleBvh refit_triangle_bvh(Backend& backend, const TriangleBvh& bvh,
+                               const TriangleVertices* triangles, uint32_t count);
+
 // The refined LBVH collapsed to 4-wide nodes: what traversal uses.
 TriangleBvh build_triangle_bvh(Backend& backend, const TriangleVertices* triangles, uint32_t count,
                                Curve curve);

@@ -511,8 +511,20 @@ ResidentScene::Geometry ResidentScene::new_geometry(const Scene& next) const {
   g.area_lights_host = std::move(area.records);
   g.area_light_materials = std::move(area.materials);
   g.surface_area = arrays.surface_area;
-  g.structure = build_structure(*backend_, next.settings.structure, g.triangles.data(),
-                                uint32_t(g.triangles.size()), next.settings.build);
+  const uint32_t count = uint32_t(g.triangles.size());
+  const BuildOptions& build = next.settings.build;
+  if (build.refit != RefitPolicy::kNever && next.settings.structure == structure_.kind()) {
+    std::optional<TriangleStructure> refitted =
+        refit_structure(*backend_, structure_, g.triangles.data(), count);
+    if (refitted &&
+        (build.refit == RefitPolicy::kAlways ||
+         refitted->stats().sah_cost <= build.refit_sah_bound * refitted->stats().built_sah_cost)) {
+      g.structure = *std::move(refitted);
+      return g;
+    }
+  }
+  g.structure = build_structure(*backend_, next.settings.structure, g.triangles.data(), count,
+                                next.settings.build);
   return g;
 }
 

@@ -347,8 +347,9 @@ class ResidentScene {
   void swap_structure(TriangleStructure& structure) noexcept;
   // The triangles where a geometry change that keeps every triangle, its material and its
   // texture coordinates puts them (Engine::apply's meshes): their corners, area lights and
-  // structure, built beside what is in use. The lighting must be made again after the swap, for
-  // the area lights and the bounds it weighs lights by.
+  // structure, built beside what is in use; the structure refitted instead where the settings'
+  // refit policy allows (RefitPolicy, build_options.h). The lighting must be made again after the
+  // swap, for the area lights and the bounds it weighs lights by.
   struct Geometry {
     Buffer<TriangleVertices> triangles;
     Buffer<Vec3f> corner_normals;

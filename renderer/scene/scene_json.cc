@@ -247,6 +247,8 @@ class SceneReader {
     }
     SCENE_RETURN_IF_ERROR(read_kind(object, "binned_sah_reorder", &b.binned_sah.reorder));
     SCENE_RETURN_IF_ERROR(read_kind(object, "kd_traversal", &b.kd_traversal));
+    SCENE_RETURN_IF_ERROR(read_kind(object, "refit", &b.refit));
+    SCENE_RETURN_IF_ERROR(object.read("refit_sah_bound", kOptional, &b.refit_sah_bound));
     return object.finish();
   }
 

@@ -192,6 +192,12 @@ absl::Status validate_settings(const RenderSettings& s) {
   if (!is_known_kind(s.build.kd_traversal)) {
     return invalid_field("settings.build.kd_traversal", "is not a known kd-tree traversal");
   }
+  if (!is_known_kind(s.build.refit)) {
+    return invalid_field("settings.build.refit", "is not a known refit policy");
+  }
+  if (std::optional<std::string> problem = refit_sah_bound_problem(s.build.refit_sah_bound)) {
+    return invalid_field("settings.build.refit_sah_bound", *problem);
+  }
   return absl::OkStatus();
 }
 

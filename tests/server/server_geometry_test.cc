@@ -2,6 +2,7 @@
 // request) turned and moved, and the floor's vertices replaced, render as the scene uploaded that
 // way; bad requests are refused by name and change nothing; a server killed right after an
 // acknowledged change comes back with it.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -92,6 +93,13 @@ TEST(ServerGeometry, MovedMeshesRenderAsTheSceneUploadedMoved) {
   EXPECT_EQ(report.epochs().geometry(), info.epochs().geometry() + 1);
   EXPECT_EQ(report.epochs().lights(), info.epochs().lights() + 1);
   EXPECT_GT(report.photons_emitted(), 0u);
+  // The default structure is refitted (settings.build.refit "auto"), and SceneInfo says so.
+  EXPECT_THAT(report.rebuilt(), ::testing::Contains("structure_refit"));
+  const v1::SceneInfo moved_info = get_scene(*stub, id);
+  EXPECT_EQ(info.structure_refits(), 0u);
+  EXPECT_EQ(moved_info.structure_refits(), 1u);
+  EXPECT_EQ(moved_info.structure_built_sah_cost(), info.structure_sah_cost());
+  EXPECT_EQ(moved_info.settings().build().refit(), v1::REFIT_AUTO);
   const std::vector<float> after = render_linear(*stub, id, 2);
   EXPECT_NE(after, before);
   const std::string twin = upload_scene(*stub, box_moved(), "box moved");

@@ -313,6 +313,8 @@ TEST(SceneWire, SettingKindsAreTheProtosValuesByName) {
   expect_kinds_match_proto(
       *v1::KdTraversal_descriptor(),
       [](RenderSettings & s) -> auto& { return s.build.kd_traversal; });
+  expect_kinds_match_proto(
+      *v1::Refit_descriptor(), [](RenderSettings & s) -> auto& { return s.build.refit; });
 }
 
 // The schedule of a text the test knows is good.
@@ -333,6 +335,8 @@ TEST(SceneWire, BuildOptionsRoundTripAndUnsetKeepsTheCurrentOnes) {
   settings.build.binned_sah = schedule_of("65536:128,4096:32,64:8");
   settings.build.binned_sah.reorder = BinnedSahReorder::kSegmentedSplits;
   settings.build.kd_traversal = KdTraversal::kStackless;
+  settings.build.refit = RefitPolicy::kAlways;
+  settings.build.refit_sah_bound = 2.5f;
   const v1::RenderSettings encoded = encode_settings(settings);
   ASSERT_EQ(encoded.build().binned_sah_stages_size(), 3);
   EXPECT_EQ(encoded.build().binned_sah_stages(1).above(), 4096u);
@@ -367,6 +371,10 @@ TEST(SceneWire, BuildOptionsRoundTripAndUnsetKeepsTheCurrentOnes) {
   applied = apply_settings(bad, settings, "update.settings");
   EXPECT_EQ(applied.status().message(),
             "update.settings.build.kd_traversal: 3 is not a kd-tree traversal");
+  bad = v1::RenderSettings{};
+  bad.mutable_build()->set_refit(static_cast<v1::Refit>(4));
+  applied = apply_settings(bad, settings, "update.settings");
+  EXPECT_EQ(applied.status().message(), "update.settings.build.refit: 4 is not a refit policy");
 }
 
 TEST(SceneWire, UnspecifiedStructureKeepsTheCurrentOne) {

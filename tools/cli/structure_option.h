@@ -29,7 +29,9 @@ inline CLI::Validator structure_names() {
 
 inline constexpr const char* kStructureOptionHelp =
     "what the structure's builder is told, repeatable: binned-sah-stages=ABOVE:BINS,... "
-    "(binned-sah and hybrid), binned-sah-reorder=sort|split, kd-traversal=stack|stackless";
+    "(binned-sah and hybrid), binned-sah-reorder=sort|split, kd-traversal=stack|stackless, "
+    "refit=auto|always|never and refit-sah-bound=B (what a geometry change does to lbvh4, "
+    "binned-sah and hybrid)";
 
 // A CLI11 check of one --structure-option, which the option keeps as written.
 inline CLI::Validator structure_option_check() {

@@ -446,8 +446,15 @@ TEST(BuildOptions, StructureOptionsApplyInOrderAndNameEachProblem) {
   EXPECT_EQ(binned_sah_stages_text(o.binned_sah), "1024:16,64:4");
   EXPECT_EQ(o.binned_sah.reorder, BinnedSahReorder::kSegmentedSplits);  // kept by the stages
   EXPECT_EQ(o.kd_traversal, KdTraversal::kStackless);
+  EXPECT_FALSE(apply_structure_option("refit=never", o));
+  EXPECT_FALSE(apply_structure_option("refit-sah-bound=1.25", o));
+  EXPECT_EQ(o.refit, RefitPolicy::kNever);
+  EXPECT_EQ(o.refit_sah_bound, 1.25f);
   EXPECT_EQ(build_options_text(o),
-            "binned-sah-stages=1024:16,64:4 binned-sah-reorder=split kd-traversal=stackless");
+            "binned-sah-stages=1024:16,64:4 binned-sah-reorder=split kd-traversal=stackless "
+            "refit=never refit-sah-bound=1.25");
+  // The refit policy decides what a geometry change does, not how a build goes.
+  EXPECT_EQ(options_read_by(StructureKind::kLbvh4, o), BuildOptions{});
   EXPECT_EQ(apply_structure_options({"kd-traversal=stack", "kd-traversal=stackless"}, {}),
             (BuildOptions{.binned_sah = {}, .kd_traversal = KdTraversal::kStackless}));
 
@@ -469,6 +476,15 @@ TEST(BuildOptions, StructureOptionsApplyInOrderAndNameEachProblem) {
   EXPECT_NE(refusal_of("kd_traversal=stack").find("'kd_traversal' is not a structure option"),
             std::string::npos);
   EXPECT_NE(refusal_of("stackless").find("expected NAME=VALUE"), std::string::npos);
+  EXPECT_NE(refusal_of("refit=sometimes")
+                .find("refit: unknown refit policy 'sometimes' (expected auto, always or never)"),
+            std::string::npos);
+  EXPECT_NE(refusal_of("refit-sah-bound=0.5").find("refit-sah-bound: must be within [1, 1000]"),
+            std::string::npos);
+  EXPECT_NE(refusal_of("refit-sah-bound=nan").find("refit-sah-bound: must be within"),
+            std::string::npos);
+  EXPECT_NE(refusal_of("refit-sah-bound=1.5x").find("refit-sah-bound: '1.5x' is not a number"),
+            std::string::npos);
 
   BinnedSahSchedule wire;  // as the wire fills it: the values unchecked
   wire.stage[0] = {16, 32};

@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -69,8 +70,8 @@ TEST(MovingGeometry, ATransformedMeshRendersAsTheSceneUploadedMoved) {
   const MeshChange change{kSphere, moved, std::nullopt, std::nullopt};
   absl::StatusOr<RebuildReport> report = engine->set_geometry({&change, 1});
   ASSERT_TRUE(report.ok()) << report.status();
-  EXPECT_EQ(report->rebuilt,
-            (std::vector<std::string>{"geometry", "lights", "film", "photon_maps"}));
+  EXPECT_EQ(report->rebuilt, (std::vector<std::string>{"geometry", "structure_refit", "lights",
+                                                       "film", "photon_maps"}));
   EXPECT_EQ(report->epochs.geometry, 2u);
   EXPECT_EQ(report->epochs.lights, 2u);
   EXPECT_GT(report->photons_emitted, 0u);
@@ -201,6 +202,59 @@ TEST(MovingGeometry, AShapeMovesByItsOwnNameWithAllItsParts) {
                                    "shapes[7])"));
 }
 
+// What a geometry change does to the structure, by kind and refit policy (settings.build.refit):
+// the 4-wide BVHs refit under "auto" and "always" and build anew under "never", bvh8 builds
+// anew, dacrt keeps nothing; the report and the scene's stats say which, and every way renders
+// the scene uploaded moved, bit for bit. A bound of 1 with a change that grows the cost makes
+// "auto" build anew.
+TEST(MovingGeometry, TheRefitPolicyDecidesBetweenARefitAndABuild) {
+  struct Case {
+    StructureKind kind;
+    RefitPolicy policy;
+    float bound;
+    const char* structure;  // what the report names, or null for nothing
+  };
+  const Case cases[] = {
+      {StructureKind::kLbvh4, RefitPolicy::kAuto, kDefaultRefitSahBound, "structure_refit"},
+      {StructureKind::kBinnedSah, RefitPolicy::kAlways, 1.0f, "structure_refit"},
+      {StructureKind::kHybrid, RefitPolicy::kNever, kDefaultRefitSahBound, "structure"},
+      {StructureKind::kLbvh4, RefitPolicy::kAuto, 1.0f, "structure"},
+      {StructureKind::kBvh8, RefitPolicy::kAlways, kDefaultRefitSahBound, "structure"},
+      {StructureKind::kDacrt, RefitPolicy::kAuto, kDefaultRefitSahBound, nullptr},
+  };
+  // The sphere's vertices in reverse order: its triangles then span it, and their boxes overlap
+  // far beyond the bound of 1.
+  const Scene base = caustics_box();
+  std::vector<Vec3f> scrambled = base.meshes[mesh_index(base, kSphere)].positions;
+  std::reverse(scrambled.begin(), scrambled.end());
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::string(structure_kind_name(c.kind)) + " " + kind_name(c.policy) + " " +
+                 std::to_string(c.bound));
+    Scene scene = caustics_box();
+    scene.settings.structure = c.kind;
+    scene.settings.build.refit = c.policy;
+    scene.settings.build.refit_sah_bound = c.bound;
+    auto engine = engine_with(scene);
+    const double built_cost = engine->scene_stats().structure_sah_cost;
+    const MeshChange change{kSphere, std::nullopt, scrambled, std::nullopt};
+    absl::StatusOr<RebuildReport> report = engine->set_geometry({&change, 1});
+    ASSERT_TRUE(report.ok()) << report.status();
+    std::vector<std::string> expected = {"geometry", "lights", "film", "photon_maps"};
+    if (c.structure != nullptr) expected.insert(expected.begin() + 1, c.structure);
+    EXPECT_EQ(report->rebuilt, expected);
+    const SceneStats stats = engine->scene_stats();
+    const bool refitted = c.structure != nullptr && std::string(c.structure) == "structure_refit";
+    EXPECT_EQ(stats.structure_refits, refitted ? 1u : 0u);
+    if (refitted) {
+      EXPECT_EQ(stats.structure_built_sah_cost, built_cost);
+      EXPECT_GT(stats.structure_sah_cost, built_cost);
+    } else {
+      EXPECT_EQ(stats.structure_built_sah_cost, stats.structure_sah_cost);
+    }
+    EXPECT_EQ(rendered(*engine), uploaded_moved(scene, kSphere, nullptr, &scrambled));
+  }
+}
+
 // A keyframe's changes together (Engine::apply): an area light dimmed and the sphere moved in one
 // rebuild render as the scene uploaded that way; check() refuses what apply() would, as it would
 // say it, and changes nothing.
@@ -214,8 +268,8 @@ TEST(MovingGeometry, LightsAndMeshesChangeTogether) {
   ASSERT_TRUE(engine->check(change).ok());
   absl::StatusOr<RebuildReport> report = engine->apply(change);
   ASSERT_TRUE(report.ok()) << report.status();
-  EXPECT_EQ(report->rebuilt,
-            (std::vector<std::string>{"geometry", "lights", "film", "photon_maps"}));
+  EXPECT_EQ(report->rebuilt, (std::vector<std::string>{"geometry", "structure_refit", "lights",
+                                                       "film", "photon_maps"}));
   EXPECT_EQ(report->epochs.geometry, 2u);
   EXPECT_EQ(report->epochs.lights, 2u);
   Scene expected = scene;

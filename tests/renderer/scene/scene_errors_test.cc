@@ -226,6 +226,13 @@ std::vector<Edit> edits() {
        {set_settings(R"({"build": {"kd_traversal": "rope"}})")},
        {"settings.build.kd_traversal: unknown kd-tree traversal 'rope' (expected stack or "
         "stackless)"}},
+      {"BuildUnknownRefit",
+       {set_settings(R"({"build": {"refit": "sometimes"}})")},
+       {"settings.build.refit: unknown refit policy 'sometimes' (expected auto, always or "
+        "never)"}},
+      {"BuildRefitBoundBelowOne",
+       {set_settings(R"({"build": {"refit_sah_bound": 0.9}})")},
+       {"settings.build.refit_sah_bound: must be within [1, 1000]"}},
       {"BuildUnknownKey",
        {set_settings(R"({"build": {"stages": "64:16"}})")},
        {"settings.build", "stages"}},
