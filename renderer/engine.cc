@@ -926,6 +926,13 @@ std::vector<Backend*> Engine::backends() {
   return out;
 }
 
+size_t Engine::geometry_change_bytes() const {
+  size_t bytes = 0;
+  if (state_->loaded())
+    for (const DeviceSlice& d : state_->slices) bytes += d.resident->geometry_change_bytes();
+  return bytes;
+}
+
 SceneStats Engine::scene_stats() const {
   const State& st = *state_;
   SceneStats s;

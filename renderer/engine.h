@@ -164,6 +164,10 @@ class Engine {
   // scene as it stands (an animation checks every keyframe before it plays the first).
   absl::Status check(const SceneChange& change) const;
 
+  // The device bytes a geometry change (set_geometry, apply with meshes) builds beside what is in
+  // use before it swaps, over every device: what a server checks against a tenant's share.
+  size_t geometry_change_bytes() const;
+
   // What set_geometry changed since the scene was loaded, as changes that redo it on the scene
   // as loaded: per moved mesh, in scene order, its transform, and its vertices (and normals) where
   // they were replaced.

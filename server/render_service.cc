@@ -749,32 +749,47 @@ grpc::Status RenderService::UpdateLights(grpc::ServerContext* context,
       });
 }
 
-namespace {
+absl::Status RenderService::check_geometry_room(const std::string& tenant, const SceneEntry& entry,
+                                                const Engine& engine) const {
+  const size_t bytes = engine.geometry_change_bytes();
+  return check_tenant_share(tenant, bytes,
+                            absl::StrCat("the geometry change of scene '", entry.info().name(),
+                                         "' builds ", mib(bytes), " beside it"));
+}
 
-// The change an UpdateGeometryRequest asks for, checked against the epoch it expects under the
-// lease, so that no other update can slip in between check and change.
-absl::StatusOr<RebuildReport> change_geometry(Engine& engine,
-                                              const v1::UpdateGeometryRequest& request) {
+absl::StatusOr<v1::RebuildReport> RenderService::change_geometry(
+    grpc::ServerContext* context, const std::string& tenant,
+    const v1::UpdateGeometryRequest& request) {
+  absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(request.scene_id(), tenant);
+  if (!entry.ok()) return entry.status();
   absl::StatusOr<std::vector<MeshChange>> changes =
       wire::decode_mesh_changes(request.meshes(), "meshes");
   if (!changes.ok()) return changes.status();
-  if (request.has_expected_geometry_epoch() &&
-      engine.epochs().geometry != request.expected_geometry_epoch()) {
-    return absl::FailedPreconditionError(absl::StrFormat(
-        "expected_geometry_epoch: the scene's geometry epoch is %d, not %d (another call "
-        "changed the geometry)",
-        engine.epochs().geometry, request.expected_geometry_epoch()));
-  }
-  return engine.set_geometry(*changes);
+  // Checked under the lease, so that no other update can slip in between check and change.
+  return rebuild(context, **entry, [&](Engine& engine) -> absl::StatusOr<RebuildReport> {
+    if (request.has_expected_geometry_epoch() &&
+        engine.epochs().geometry != request.expected_geometry_epoch()) {
+      return absl::FailedPreconditionError(absl::StrFormat(
+          "expected_geometry_epoch: the scene's geometry epoch is %d, not %d (another call "
+          "changed the geometry)",
+          engine.epochs().geometry, request.expected_geometry_epoch()));
+    }
+    if (absl::Status room = check_geometry_room(tenant, **entry, engine); !room.ok()) return room;
+    return engine.set_geometry(*changes);
+  });
 }
-
-}  // namespace
 
 grpc::Status RenderService::UpdateGeometry(grpc::ServerContext* context,
                                            const v1::UpdateGeometryRequest* request,
                                            v1::RebuildReport* response) {
-  return serve_update(context, "UpdateGeometry", request->scene_id(), response,
-                      [&](Engine& engine) { return change_geometry(engine, *request); });
+  return serve(context, "UpdateGeometry", request->scene_id(),
+               [&](const std::string& tenant) -> absl::Status {
+                 absl::StatusOr<v1::RebuildReport> report =
+                     change_geometry(context, tenant, *request);
+                 if (!report.ok()) return report.status();
+                 *response = *std::move(report);
+                 return absl::OkStatus();
+               });
 }
 
 grpc::Status RenderService::StreamGeometry(grpc::ServerContext* context,
@@ -793,10 +808,7 @@ grpc::Status RenderService::StreamGeometry(grpc::ServerContext* context,
     absl::StatusOr<v1::UpdateGeometryRequest> request = assembler.finish();
     if (!request.ok()) return request.status();
     scene_id = request->scene_id();
-    absl::StatusOr<std::shared_ptr<SceneEntry>> entry = registry_.find(scene_id, tenant);
-    if (!entry.ok()) return entry.status();
-    absl::StatusOr<v1::RebuildReport> report = rebuild(
-        context, **entry, [&](Engine& engine) { return change_geometry(engine, *request); });
+    absl::StatusOr<v1::RebuildReport> report = change_geometry(context, tenant, *request);
     if (!report.ok()) return report.status();
     *response = *std::move(report);
     return absl::OkStatus();
@@ -969,6 +981,11 @@ grpc::Status RenderService::PlayAnimation(grpc::ServerContext* context,
                   camera->height = engine.scene().camera.height;
                   absl::StatusOr<RebuildReport> moved = engine.set_camera(*camera);
                   if (!moved.ok()) return moved.status();
+                }
+                if (!keyframes[i].change.meshes.empty()) {
+                  if (absl::Status room = check_geometry_room(tenant, entry, engine); !room.ok())
+                    return absl::Status(room.code(),
+                                        absl::StrCat("keyframes[", i, "]: ", room.message()));
                 }
                 return engine.apply(keyframes[i].change);
               });

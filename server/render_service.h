@@ -164,6 +164,16 @@ class RenderService final : public v1::RenderService::Service {
   // --tenant-max-streams, before any frame work starts.
   absl::StatusOr<FrameCall> start_frames(const std::string& tenant, const std::string& scene_id,
                                          const v1::FrameFormat& format, bool stream);
+  // RESOURCE_EXHAUSTED, naming the scene and --tenant-memory-share, when what a geometry change
+  // of `engine` builds beside the scene would take the tenant's scenes past its share; the
+  // device's budget is the backend's to enforce, which refuses the change changing nothing.
+  absl::Status check_geometry_room(const std::string& tenant, const SceneEntry& entry,
+                                   const Engine& engine) const;
+  // UpdateGeometry's change (StreamGeometry's once its chunks are put together): the epoch it
+  // expects and the tenant's room checked under the lease, then Engine::set_geometry.
+  absl::StatusOr<v1::RebuildReport> change_geometry(grpc::ServerContext* context,
+                                                    const std::string& tenant,
+                                                    const v1::UpdateGeometryRequest& request);
   // Removes a scene from the store and the registry and frees its device memory; the bytes freed.
   absl::StatusOr<size_t> forget(SceneEntry& entry);
   // The device memory a tenant's scenes hold, and the most they may.

@@ -618,6 +618,11 @@ ResidentSceneView ResidentScene::view() const {
   return v;
 }
 
+size_t ResidentScene::geometry_change_bytes() const {
+  return triangles_.bytes() + corner_normals_.bytes() + corner_tangents_.bytes() +
+         triangle_area_light_.bytes() + structure_.stats().bytes + lighting_.bytes();
+}
+
 size_t ResidentScene::bytes() const {
   size_t grid_bytes = 0;
   for (const Buffer<uint8_t>& g : grids_) grid_bytes += g.bytes();

@@ -373,6 +373,9 @@ class ResidentScene {
   const TriangleStructure& structure() const { return structure_; }
   size_t triangle_count() const { return triangles_.size(); }
   size_t bytes() const;
+  // What a geometry change builds beside what is in use (new_geometry and new_lighting): the
+  // triangles' corners, area lights, structure and lighting.
+  size_t geometry_change_bytes() const;
   Aabb bounds() const { return structure_.bounds(); }
   float radius() const { return 0.5f * length(bounds().extent()); }
   double surface_area() const { return surface_area_; }  // of every triangle

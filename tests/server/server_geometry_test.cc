@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -13,9 +14,11 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "client/scene_upload.h"
 #include "proto/wire/scene_wire.h"
 #include "renderer/scene/load_scene.h"
+#include "renderer/scene/shapes.h"
 #include "renderer/scene/transform.h"
 #include "tests/client/client_run.h"
 #include "tests/server/server_harness.h"
@@ -104,6 +107,97 @@ TEST(ServerGeometry, MovedMeshesRenderAsTheSceneUploadedMoved) {
   EXPECT_NE(after, before);
   const std::string twin = upload_scene(*stub, box_moved(), "box moved");
   EXPECT_EQ(after, render_linear(*stub, twin, 2));
+}
+
+// The box with a finely cut sphere, so that its geometry, not its film, is most of what it holds.
+Scene box_with_sphere(RefitPolicy refit) {
+  Scene scene = box();
+  Mesh sphere = make_sphere(Vec3f(278, 120, 278), 80, 160, 320);
+  sphere.name = "sphere";
+  sphere.material_ids.assign(sphere.indices.size() / 3, scene.meshes[0].material_ids[0]);
+  scene.meshes.push_back(std::move(sphere));
+  scene.settings.build.refit = refit;
+  return scene;
+}
+
+v1::UpdateGeometryRequest sphere_moved(const std::string& id) {
+  v1::UpdateGeometryRequest request;
+  request.set_scene_id(id);
+  *request.add_meshes() = wire::encode_mesh_change(
+      {"sphere", translation(Vec3f(0, 40, 0)), std::nullopt, std::nullopt});
+  return request;
+}
+
+v1::Stats server_stats(v1::RenderService::Stub& stub) {
+  grpc::ClientContext context;
+  set_deadline(context);
+  v1::Stats stats;
+  EXPECT_TRUE(stub.GetStats(&context, {}, &stats).ok());
+  return stats;
+}
+
+// A refused geometry change leaves the scene as it was: its epochs, and its frame.
+void expect_unchanged(v1::RenderService::Stub& stub, const std::string& id,
+                      const v1::SceneInfo& before, const std::vector<float>& frame) {
+  const v1::SceneInfo now = get_scene(stub, id);
+  EXPECT_EQ(now.epochs().SerializeAsString(), before.epochs().SerializeAsString());
+  EXPECT_EQ(render_linear(stub, id, 2), frame);
+}
+
+// What a geometry change builds beside the scene counts against the tenant's share of the
+// budget, and against the device's budget: beyond either it is refused, naming the limit, and
+// the scene keeps rendering as it did; the same change on a server with room goes through.
+TEST(ServerGeometry, AChangeBeyondTheTenantsShareOrTheBudgetIsRefused) {
+  size_t held = 0, upload_peak = 0;
+  {
+    auto roomy = ServerProcess::start({"--memory-budget", "1024M"});
+    ASSERT_NE(roomy, nullptr);
+    auto stub = roomy->stub();
+    const std::string id = upload_scene(*stub, box_with_sphere(RefitPolicy::kNever), "sphere");
+    held = get_scene(*stub, id).device_bytes();
+    upload_peak = server_stats(*stub).memory_peak_bytes();
+    v1::RebuildReport report;
+    const grpc::Status moved = update_geometry(*stub, sphere_moved(id), &report);
+    ASSERT_TRUE(moved.ok()) << moved.error_message();
+    EXPECT_GT(server_stats(*stub).memory_peak_bytes(), upload_peak + held / 2);
+  }
+  ASSERT_GT(held, size_t(8) << 20);
+  // A share that holds the scene but not a second copy of its geometry beside it.
+  {
+    const size_t budget_mib = (upload_peak >> 20) + 2 * (held >> 20) + 4;
+    const double share = 1.4 * double(held) / double(budget_mib << 20);
+    auto server = ServerProcess::start({"--memory-budget", absl::StrCat(budget_mib, "M"),
+                                        "--tenant-memory-share", absl::StrCat(share)});
+    ASSERT_NE(server, nullptr);
+    auto stub = server->stub();
+    const std::string id = upload_scene(*stub, box_with_sphere(RefitPolicy::kAuto), "sphere");
+    const v1::SceneInfo info = get_scene(*stub, id);
+    const std::vector<float> frame = render_linear(*stub, id, 2);
+    v1::RebuildReport report;
+    const grpc::Status refused = update_geometry(*stub, sphere_moved(id), &report);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+    EXPECT_THAT(refused.error_message(),
+                ::testing::AllOf(::testing::HasSubstr("the geometry change of scene 'sphere'"),
+                                 ::testing::HasSubstr("--tenant-memory-share")));
+    expect_unchanged(*stub, id, info, frame);
+  }
+  // A device budget with room for the upload's build but not for the change's beside the scene.
+  {
+    const size_t budget_mib = (upload_peak >> 20) + 2;
+    auto server = ServerProcess::start({"--memory-budget", absl::StrCat(budget_mib, "M")});
+    ASSERT_NE(server, nullptr);
+    auto stub = server->stub();
+    const std::string id = upload_scene(*stub, box_with_sphere(RefitPolicy::kNever), "sphere");
+    const v1::SceneInfo info = get_scene(*stub, id);
+    const std::vector<float> frame = render_linear(*stub, id, 2);
+    v1::RebuildReport report;
+    const grpc::Status refused = update_geometry(*stub, sphere_moved(id), &report);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+        << refused.error_message();
+    expect_unchanged(*stub, id, info, frame);
+    std::printf("held %zu MiB, upload peak %zu MiB, budget %zu MiB: %s\n", held >> 20,
+                upload_peak >> 20, budget_mib, refused.error_message().c_str());
+  }
 }
 
 TEST(ServerGeometry, BadUpdatesAreRefusedByNameAndChangeNothing) {
