@@ -6,12 +6,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -261,6 +264,50 @@ TEST(ServerGeometry, AnAcknowledgedChangeSurvivesSigkill) {
   stub = server->stub();
   EXPECT_EQ(get_scene(*stub, id).epochs().SerializeAsString(), report.epochs().SerializeAsString());
   const std::string twin = upload_scene(*stub, box_moved(), "box moved");
+  EXPECT_EQ(render_linear(*stub, id, 2), render_linear(*stub, twin, 2));
+  server.reset();
+  std::filesystem::remove_all(data_dir);
+}
+
+// A client moves the tall block a step further with every call, as fast as the server answers,
+// and the server is killed mid-stream: restarted, the scene stands at the last acknowledged step,
+// or at the one in flight when it died, and renders as the box uploaded so.
+TEST(ServerGeometry, AStreamOfChangesKilledMidwayLosesNoAcknowledgedOne) {
+  const std::filesystem::path data_dir = make_temp_dir("caustica-geometry-stream");
+  auto server = start_restored_server(data_dir, {});
+  ASSERT_NE(server, nullptr);
+  auto stub = server->stub();
+  const std::string id = upload_scene(*stub, box(), "box");
+  const uint64_t base_epoch = get_scene(*stub, id).epochs().geometry();
+  auto step_transform = [](int step) { return translation(Vec3f(-4.0f * float(step), 0, 0)); };
+  std::atomic<int> acknowledged{0};
+  std::thread client([&] {
+    for (int step = 1;; ++step) {
+      v1::UpdateGeometryRequest request;
+      request.set_scene_id(id);
+      for (const std::string& name : kTallBlock)
+        *request.add_meshes() =
+            wire::encode_mesh_change({name, step_transform(step), std::nullopt, std::nullopt});
+      v1::RebuildReport report;
+      if (!update_geometry(*stub, request, &report).ok()) return;
+      acknowledged = step;
+    }
+  });
+  while (acknowledged < 6) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  server->kill_now();
+  client.join();
+  const int acked = acknowledged;
+  server = start_restored_server(data_dir, {});
+  ASSERT_NE(server, nullptr);
+  stub = server->stub();
+  const int restored = int(get_scene(*stub, id).epochs().geometry() - base_epoch);
+  EXPECT_GE(restored, acked);
+  EXPECT_LE(restored, acked + 1);
+  Scene moved = box();
+  for (Mesh& mesh : moved.meshes)
+    for (const std::string& name : kTallBlock)
+      if (mesh.name == name) transform_mesh(step_transform(restored), &mesh);
+  const std::string twin = upload_scene(*stub, moved, "box moved");
   EXPECT_EQ(render_linear(*stub, id, 2), render_linear(*stub, twin, 2));
   server.reset();
   std::filesystem::remove_all(data_dir);
